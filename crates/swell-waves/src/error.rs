@@ -1,0 +1,153 @@
+//! Typed validation errors.
+//!
+//! Every spec is validated before anything is built from it. An error names the field (a path
+//! such as `layers[1].waves[3].amplitude`), the offending value and what would have been allowed,
+//! so a server can hand the message straight back to the client that sent the spec.
+
+use thiserror::Error;
+
+/// Why a spec, query or body was rejected.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SpecError {
+    /// A number is NaN or infinite.
+    #[error("{field} must be a finite number, got {value}")]
+    NotFinite {
+        /// Path of the field, e.g. `layers[0].waves[2].wavelength`.
+        field: String,
+        /// The value received.
+        value: f64,
+    },
+    /// A number lies outside its allowed range.
+    #[error("{field} = {value} is out of range: {allowed}")]
+    OutOfRange {
+        /// Path of the field.
+        field: String,
+        /// The value received.
+        value: f64,
+        /// The allowed range, in words, e.g. `> 0 m` or `in [0, 1]`.
+        allowed: String,
+    },
+    /// A direction vector `[x, z]` has zero length and cannot be normalised.
+    #[error("{field} is a zero vector; a direction needs a non-zero [x, z]")]
+    ZeroDirection {
+        /// Path of the field.
+        field: String,
+    },
+    /// The Gerstner fold number `S = Σ Q·k·A` is 1 or more: the surface would loop over itself.
+    #[error(
+        "{field}: fold number S = sum(Q*k*A) = {fold} must be < 1 or the surface loops over itself; \
+         lower the steepness or the amplitudes"
+    )]
+    Folding {
+        /// Path of the layer.
+        field: String,
+        /// The fold number computed.
+        fold: f64,
+    },
+    /// A list is empty or longer than allowed.
+    #[error("{field} has {len} entries; allowed: {allowed}")]
+    BadLength {
+        /// Path of the field.
+        field: String,
+        /// Length received.
+        len: usize,
+        /// Allowed lengths, in words.
+        allowed: String,
+    },
+    /// A combination of otherwise valid fields is inconsistent.
+    #[error("{field}: {reason}")]
+    Inconsistent {
+        /// Path of the field.
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+impl SpecError {
+    /// The path of the offending field.
+    pub fn field(&self) -> &str {
+        match self {
+            SpecError::NotFinite { field, .. }
+            | SpecError::OutOfRange { field, .. }
+            | SpecError::ZeroDirection { field }
+            | SpecError::Folding { field, .. }
+            | SpecError::BadLength { field, .. }
+            | SpecError::Inconsistent { field, .. } => field,
+        }
+    }
+}
+
+/// Checks a number is finite.
+pub(crate) fn finite(field: &str, value: f64) -> Result<f64, SpecError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(SpecError::NotFinite {
+            field: field.to_string(),
+            value,
+        })
+    }
+}
+
+/// Checks a number is finite and strictly positive.
+pub(crate) fn positive(field: &str, value: f64) -> Result<f64, SpecError> {
+    finite(field, value)?;
+    if value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SpecError::OutOfRange {
+            field: field.to_string(),
+            value,
+            allowed: "> 0".to_string(),
+        })
+    }
+}
+
+/// Checks a number is finite and not negative.
+pub(crate) fn non_negative(field: &str, value: f64) -> Result<f64, SpecError> {
+    finite(field, value)?;
+    if value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(SpecError::OutOfRange {
+            field: field.to_string(),
+            value,
+            allowed: ">= 0".to_string(),
+        })
+    }
+}
+
+/// Checks a number is finite and in `[lo, hi]`.
+pub(crate) fn in_range(field: &str, value: f64, lo: f64, hi: f64) -> Result<f64, SpecError> {
+    finite(field, value)?;
+    if (lo..=hi).contains(&value) {
+        Ok(value)
+    } else {
+        Err(SpecError::OutOfRange {
+            field: field.to_string(),
+            value,
+            allowed: format!("in [{lo}, {hi}]"),
+        })
+    }
+}
+
+/// Checks a direction `[x, z]` is finite and non-zero, and returns it normalised.
+pub(crate) fn direction(field: &str, d: [f64; 2]) -> Result<glam::DVec2, SpecError> {
+    finite(&format!("{field}[0]"), d[0])?;
+    finite(&format!("{field}[1]"), d[1])?;
+    let v = glam::DVec2::new(d[0], d[1]);
+    let len = v.length();
+    if len > 0.0 && len.is_finite() {
+        Ok(v / len)
+    } else if len > 0.0 {
+        // Both components finite but the length overflowed: rescale first.
+        let m = d[0].abs().max(d[1].abs());
+        let w = v / m;
+        Ok(w / w.length())
+    } else {
+        Err(SpecError::ZeroDirection {
+            field: field.to_string(),
+        })
+    }
+}
