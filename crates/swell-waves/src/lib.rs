@@ -3,7 +3,10 @@
 
 pub mod error;
 pub mod fft;
+pub mod gerstner;
 pub mod math;
+pub mod sine;
 pub mod spectrum;
+pub mod wave;
 
 pub use error::SpecError;

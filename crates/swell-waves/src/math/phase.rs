@@ -64,7 +64,10 @@ mod tests {
                 let v = s * x * 1.000_000_123;
                 let r = reduce_phase(v);
                 assert!(r.abs() <= std::f64::consts::PI + 1e-15);
-                assert!((r.sin() - v.sin()).abs() < 2e-16 * v.abs().max(1.0) + 1e-15, "{v}");
+                assert!(
+                    (r.sin() - v.sin()).abs() < 2e-16 * v.abs().max(1.0) + 1e-15,
+                    "{v}"
+                );
             }
             x *= 1.7;
         }

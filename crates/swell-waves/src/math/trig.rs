@@ -86,8 +86,16 @@ mod tests {
         for i in 0..=n {
             let x = -std::f64::consts::PI + 2.0 * std::f64::consts::PI * (i as f64) / (n as f64);
             let (s, c) = sin_cos(x);
-            assert!((s - x.sin()).abs() <= 2.0 * f64::EPSILON, "sin({x}) = {s} vs {}", x.sin());
-            assert!((c - x.cos()).abs() <= 2.0 * f64::EPSILON, "cos({x}) = {c} vs {}", x.cos());
+            assert!(
+                (s - x.sin()).abs() <= 2.0 * f64::EPSILON,
+                "sin({x}) = {s} vs {}",
+                x.sin()
+            );
+            assert!(
+                (c - x.cos()).abs() <= 2.0 * f64::EPSILON,
+                "cos({x}) = {c} vs {}",
+                x.cos()
+            );
         }
     }
 

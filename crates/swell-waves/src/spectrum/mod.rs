@@ -14,7 +14,10 @@ use serde::{Deserialize, Serialize};
 /// Which one-dimensional spectrum a sea follows. Wind speed is U10 (m/s at 10 m above the sea).
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum SpectrumSpec {
     /// Phillips (Tessendorf's choice), as a wavenumber spectrum:
     /// `S(k) = (α/2)·k⁻³·exp(−1/(k·L)²)·exp(−(k·ℓ)²)` in m³, L = U²/g, ℓ = `small_wave_cutoff`.
@@ -61,7 +64,10 @@ pub enum SpectrumSpec {
 /// spreading function D(θ, ω) integrates to 1 over θ ∈ [−π, π].
 #[derive(Debug, Clone, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum SpreadingSpec {
     /// Longuet-Higgins cos-2s with a fixed exponent: `D = Q(s)·|cos(θ/2)|^(2s)`.
     Cos2s {
