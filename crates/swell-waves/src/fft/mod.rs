@@ -45,6 +45,8 @@ mod frame;
 mod layer;
 mod reference;
 mod sample;
+#[cfg(test)]
+mod tests;
 mod transform;
 
 pub use fields::{FftFields, FftGrid};
