@@ -1,4 +1,58 @@
-//! The Tessendorf FFT ocean.
+//! The Tessendorf FFT ocean: a seeded random sea on a periodic square tile, evolved in time by
+//! the dispersion relation and turned into grids by inverse FFTs.
+//!
+//! # Recipe
+//!
+//! This is the whole model, precise enough to reproduce elsewhere. N = `resolution`,
+//! L = `tile_size`, λ = `choppiness`, T = `repeat_period`, Δk = 2π/L.
+//!
+//! 1. **Wave vectors.** k = Δk·(m, n) for integers −N/2 < m, n < N/2. The Nyquist row and column
+//!    (m or n = −N/2) are left empty: those waves are shorter than the grid can carry in both
+//!    signs, and dropping them keeps every field exactly real. k = 0 is empty (no mean level).
+//!    With a [`Band`], a mode is kept iff `min_wavelength ≤ 2π/|k| < max_wavelength`, where
+//!    `|k| = sqrt(kx² + kz²)`, `kx = m·Δk`, `kz = n·Δk` in f64.
+//! 2. **Amplitudes.** For a kept mode, `(g1, g2) = SwellRng::new(mode_key(seed, m, n), 0)
+//!    .gaussian_pair()` (see [`crate::math`]) and
+//!    `h0(k) = (g1·s, g2·s)`, `s = sqrt(E(k)·Δk²·0.25)` where E is the wave-vector variance
+//!    density (m⁴). The draw depends on (seed, m, n) only, so grids of the same L and different N
+//!    share the waves they have in common, bit for bit.
+//! 3. **Why that scale.** The height is `h(x, t) = Σ_k h̃(k, t)·e^{i k·x}` with
+//!    `h̃(k, t) = h0(k)·e^{−iωt} + conj(h0(−k))·e^{+iωt}`; the h0(k) part is a wave travelling
+//!    along +k (phase `k·x − ωt`, the crate's Gerstner convention) and the second part keeps h
+//!    real. Then the mean of h² over the tile is `Σ_k |h̃(k, t)|²`. The draws for k and −k are
+//!    independent, so its expectation is `Σ_k E|h0(k)|² + E|h0(−k)|² = 2·Σ_k E|h0(k)|²` (the
+//!    kept set is symmetric), and `E|h0(k)|² = E[g1² + g2²]·s² = 2·E(k)Δk²/4`: the expectation is
+//!    `Σ_k E(k)·Δk²`, the discrete m0, and Hs = 4·sqrt(m0).
+//! 4. **Frequencies.** `ω = dispersion.omega(|k|)`, quantised down to a multiple of
+//!    ω0 = 2π/T: `ω_q = floor(ω/ω0)·ω0`. Time is reduced first, `t_r = t.rem_euclid(T)`, and the
+//!    phase `ω_q·t_r` goes through `reduce_phase` and `math::sin_cos`. So the sea repeats exactly
+//!    every T seconds, and frames at t and t + T are identical to the bit.
+//! 5. **Fields.** Eight real grids, each `Σ_k c(k)·h̃(k, t)·e^{i k·x}` with the multipliers of
+//!    [`FftGrid`]: height, displacement (Dx, Dz), slopes, Jacobian terms. A frame computes only the
+//!    grids asked for ([`FftFields`]), one 2-D inverse real transform each
+//!    (`transform` module: N/2 column FFTs and N/2 packed row FFTs of length N, all unnormalised
+//!    inverse DFTs). Grid node (i, j) is the point (i·L/N, j·L/N), stored at `[j·N + i]`.
+//! 6. **Sampling.** [`FftFrame::sample`] reads a frame anywhere with a [`SampleFilter`] on the
+//!    periodic grid; [`FftLayer::sample_reference`] sums the series directly (the reference).
+//!
+//! # Determinism
+//! With [`FftBackend::Portable`] (RustFFT's scalar planner) a frame is the same to the bit on
+//! every CPU, every run and every thread count. [`FftBackend::Native`] uses SIMD kernels chosen at
+//! run time, and its low bits (~1e-14 relative) depend on the CPU.
+
+mod fields;
+mod frame;
+mod layer;
+mod reference;
+mod sample;
+#[cfg(test)]
+mod tests;
+mod transform;
+
+pub use fields::{FftFields, FftGrid};
+pub use frame::FftFrame;
+pub use layer::{FftLayer, MAX_CHOPPINESS, MAX_RESOLUTION, MIN_RESOLUTION};
+pub use sample::{FftSample, SampleFilter};
 
 use crate::spectrum::{SpectrumSpec, SpreadingSpec};
 #[cfg(feature = "serde")]

@@ -1,0 +1,111 @@
+//! Time evolution of the spectrum and the transforms into grids.
+
+use rustfft::num_complex::Complex;
+
+use super::fields::{FftFields, FftGrid};
+use super::layer::FftLayer;
+use crate::math::{reduce_phase, sin_cos};
+
+/// The fields of an FFT layer at one time, on the layer's N×N grid.
+///
+/// Grid layout: the value at `x = i·L/N`, `z = j·L/N` is stored at `[j·N + i]`. The tile repeats
+/// with period L in x and z.
+#[derive(Debug, Clone)]
+pub struct FftFrame {
+    pub(crate) t: f64,
+    pub(crate) fields: FftFields,
+    pub(crate) n: usize,
+    pub(crate) tile_size: f64,
+    pub(crate) grids: [Option<Vec<f64>>; 8],
+    pub(crate) transforms: usize,
+}
+
+impl FftFrame {
+    /// The time asked for, s (not reduced modulo T).
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+
+    /// The fields present.
+    pub fn fields(&self) -> FftFields {
+        self.fields
+    }
+
+    /// Grid side N.
+    pub fn resolution(&self) -> usize {
+        self.n
+    }
+
+    /// Tile side L, m.
+    pub fn tile_size(&self) -> f64 {
+        self.tile_size
+    }
+
+    /// The N×N values of one grid (`[j·N + i]`), or `None` if the frame did not compute it.
+    pub fn grid(&self, grid: FftGrid) -> Option<&[f64]> {
+        self.grids[grid.index()].as_deref()
+    }
+
+    /// Number of 2-D inverse real transforms this frame cost: one per grid present.
+    pub fn transforms(&self) -> usize {
+        self.transforms
+    }
+}
+
+impl FftLayer {
+    /// The grids of `fields` at time `t`, s.
+    ///
+    /// Time is reduced first, `t_r = t.rem_euclid(T)`, so frames at `t` and `t + T` are
+    /// bit-identical (whenever `t + T` is itself exact in f64). Each kept k evolves as
+    /// `h̃(k, t) = h0(k)·e^{−iω_q t_r} + conj(h0(−k))·e^{+iω_q t_r}` with
+    /// `(sin, cos) = math::sin_cos(reduce_phase(ω_q·t_r))`; each grid is then
+    /// `Σ_k c(k)·h̃(k, t)·e^{i k·x}` (see [`FftGrid`]), one 2-D inverse real transform per grid,
+    /// computed only for the grids in `fields`.
+    ///
+    /// `t` should be finite: a non-finite `t` gives NaN grids (validate times at the boundary).
+    /// The result depends only on the layer, `t_r` and `fields`; with the portable backend it is
+    /// the same to the bit on every platform.
+    pub fn frame(&self, t: f64, fields: FftFields) -> FftFrame {
+        let n = self.n;
+        let t_r = t.rem_euclid(self.repeat_period);
+        let mut grids: [Option<Vec<f64>>; 8] = Default::default();
+        let mut transforms = 0;
+        let wanted: Vec<FftGrid> = FftGrid::ALL
+            .into_iter()
+            .filter(|&g| fields.has(g))
+            .collect();
+        if !wanted.is_empty() {
+            let zero = Complex::new(0.0, 0.0);
+            let htilde: Vec<Complex<f64>> = self
+                .half
+                .iter()
+                .map(|mode| {
+                    if mode.is_empty() {
+                        return zero;
+                    }
+                    let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
+                    mode.evolve(s, c)
+                })
+                .collect();
+            let mut buf = vec![zero; htilde.len()];
+            let mut scratch = self.transform.scratch();
+            for grid in wanted {
+                for ((b, h), mode) in buf.iter_mut().zip(&htilde).zip(&self.half) {
+                    *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *h);
+                }
+                let mut out = vec![0.0; n * n];
+                self.transform.process(&mut buf, &mut scratch, &mut out);
+                grids[grid.index()] = Some(out);
+                transforms += 1;
+            }
+        }
+        FftFrame {
+            t,
+            fields,
+            n,
+            tile_size: self.tile_size,
+            grids,
+            transforms,
+        }
+    }
+}

@@ -1,0 +1,277 @@
+//! An FFT layer: validated spec, the kept wave vectors, their random amplitudes h0(k) and their
+//! quantised frequencies.
+
+use glam::DVec2;
+use rustfft::num_complex::Complex;
+
+use super::transform::InverseRealFft2;
+use super::{FftBackend, FftSpec};
+use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
+use crate::math::{SwellRng, TAU, mode_key};
+use crate::spectrum::Dispersion;
+
+/// Smallest grid side: below 16 a tile holds too few waves to look like a sea.
+pub const MIN_RESOLUTION: u32 = 16;
+/// Largest grid side: a 1024² frame with all eight fields is ~64 MiB of f64 and ~0.1 s of work;
+/// larger tiles belong in a cascade of layers.
+pub const MAX_RESOLUTION: u32 = 1024;
+/// Largest choppiness λ. Tessendorf's sea is λ = 1; beyond a few the surface folds everywhere,
+/// and 10 bounds the damage a typo can do.
+pub const MAX_CHOPPINESS: f64 = 10.0;
+
+/// One entry of the half plane `m = 0 … N/2 − 1`: the wave vector k = Δk·(m, n), its quantised
+/// frequency and the amplitudes of the waves along +k and −k.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Mode {
+    pub(crate) kx: f64,
+    pub(crate) kz: f64,
+    /// 1/|k|, or 0 for k = 0.
+    pub(crate) inv_k: f64,
+    /// ω_q(|k|), rad/s.
+    pub(crate) omega_q: f64,
+    /// h0(k), m.
+    pub(crate) h0: Complex<f64>,
+    /// h0(−k), m.
+    pub(crate) h0_neg: Complex<f64>,
+}
+
+impl Mode {
+    /// Whether the entry carries no wave (its h̃ is zero at every time).
+    pub(crate) fn is_empty(&self) -> bool {
+        self.h0 == Complex::new(0.0, 0.0) && self.h0_neg == Complex::new(0.0, 0.0)
+    }
+
+    /// h̃(k, t) = h0(k)·e^{−iω_q t_r} + conj(h0(−k))·e^{+iω_q t_r}, given `(s, c)` =
+    /// `sin_cos(reduce_phase(ω_q·t_r))`. Bit-level recipe, with h0 = a + ib, h0(−k) = p + iq:
+    /// `re = (a·c + b·s) + (p·c + q·s)`, `im = (b·c − a·s) + (p·s − q·c)`.
+    #[inline]
+    pub(crate) fn evolve(&self, s: f64, c: f64) -> Complex<f64> {
+        let (a, b) = (self.h0.re, self.h0.im);
+        let (p, q) = (self.h0_neg.re, self.h0_neg.im);
+        Complex::new(
+            (a * c + b * s) + (p * c + q * s),
+            (b * c - a * s) + (p * s - q * c),
+        )
+    }
+}
+
+/// A built Tessendorf FFT layer: a seeded random sea on a periodic square tile, ready to produce
+/// frames ([`FftLayer::frame`]) and reference samples ([`FftLayer::sample_reference`]).
+///
+/// See the [module docs](super) for the full recipe. The layer is immutable, `Send + Sync`, and
+/// cheap to share behind an `Arc`.
+#[derive(Debug, Clone)]
+pub struct FftLayer {
+    pub(crate) n: usize,
+    pub(crate) tile_size: f64,
+    pub(crate) choppiness: f64,
+    pub(crate) repeat_period: f64,
+    pub(crate) backend: FftBackend,
+    /// Half plane, column-major: entry (m, n) at `m·N + (n mod N)` for m = 0 … N/2 − 1.
+    pub(crate) half: Vec<Mode>,
+    pub(crate) modes: usize,
+    pub(crate) variance: f64,
+    pub(crate) transform: InverseRealFft2,
+}
+
+impl FftLayer {
+    /// Validates `spec` and builds the layer from a wave-vector variance density.
+    ///
+    /// `density(k)` is E(kx, kz) in m⁴ (so that ∫∫E dk = m0, the variance of the height); it is
+    /// evaluated once at every kept wave vector, in the order m = −N/2+1 … N/2−1 (outer),
+    /// n likewise (inner), and never at k = 0. `field` prefixes error paths (e.g. `layers[2]`);
+    /// `seed` is the layer's resolved seed (`spec.seed` is not read here); `dispersion` gives ω(k).
+    /// The spec's `spectrum` and `spreading` are not read either: they are what `density` is
+    /// built from.
+    ///
+    /// # Errors
+    /// [`SpecError`] naming the field, when:
+    /// - `{field}.resolution` is not a power of two in 16..=1024;
+    /// - `{field}.tile_size` or `{field}.repeat_period` is not finite and > 0;
+    /// - `{field}.choppiness` is not in [0, 10];
+    /// - `{field}.wind_direction` is not finite or is the zero vector;
+    /// - `{field}.band.min_wavelength` is not finite and ≥ 0, or `{field}.band.max_wavelength` is
+    ///   not finite and > min;
+    /// - `{field}.spectrum`: `density` returned a negative or non-finite value at a kept mode.
+    pub fn from_density(
+        spec: &FftSpec,
+        seed: u64,
+        dispersion: Dispersion,
+        field: &str,
+        density: impl Fn(DVec2) -> f64,
+    ) -> Result<FftLayer, SpecError> {
+        let res = spec.resolution;
+        if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&res) || !res.is_power_of_two() {
+            return Err(SpecError::OutOfRange {
+                field: format!("{field}.resolution"),
+                value: f64::from(res),
+                allowed: format!("a power of two in {MIN_RESOLUTION}..={MAX_RESOLUTION}"),
+            });
+        }
+        let tile_size = positive(&format!("{field}.tile_size"), spec.tile_size)?;
+        let choppiness = in_range(
+            &format!("{field}.choppiness"),
+            spec.choppiness,
+            0.0,
+            MAX_CHOPPINESS,
+        )?;
+        let repeat_period = positive(&format!("{field}.repeat_period"), spec.repeat_period)?;
+        direction(&format!("{field}.wind_direction"), spec.wind_direction)?;
+        let (min_wl, max_wl) = match spec.band {
+            None => (0.0, f64::INFINITY),
+            Some(band) => {
+                let min =
+                    non_negative(&format!("{field}.band.min_wavelength"), band.min_wavelength)?;
+                let max = match band.max_wavelength {
+                    None => f64::INFINITY,
+                    Some(max) => {
+                        let name = format!("{field}.band.max_wavelength");
+                        finite(&name, max)?;
+                        if max <= min {
+                            return Err(SpecError::OutOfRange {
+                                field: name,
+                                value: max,
+                                allowed: format!("> min_wavelength = {min} m"),
+                            });
+                        }
+                        max
+                    }
+                };
+                (min, max)
+            }
+        };
+
+        let n = res as usize;
+        let h = (n / 2) as i32;
+        let dk = TAU / tile_size;
+        let omega0 = TAU / repeat_period;
+        let wave_vector = |m: i32, q: i32| DVec2::new(f64::from(m) * dk, f64::from(q) * dk);
+        let kept = |m: i32, q: i32| {
+            if (m, q) == (0, 0) || m <= -h || m >= h || q <= -h || q >= h {
+                return false;
+            }
+            let wavelength = TAU / wave_vector(m, q).length();
+            min_wl <= wavelength && wavelength < max_wl
+        };
+
+        // h0 over the full plane, indexed [(m + N/2)·N + (q + N/2)].
+        let zero = Complex::new(0.0, 0.0);
+        let mut h0 = vec![zero; n * n];
+        let mut modes = 0;
+        for m in 1 - h..h {
+            for q in 1 - h..h {
+                if !kept(m, q) {
+                    continue;
+                }
+                let k = wave_vector(m, q);
+                let e = density(k);
+                if !(e.is_finite() && e >= 0.0) {
+                    return Err(SpecError::Inconsistent {
+                        field: format!("{field}.spectrum"),
+                        reason: format!(
+                            "the spectral density at k = ({}, {}) rad/m is {e}; it must be finite and >= 0",
+                            k.x, k.y
+                        ),
+                    });
+                }
+                modes += 1;
+                let (g1, g2) = SwellRng::new(mode_key(seed, m, q), 0).gaussian_pair();
+                let s = (e * (dk * dk) * 0.25).sqrt();
+                h0[((m + h) as usize) * n + (q + h) as usize] = Complex::new(g1 * s, g2 * s);
+            }
+        }
+        let at = |m: i32, q: i32| h0[((m + h) as usize) * n + (q + h) as usize];
+
+        // Realised variance: the time average of mean(h²) = Σ_k |h0(k)|² + |h0(−k)|².
+        let mut sum = 0.0;
+        for v in &h0 {
+            sum += v.norm_sqr();
+        }
+        let variance = 2.0 * sum;
+
+        let mut half = vec![Mode::default(); n / 2 * n];
+        for m in 0..h {
+            for q in 1 - h..h {
+                if !kept(m, q) {
+                    continue;
+                }
+                let k = wave_vector(m, q);
+                let len = k.length();
+                let omega = dispersion.omega(len);
+                half[(m as usize) * n + q.rem_euclid(n as i32) as usize] = Mode {
+                    kx: k.x,
+                    kz: k.y,
+                    inv_k: 1.0 / len,
+                    omega_q: (omega / omega0).floor() * omega0,
+                    h0: at(m, q),
+                    h0_neg: at(-m, -q),
+                };
+            }
+        }
+
+        Ok(FftLayer {
+            n,
+            tile_size,
+            choppiness,
+            repeat_period,
+            backend: spec.backend,
+            half,
+            modes,
+            variance,
+            transform: InverseRealFft2::new(n, spec.backend),
+        })
+    }
+
+    /// Grid side N.
+    pub fn resolution(&self) -> usize {
+        self.n
+    }
+
+    /// Tile side L, m.
+    pub fn tile_size(&self) -> f64 {
+        self.tile_size
+    }
+
+    /// Horizontal displacement scale λ.
+    pub fn choppiness(&self) -> f64 {
+        self.choppiness
+    }
+
+    /// Repeat period T, s.
+    pub fn repeat_period(&self) -> f64 {
+        self.repeat_period
+    }
+
+    /// The FFT backend frames use.
+    pub fn backend(&self) -> FftBackend {
+        self.backend
+    }
+
+    /// Number of kept wave vectors (both k and −k counted): inside the grid, inside the band,
+    /// not k = 0. Modes where the density is zero are kept (with h0 = 0) and counted.
+    pub fn modes(&self) -> usize {
+        self.modes
+    }
+
+    /// The realised discrete m0, m²: `Σ_k |h0(k)|² + |h0(−k)|²` over kept k, which is the time
+    /// average of the grid mean of h² (exactly so when no kept ω_q is 0). Its expectation over
+    /// seeds is `Σ_k E(k)·Δk²`. Significant wave height `Hs = 4·sqrt(variance)`.
+    pub fn variance(&self) -> f64 {
+        self.variance
+    }
+
+    /// The complex amplitude h0(k), m, of the wave with mode numbers `(m, n)` (k = 2π/L·(m, n));
+    /// zero for modes that are not kept or lie outside the grid.
+    pub fn h0(&self, m: i32, n: i32) -> Complex<f64> {
+        let h = (self.n / 2) as i32;
+        if m <= -h || m >= h || n <= -h || n >= h {
+            return Complex::new(0.0, 0.0);
+        }
+        let col = |q: i32| q.rem_euclid(self.n as i32) as usize;
+        if m >= 0 {
+            self.half[m as usize * self.n + col(n)].h0
+        } else {
+            self.half[(-m) as usize * self.n + col(-n)].h0_neg
+        }
+    }
+}
