@@ -5,6 +5,11 @@
 //! its significant wave height is Hs = 4·sqrt(m0).
 
 mod dispersion;
+mod jonswap;
+mod phillips;
+mod pierson_moskowitz;
+mod quadrature;
+mod tma;
 
 pub use dispersion::{Dispersion, STANDARD_GRAVITY};
 
