@@ -9,6 +9,7 @@ mod jonswap;
 mod phillips;
 mod pierson_moskowitz;
 mod quadrature;
+mod spreading;
 mod tma;
 
 pub use dispersion::{Dispersion, STANDARD_GRAVITY};
