@@ -3,7 +3,19 @@
 //! A spectrum says how the sea's variance (m²) is spread over frequency and direction. Every
 //! spectrum here is physically normalised: the variance of a generated sea is m0 = ∫ S(ω) dω and
 //! its significant wave height is Hs = 4·sqrt(m0).
+//!
+//! # Layout
+//! - `dispersion`: ω(k) and its inverse, deep and finite depth.
+//! - `pierson_moskowitz`, `jonswap`, `tma`, `phillips`: the one-dimensional spectra.
+//! - `spreading`: directional spreading functions D(θ, ω).
+//! - `directional`: [`DirectionalSpectrum`], a validated spectrum + spreading + dispersion, the
+//!   one type the rest of the crate samples.
+//! - `quadrature`: the fixed (deterministic) quadrature rules used for normalisation.
+//!
+//! Units throughout: ω in rad/s, k in rad/m, θ in radians from the wind direction;
+//! S(ω) in m²·s, S_k(k) in m³, the Cartesian density E(kx, kz) in m⁴.
 
+mod directional;
 mod dispersion;
 mod jonswap;
 mod phillips;
@@ -12,6 +24,7 @@ mod quadrature;
 mod spreading;
 mod tma;
 
+pub use directional::{DirectionalSpectrum, MAX_WIND_SPEED};
 pub use dispersion::{Dispersion, STANDARD_GRAVITY};
 
 #[cfg(feature = "serde")]
@@ -20,7 +33,10 @@ use serde::{Deserialize, Serialize};
 /// Which one-dimensional spectrum a sea follows. Wind speed is U10 (m/s at 10 m above the sea).
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum SpectrumSpec {
     /// Phillips (Tessendorf's choice), as a wavenumber spectrum:
     /// `S(k) = (α/2)·k⁻³·exp(−1/(k·L)²)·exp(−(k·ℓ)²)` in m³, L = U²/g, ℓ = `small_wave_cutoff`.
@@ -67,7 +83,10 @@ pub enum SpectrumSpec {
 /// spreading function D(θ, ω) integrates to 1 over θ ∈ [−π, π].
 #[derive(Debug, Clone, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum SpreadingSpec {
     /// Longuet-Higgins cos-2s with a fixed exponent: `D = Q(s)·|cos(θ/2)|^(2s)`.
     Cos2s {
