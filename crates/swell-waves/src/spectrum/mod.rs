@@ -3,9 +3,28 @@
 //! A spectrum says how the sea's variance (m²) is spread over frequency and direction. Every
 //! spectrum here is physically normalised: the variance of a generated sea is m0 = ∫ S(ω) dω and
 //! its significant wave height is Hs = 4·sqrt(m0).
+//!
+//! # Layout
+//! - `dispersion`: ω(k) and its inverse, deep and finite depth.
+//! - `pierson_moskowitz`, `jonswap`, `tma`, `phillips`: the one-dimensional spectra.
+//! - `spreading`: directional spreading functions D(θ, ω).
+//! - `directional`: [`DirectionalSpectrum`], a validated spectrum + spreading + dispersion, the
+//!   one type the rest of the crate samples.
+//! - `quadrature`: the fixed (deterministic) quadrature rules used for normalisation.
+//!
+//! Units throughout: ω in rad/s, k in rad/m, θ in radians from the wind direction;
+//! S(ω) in m²·s, S_k(k) in m³, the Cartesian density E(kx, kz) in m⁴.
 
+mod directional;
 mod dispersion;
+mod jonswap;
+mod phillips;
+mod pierson_moskowitz;
+mod quadrature;
+mod spreading;
+mod tma;
 
+pub use directional::{DirectionalSpectrum, MAX_WIND_SPEED};
 pub use dispersion::{Dispersion, STANDARD_GRAVITY};
 
 #[cfg(feature = "serde")]
