@@ -75,6 +75,30 @@ pub struct FftLayer {
 }
 
 impl FftLayer {
+    /// Validates `spec` and builds the layer from its spectrum, spreading and wind direction:
+    /// the density is [`crate::spectrum::DirectionalSpectrum::density`] (see
+    /// [`FftLayer::from_density`] for everything else).
+    ///
+    /// # Errors
+    /// As [`FftLayer::from_density`], plus any spectrum or spreading field out of range
+    /// (`{field}.spectrum.*`, `{field}.spreading.*`).
+    pub fn new(
+        spec: &FftSpec,
+        seed: u64,
+        dispersion: Dispersion,
+        field: &str,
+    ) -> Result<FftLayer, SpecError> {
+        let wind = direction(&format!("{field}.wind_direction"), spec.wind_direction)?;
+        let spectrum = crate::spectrum::DirectionalSpectrum::new(
+            &spec.spectrum,
+            &spec.spreading,
+            wind,
+            dispersion,
+            field,
+        )?;
+        Self::from_density(spec, seed, dispersion, field, |k| spectrum.density(k))
+    }
+
     /// Validates `spec` and builds the layer from a wave-vector variance density.
     ///
     /// `density(k)` is E(kx, kz) in m⁴ (so that ∫∫E dk = m0, the variance of the height); it is

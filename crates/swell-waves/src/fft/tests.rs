@@ -582,38 +582,3 @@ fn layer_is_send_and_sync() {
     check::<FftLayer>();
     check::<FftFrame>();
 }
-
-/// Timing of a 256² frame with all eight grids. Run with
-/// `cargo test --release -p swell-waves --lib fft::tests::timing -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn timing_256_all_fields() {
-    for backend in [FftBackend::Portable, FftBackend::Native] {
-        let mut s = spec(256, 500.0);
-        s.backend = backend;
-        let layer = layer_with(&s, 1, bump(40.0, 3.0));
-        let reps = 50;
-        let start = std::time::Instant::now();
-        let mut acc = 0.0;
-        for r in 0..reps {
-            acc += layer
-                .frame(f64::from(r), FftFields::ALL)
-                .grid(FftGrid::Height)
-                .unwrap()[7];
-        }
-        let per = start.elapsed().as_secs_f64() / f64::from(reps);
-        let start = std::time::Instant::now();
-        for r in 0..reps {
-            acc += layer
-                .frame(f64::from(r), FftFields::HEIGHT)
-                .grid(FftGrid::Height)
-                .unwrap()[7];
-        }
-        let per_h = start.elapsed().as_secs_f64() / f64::from(reps);
-        println!(
-            "{backend:?}: 256² ALL {:.3} ms, HEIGHT {:.3} ms ({acc})",
-            per * 1e3,
-            per_h * 1e3
-        );
-    }
-}

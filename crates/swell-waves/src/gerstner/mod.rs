@@ -5,8 +5,10 @@
 //! `S = Σ Q·k·A` is below 1; a layer (or a surface) with S ≥ 1 is rejected.
 
 mod cascade;
+mod sampled;
 
 pub use cascade::CascadeSpec;
+pub use sampled::{MAX_SAMPLED_WAVES, SpectrumWavesSpec};
 
 use crate::error::SpecError;
 use crate::sine::check_wave_count;
@@ -47,6 +49,9 @@ pub struct GerstnerLayerSpec {
     /// A cascade generator (sets of waves at several scales and directions).
     #[cfg_attr(feature = "serde", serde(default))]
     pub cascade: Option<CascadeSpec>,
+    /// A spectrum sampler (N waves drawn from a spectrum with the layer's seed).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub spectrum: Option<SpectrumWavesSpec>,
     /// Seed of the generators; absent means derived from the surface seed and layer index.
     #[cfg_attr(feature = "serde", serde(default))]
     pub seed: Option<u64>,
@@ -91,6 +96,9 @@ impl GerstnerLayer {
             .collect::<Result<Vec<_>, _>>()?;
         if let Some(c) = &spec.cascade {
             waves.extend(c.generate(seed, dispersion, &format!("{field}.cascade"))?);
+        }
+        if let Some(g) = &spec.spectrum {
+            waves.extend(g.generate(seed, dispersion, &format!("{field}.spectrum"))?);
         }
         check_wave_count(&format!("{field}.waves"), waves.len())?;
         let fold = fold_number(&waves);

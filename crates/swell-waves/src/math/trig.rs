@@ -11,20 +11,33 @@ use super::phase::reduce_phase;
 // the quadrant numbers |q| ≤ 2 we use.
 const PIO2_1: f64 = 1.570_796_326_734_125_6;
 const PIO2_2: f64 = 6.077_100_506_506_192e-11;
-const TWO_OVER_PI: f64 = 0.636_619_772_367_581_4;
+const TWO_OVER_PI: f64 = std::f64::consts::FRAC_2_PI;
 
+// fdlibm's published coefficients, kept digit for digit so the kernel is recognisably that one.
+#[allow(clippy::excessive_precision)]
 const S1: f64 = -1.666_666_666_666_663_243_48e-1;
+#[allow(clippy::excessive_precision)]
 const S2: f64 = 8.333_333_333_322_489_461_24e-3;
+#[allow(clippy::excessive_precision)]
 const S3: f64 = -1.984_126_982_985_794_931_34e-4;
+#[allow(clippy::excessive_precision)]
 const S4: f64 = 2.755_731_370_707_006_767_89e-6;
+#[allow(clippy::excessive_precision)]
 const S5: f64 = -2.505_076_025_340_686_341_95e-8;
+#[allow(clippy::excessive_precision)]
 const S6: f64 = 1.589_690_995_211_550_102_21e-10;
 
+#[allow(clippy::excessive_precision)]
 const C1: f64 = 4.166_666_666_666_660_190_37e-2;
+#[allow(clippy::excessive_precision)]
 const C2: f64 = -1.388_888_888_887_410_957_49e-3;
+#[allow(clippy::excessive_precision)]
 const C3: f64 = 2.480_158_728_947_672_941_78e-5;
+#[allow(clippy::excessive_precision)]
 const C4: f64 = -2.755_731_435_139_066_330_35e-7;
+#[allow(clippy::excessive_precision)]
 const C5: f64 = 2.087_572_321_298_174_827_90e-9;
+#[allow(clippy::excessive_precision)]
 const C6: f64 = -1.135_964_755_778_819_482_65e-11;
 
 #[inline]

@@ -36,8 +36,8 @@ mod tests {
 
     #[test]
     fn piecewise_values() {
-        let (g, h) = (9.81, 4.0);
-        let s = (h / g as f64).sqrt();
+        let (g, h) = (9.81f64, 4.0f64);
+        let s = (h / g).sqrt();
         assert!((depth_factor(0.5 / s, Some(h), g) - 0.125).abs() < 1e-15);
         assert!((depth_factor(1.0 / s, Some(h), g) - 0.5).abs() < 1e-15);
         assert!((depth_factor(1.5 / s, Some(h), g) - 0.875).abs() < 1e-15);

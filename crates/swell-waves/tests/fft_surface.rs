@@ -1,0 +1,269 @@
+//! FFT layers seen through the surface and query API: only the transforms a query needs,
+//! physically normalised spectra (Hs = 4·sqrt(m0)), exact periodicity, grid vs direct summation.
+
+mod common;
+
+use common::points;
+use glam::DVec2;
+use serde_json::{Value, json};
+use swell_waves::fft::{FftFields, SampleFilter};
+use swell_waves::spectrum::{DirectionalSpectrum, Dispersion, SpectrumSpec, SpreadingSpec};
+use swell_waves::{
+    Inversion, InversionMethod, Layer, QueryFields, QueryOptions, Surface, SurfaceSpec,
+};
+
+fn surface(v: Value) -> Surface {
+    let spec: SurfaceSpec = serde_json::from_value(v).unwrap();
+    Surface::new(&spec).unwrap()
+}
+
+fn fft(n: u32, tile: f64, choppiness: f64, spectrum: Value, seed: u64) -> Surface {
+    surface(
+        json!({"seed": seed, "layers": [{"kind": "fft", "resolution": n, "tile_size": tile,
+        "choppiness": choppiness, "wind_direction": [1.0, 0.3], "spectrum": spectrum,
+        "spreading": {"kind": "cos2s", "s": 4.0}}]}),
+    )
+}
+
+#[test]
+fn a_height_only_request_runs_only_the_height_transform() {
+    let flat = fft(
+        64,
+        200.0,
+        0.0,
+        json!({"kind": "jonswap", "wind_speed": 8.0, "fetch": 50000.0}),
+        1,
+    );
+    let sea = flat
+        .at(3.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    assert_eq!(
+        sea.transforms(),
+        1,
+        "height only, no choppiness: one inverse FFT"
+    );
+    // A choppy layer must invert the horizontal displacement: height + Dx + Dz, plus the three
+    // Jacobian terms for Newton; fixed-point inversion needs no Jacobian.
+    let choppy = fft(
+        64,
+        200.0,
+        1.0,
+        json!({"kind": "jonswap", "wind_speed": 8.0, "fetch": 50000.0}),
+        1,
+    );
+    assert_eq!(
+        choppy
+            .at(3.0, QueryFields::HEIGHT, &QueryOptions::default())
+            .unwrap()
+            .transforms(),
+        6
+    );
+    let fp = QueryOptions {
+        inversion: Inversion {
+            method: InversionMethod::FixedPoint,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    assert_eq!(
+        choppy
+            .at(3.0, QueryFields::HEIGHT, &fp)
+            .unwrap()
+            .transforms(),
+        3
+    );
+    assert_eq!(
+        choppy
+            .at(3.0, QueryFields::ALL, &QueryOptions::default())
+            .unwrap()
+            .transforms(),
+        8
+    );
+}
+
+#[test]
+fn zero_wind_is_a_flat_sea_without_nan() {
+    for spectrum in [
+        json!({"kind": "phillips", "wind_speed": 0.0}),
+        json!({"kind": "pierson_moskowitz", "wind_speed": 0.0}),
+        json!({"kind": "jonswap", "wind_speed": 0.0, "fetch": 1000.0}),
+    ] {
+        let s = fft(32, 100.0, 1.0, spectrum, 3);
+        let sea = s
+            .at(10.0, QueryFields::ALL, &QueryOptions::default())
+            .unwrap();
+        for p in points(3, 50, (0.0, 0.0), 500.0) {
+            let r = sea.query(p, QueryFields::ALL);
+            assert_eq!(r.height, 0.0);
+            assert_eq!(r.normal, glam::DVec3::Y);
+            assert_eq!(r.jacobian, 1.0);
+        }
+    }
+}
+
+/// The generated sea's variance against the spectrum: (1) the expected variance of the modes,
+/// Σ E(k)·Δk², against the analytic m0 of Pierson–Moskowitz (and the converged quadrature of
+/// JONSWAP) when the grid covers the peak; (2) the realised variance of the height grid,
+/// averaged over seeds, against that sum; (3) Hs = 4·sqrt(m0).
+#[test]
+fn generated_sea_variance_matches_the_spectrum() {
+    let g = 9.81;
+    for (spec_json, spectrum) in [
+        (
+            json!({"kind": "pierson_moskowitz", "wind_speed": 10.0}),
+            SpectrumSpec::PiersonMoskowitz { wind_speed: 10.0 },
+        ),
+        (
+            json!({"kind": "jonswap", "wind_speed": 12.0, "fetch": 100000.0}),
+            SpectrumSpec::Jonswap {
+                wind_speed: 12.0,
+                fetch: 100000.0,
+                gamma: 3.3,
+            },
+        ),
+    ] {
+        let (n, tile) = (256usize, 1600.0);
+        let wind = DVec2::new(1.0, 0.3).normalize();
+        let ds = DirectionalSpectrum::new(
+            &spectrum,
+            &SpreadingSpec::Cos2s { s: 4.0 },
+            wind,
+            Dispersion::default(),
+            "x",
+        )
+        .unwrap();
+        let m0 = ds.m0();
+        if let SpectrumSpec::PiersonMoskowitz { wind_speed } = spectrum {
+            let wp = 0.855 * g / wind_speed;
+            let analytic = 0.0081 * g * g / (5.0 * wp.powi(4));
+            assert!(
+                (m0 / analytic - 1.0).abs() < 1e-6,
+                "PM m0 {m0} vs {analytic}"
+            );
+        }
+        // (1) Discretised spectrum over the grid's modes (|m|, |n| < N/2, k ≠ 0).
+        let dk = std::f64::consts::TAU / tile;
+        let half = (n / 2) as i32;
+        let mut discrete = 0.0;
+        for m in -half + 1..half {
+            for q in -half + 1..half {
+                if m != 0 || q != 0 {
+                    discrete += ds.density(DVec2::new(m as f64 * dk, q as f64 * dk)) * dk * dk;
+                }
+            }
+        }
+        assert!(
+            (discrete / m0 - 1.0).abs() < 0.03,
+            "discrete {discrete} vs m0 {m0}"
+        );
+        // (2) Realised variance of the height grid, mean over seeds.
+        let seeds = 12;
+        let mut mean_var = 0.0;
+        for seed in 0..seeds {
+            let s = fft(n as u32, tile, 0.0, spec_json.clone(), seed);
+            let frame = s.fft_frame(0, 17.0, FftFields::HEIGHT).unwrap();
+            let h = frame.grid(swell_waves::fft::FftGrid::Height).unwrap();
+            mean_var += h.iter().map(|v| v * v).sum::<f64>() / h.len() as f64 / seeds as f64;
+        }
+        assert!(
+            (mean_var / discrete - 1.0).abs() < 0.1,
+            "grid variance {mean_var} vs {discrete}"
+        );
+        // (3) Hs.
+        assert!((ds.hs() - 4.0 * m0.sqrt()).abs() < 1e-12);
+        let hs_grid = 4.0 * mean_var.sqrt();
+        assert!(
+            (hs_grid / ds.hs() - 1.0).abs() < 0.08,
+            "Hs grid {hs_grid} vs {}",
+            ds.hs()
+        );
+    }
+}
+
+#[test]
+fn fft_surface_repeats_exactly_after_the_repeat_period() {
+    let s = surface(
+        json!({"seed": 5, "layers": [{"kind": "fft", "resolution": 32, "tile_size": 64.0,
+        "repeat_period": 100.0, "choppiness": 1.0, "wind_direction": [0.0, 1.0],
+        "spectrum": {"kind": "phillips", "wind_speed": 6.0}}]}),
+    );
+    for t in [1e9, 12.5, 1e9 + 0.25] {
+        let a = s.at(t, QueryFields::ALL, &QueryOptions::default()).unwrap();
+        let b = s
+            .at(t + 100.0, QueryFields::ALL, &QueryOptions::default())
+            .unwrap();
+        for p in points(5, 40, (0.0, 0.0), 1e4) {
+            let (ra, rb) = (a.query(p, QueryFields::ALL), b.query(p, QueryFields::ALL));
+            assert_eq!(ra.height.to_bits(), rb.height.to_bits(), "t={t}");
+            assert_eq!(ra.normal, rb.normal);
+        }
+    }
+}
+
+/// FFT grid sampling against direct f64 Fourier summation at random points, through the query
+/// path (inversion included). Bound: 1% of Hs for bicubic on a sea whose shortest kept waves
+/// span at least 8 grid cells; bilinear is allowed 5%.
+#[test]
+fn grid_heights_match_direct_summation_within_a_bound_scaled_to_hs() {
+    let v = json!({"seed": 8, "layers": [{"kind": "fft", "resolution": 64, "tile_size": 256.0,
+        "choppiness": 0.7, "wind_direction": [1.0, 0.3], "band": {"min_wavelength": 32.0},
+        "spectrum": {"kind": "jonswap", "wind_speed": 10.0, "fetch": 80000.0}}]});
+    let s = surface(v);
+    let Layer::Fft(layer) = &s.layers()[0] else {
+        unreachable!()
+    };
+    let hs = 4.0 * layer.variance().sqrt();
+    let exact = QueryOptions {
+        reference: true,
+        ..Default::default()
+    };
+    let sea_ref = s.at(4.0, QueryFields::ALL, &exact).unwrap();
+    for (filter, bound) in [
+        (SampleFilter::Bicubic, 0.01),
+        (SampleFilter::Bilinear, 0.05),
+    ] {
+        let o = QueryOptions {
+            filter,
+            ..Default::default()
+        };
+        let sea = s.at(4.0, QueryFields::ALL, &o).unwrap();
+        let mut worst = 0.0f64;
+        for p in points(8, 300, (0.0, 0.0), 2000.0) {
+            worst = worst.max((sea.height(p.x, p.y) - sea_ref.height(p.x, p.y)).abs());
+        }
+        assert!(
+            worst <= bound * hs,
+            "{filter:?}: worst {worst} m vs {} m",
+            bound * hs
+        );
+    }
+}
+
+#[test]
+fn cascaded_fft_bands_do_not_double_count() {
+    // Two FFT layers split at 40 m: together they hold each mode of the shared spectrum once.
+    let band = |min: Option<f64>, max: Option<f64>, tile: f64| {
+        json!({"kind": "fft", "resolution": 64, "tile_size": tile, "choppiness": 0.0,
+               "wind_direction": [1.0, 0.0], "seed": 1,
+               "band": {"min_wavelength": min.unwrap_or(0.0), "max_wavelength": max},
+               "spectrum": {"kind": "pierson_moskowitz", "wind_speed": 8.0}})
+    };
+    let s =
+        surface(json!({"layers": [band(Some(40.0), None, 512.0), band(None, Some(40.0), 64.0)]}));
+    let (Layer::Fft(a), Layer::Fft(b)) = (&s.layers()[0], &s.layers()[1]) else {
+        unreachable!()
+    };
+    // The long-wave layer has no mode shorter than 40 m and the short one none at or above it.
+    for m in -31..32i32 {
+        for n in -31..32i32 {
+            let ka = std::f64::consts::TAU / 512.0 * ((m * m + n * n) as f64).sqrt();
+            if ka > 0.0 && std::f64::consts::TAU / ka < 40.0 {
+                assert_eq!(a.h0(m, n), Default::default());
+            }
+            let kb = std::f64::consts::TAU / 64.0 * ((m * m + n * n) as f64).sqrt();
+            if kb > 0.0 && std::f64::consts::TAU / kb >= 40.0 {
+                assert_eq!(b.h0(m, n), Default::default());
+            }
+        }
+    }
+}
