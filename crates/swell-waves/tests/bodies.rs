@@ -1,0 +1,113 @@
+//! Floating-body orientation on real seas: hull averaging for huge bodies, steep crests,
+//! degenerate sizes.
+
+mod common;
+
+use common::gerstner_spec;
+use serde_json::json;
+use swell_waves::body::BodyFootprint;
+use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec};
+
+fn body(x: f64, z: f64, yaw: f64, length: f64, beam: f64) -> BodyFootprint {
+    BodyFootprint {
+        position: [x, z],
+        yaw,
+        length,
+        beam,
+        probes: None,
+    }
+}
+
+#[test]
+fn a_body_far_larger_than_the_longest_wave_sits_level_at_mean_height() {
+    // Waves up to 100 m long under a 5 km × 3 km footprint of 15 × 15 probes: the plane fit
+    // averages them out.
+    let s = Surface::new(&gerstner_spec(21, 16, 0.5)).unwrap();
+    let sea = s
+        .at(30.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    let probes: Vec<[f64; 2]> = (0..15)
+        .flat_map(|i| {
+            (0..15).map(move |j| [-2500.0 + 357.0 * i as f64, -1500.0 + 214.0 * j as f64])
+        })
+        .collect();
+    let mut b = body(123.0, -45.0, 0.7, 5000.0, 3000.0);
+    b.probes = Some(probes);
+    let o = b.orientation(&sea, "bodies[0]").unwrap();
+    // A point on this sea moves by up to Σ A; averaged over the hull the heave is a few percent
+    // of that (225 samples of a random-phase sum, plus Gerstner's slight mean-level drop).
+    let sum_a: f64 = s.layers()[0].waves().iter().map(|w| w.amplitude).sum();
+    assert!(
+        o.heave.abs() < 0.05 * sum_a,
+        "heave {} vs ΣA {sum_a}",
+        o.heave
+    );
+    assert!(
+        o.pitch.abs() < 1e-3 && o.roll.abs() < 1e-3,
+        "pitch {} roll {}",
+        o.pitch,
+        o.roll
+    );
+    assert!((o.normal.y - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn a_small_body_on_a_steep_crest_rides_the_crest() {
+    // One steep wave (Q·k·A = 0.95) travelling along +x: a 1 m raft at the crest is lifted to
+    // about A and stays level along the crest line; probes on the crest stay finite.
+    let spec: SurfaceSpec = serde_json::from_value(json!({"layers": [{"kind": "gerstner", "waves": [
+        {"amplitude": 0.95 * 40.0 / std::f64::consts::TAU, "wavelength": 40.0, "direction": [1.0, 0.0], "steepness": 1.0}
+    ]}]}))
+    .unwrap();
+    let s = Surface::new(&spec).unwrap();
+    let a = 0.95 * 40.0 / std::f64::consts::TAU;
+    let sea = s
+        .at(0.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    // θ = k·x0 = π/2 is the crest; its displaced position is x0 + Q·A·cos(π/2) = x0 = 10 m.
+    // At S = 0.95 the crest is nearly a cusp: Δx from it is (1 − S)·Δθ/k, so a 5 cm raft spans
+    // ±0.08 rad of phase and rides at about A·cos(0.08) ≈ 0.997·A.
+    let o = body(10.0, 0.0, 0.0, 0.05, 0.05)
+        .orientation(&sea, "b")
+        .unwrap();
+    assert!(
+        (o.heave - a).abs() < 0.01 * a,
+        "heave {} vs crest {a}",
+        o.heave
+    );
+    assert!(o.pitch.abs() < 1e-6, "pitch {}", o.pitch);
+    assert!(o.roll.abs() < 1e-9);
+    // A 1 m raft on the same crest: its probes sit on the steep flanks; the heave is the mean of
+    // the probe heights (symmetric probes), each checked against the converged reference.
+    let b = body(10.0, 0.0, 0.0, 1.0, 1.0);
+    let o = b.orientation(&sea, "b").unwrap();
+    let probes = b.probes("b").unwrap();
+    let mean_ref = probes
+        .iter()
+        .map(|&p| sea.invert_reference(b.probe_world(p)).sample.displacement.y)
+        .sum::<f64>()
+        / probes.len() as f64;
+    assert!(
+        (o.heave - mean_ref).abs() < 1e-3,
+        "heave {} vs reference mean {mean_ref}",
+        o.heave
+    );
+    assert!(o.heave < 0.95 * a, "a 1 m raft cannot ride the cusp's tip");
+    // Off the crest the raft pitches with the face of the wave, never NaN.
+    for x in [8.0, 9.0, 9.9, 10.1, 11.0, 12.0] {
+        let o = body(x, 0.0, 0.3, 2.0, 1.0).orientation(&sea, "b").unwrap();
+        assert!(o.heave.is_finite() && o.rotation.is_finite() && o.normal.is_finite());
+    }
+}
+
+#[test]
+fn zero_size_bodies_are_errors() {
+    let s = Surface::new(&gerstner_spec(1, 4, 0.3)).unwrap();
+    let sea = s
+        .at(0.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    let e = body(0.0, 0.0, 0.0, 0.0, 2.0)
+        .orientation(&sea, "bodies[3]")
+        .unwrap_err();
+    assert_eq!(e.field(), "bodies[3].length");
+}
