@@ -1,0 +1,383 @@
+//! A [`Surface`] is the sum of the layers a scene declares; a [`SurfaceAt`] is that surface frozen
+//! at one time, ready to answer point queries.
+//!
+//! Only what a scene declares is built (a surface without an FFT layer holds no FFT state), and a
+//! [`SurfaceAt`] computes only the FFT fields its queries need.
+
+use std::sync::Arc;
+
+use glam::{DVec2, DVec3};
+
+use crate::error::{SpecError, finite, positive};
+use crate::fft::{FftFields, FftFrame, FftLayer, FftSpec, SampleFilter};
+use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
+use crate::math::splitmix64;
+use crate::query::{QueryFields, QueryOptions};
+use crate::sine::{SineLayer, SineLayerSpec};
+use crate::spectrum::{Dispersion, STANDARD_GRAVITY};
+use crate::wave::{SurfaceSample, Wave, accumulate_all};
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+/// Most layers a surface may declare.
+pub const MAX_LAYERS: usize = 16;
+
+/// The wave part of a scene spec: which layers, the seed, gravity and depth.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct SurfaceSpec {
+    /// Master seed; each layer's seed is `splitmix64(seed ^ splitmix64(index))` unless the layer
+    /// gives its own. Default 0.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub seed: u64,
+    /// Gravity g, m/s². Default 9.81.
+    #[cfg_attr(feature = "serde", serde(default = "default_gravity"))]
+    pub gravity: f64,
+    /// Water depth h, m; absent means deep water.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub depth: Option<f64>,
+    /// The layers, summed in order (1..=16).
+    pub layers: Vec<LayerSpec>,
+}
+
+#[cfg(feature = "serde")]
+fn default_gravity() -> f64 {
+    STANDARD_GRAVITY
+}
+
+/// One layer of a surface spec, tagged by `kind` on the wire.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case"))]
+pub enum LayerSpec {
+    /// Compound sine.
+    Sine(SineLayerSpec),
+    /// Gerstner waves, explicit and generated.
+    Gerstner(GerstnerLayerSpec),
+    /// Tessendorf FFT ocean.
+    Fft(FftSpec),
+}
+
+impl LayerSpec {
+    /// The layer kind as written on the wire: `sine`, `gerstner` or `fft`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            LayerSpec::Sine(_) => "sine",
+            LayerSpec::Gerstner(_) => "gerstner",
+            LayerSpec::Fft(_) => "fft",
+        }
+    }
+}
+
+/// A built layer.
+#[derive(Debug)]
+pub enum Layer {
+    /// Compound sine.
+    Sine(SineLayer),
+    /// Gerstner.
+    Gerstner(GerstnerLayer),
+    /// FFT ocean (boxed: it holds the spectrum and transform plans).
+    Fft(Box<FftLayer>),
+}
+
+impl Layer {
+    /// The analytic waves of a sine or Gerstner layer; empty for FFT.
+    pub fn waves(&self) -> &[Wave] {
+        match self {
+            Layer::Sine(l) => l.waves(),
+            Layer::Gerstner(l) => l.waves(),
+            Layer::Fft(_) => &[],
+        }
+    }
+}
+
+/// A validated, built surface: immutable, `Send + Sync`, shareable across threads.
+#[derive(Debug)]
+pub struct Surface {
+    layers: Vec<Layer>,
+    dispersion: Dispersion,
+    fold: f64,
+    horizontal: bool,
+}
+
+/// The seed of layer `index` under the surface seed: `splitmix64(seed ^ splitmix64(index))`.
+pub fn layer_seed(seed: u64, index: usize) -> u64 {
+    splitmix64(seed ^ splitmix64(index as u64))
+}
+
+impl Surface {
+    /// Validates and builds every layer.
+    ///
+    /// # Errors
+    /// No layers or more than [`MAX_LAYERS`]; bad gravity or depth; any layer error (its field
+    /// path starts with `layers[i]`); a total Gerstner fold number ≥ 1 across layers (field
+    /// `layers`).
+    pub fn new(spec: &SurfaceSpec) -> Result<Surface, SpecError> {
+        positive("gravity", spec.gravity)?;
+        if let Some(h) = spec.depth {
+            positive("depth", h)?;
+        }
+        let dispersion = Dispersion::new(spec.gravity, spec.depth)?;
+        if spec.layers.is_empty() || spec.layers.len() > MAX_LAYERS {
+            return Err(SpecError::BadLength {
+                field: "layers".into(),
+                len: spec.layers.len(),
+                allowed: format!("1..={MAX_LAYERS}"),
+            });
+        }
+        let mut layers = Vec::with_capacity(spec.layers.len());
+        for (i, l) in spec.layers.iter().enumerate() {
+            let field = format!("layers[{i}]");
+            let seed = layer_seed(spec.seed, i);
+            layers.push(match l {
+                LayerSpec::Sine(s) => Layer::Sine(SineLayer::new(s, &dispersion, &field)?),
+                LayerSpec::Gerstner(g) => Layer::Gerstner(GerstnerLayer::new(
+                    g,
+                    g.seed.unwrap_or(seed),
+                    &dispersion,
+                    &field,
+                )?),
+                LayerSpec::Fft(f) => Layer::Fft(Box::new(FftLayer::new(
+                    f,
+                    f.seed.unwrap_or(seed),
+                    dispersion,
+                    &field,
+                )?)),
+            });
+        }
+        let gerstner: Vec<Wave> = layers
+            .iter()
+            .filter(|l| matches!(l, Layer::Gerstner(_)))
+            .flat_map(|l| l.waves().iter().copied())
+            .collect();
+        let fold = fold_number(&gerstner);
+        if fold >= 1.0 {
+            return Err(SpecError::Folding {
+                field: "layers".into(),
+                fold,
+            });
+        }
+        let horizontal = layers.iter().any(|l| match l {
+            Layer::Sine(_) => false,
+            Layer::Gerstner(g) => g.waves().iter().any(|w| w.steepness > 0.0),
+            Layer::Fft(f) => f.choppiness() > 0.0,
+        });
+        Ok(Surface {
+            layers,
+            dispersion,
+            fold,
+            horizontal,
+        })
+    }
+
+    /// The built layers, in spec order.
+    pub fn layers(&self) -> &[Layer] {
+        &self.layers
+    }
+
+    /// The dispersion relation (gravity and depth).
+    pub fn dispersion(&self) -> Dispersion {
+        self.dispersion
+    }
+
+    /// Total Gerstner fold number `Σ Q·k·A` across all Gerstner layers (< 1).
+    pub fn fold_number(&self) -> f64 {
+        self.fold
+    }
+
+    /// Whether any layer moves the surface horizontally (then heights need inversion).
+    pub fn has_horizontal_motion(&self) -> bool {
+        self.horizontal
+    }
+
+    /// Whether any layer is an FFT ocean.
+    pub fn has_fft(&self) -> bool {
+        self.layers.iter().any(|l| matches!(l, Layer::Fft(_)))
+    }
+
+    /// The FFT fields that queries for `fields` with `options` need from layer `layer`: height
+    /// always; horizontal displacement when the layer is choppy (to invert); the Jacobian terms
+    /// for Newton inversion, normals and Jacobians of a choppy layer; slopes for normals.
+    pub fn fft_fields_for(
+        &self,
+        layer: &FftLayer,
+        fields: QueryFields,
+        options: &QueryOptions,
+    ) -> FftFields {
+        let choppy = layer.choppiness() > 0.0;
+        let mut f = FftFields::HEIGHT;
+        if choppy {
+            f = f.union(FftFields::DISPLACEMENT);
+            if options.inversion.method == crate::query::InversionMethod::Newton
+                || fields.normal
+                || fields.jacobian
+            {
+                f = f.union(FftFields::JACOBIAN);
+            }
+        }
+        if fields.normal {
+            f = f.union(FftFields::SLOPES);
+        }
+        f
+    }
+
+    /// Computes the FFT frame of layer `layer` at time `t` with `fields`; `None` if that layer is
+    /// not an FFT layer. Callers that share frames between requests (a server cache) use this
+    /// with [`Surface::at_with_frames`].
+    pub fn fft_frame(&self, layer: usize, t: f64, fields: FftFields) -> Option<FftFrame> {
+        match self.layers.get(layer)? {
+            Layer::Fft(f) => Some(f.frame(t, fields)),
+            _ => None,
+        }
+    }
+
+    /// The surface at time `t` (s), ready for queries of `fields`: computes the FFT frames
+    /// those queries need.
+    ///
+    /// # Errors
+    /// `t` not finite, or invalid `options`.
+    pub fn at(
+        &self,
+        t: f64,
+        fields: QueryFields,
+        options: &QueryOptions,
+    ) -> Result<SurfaceAt<'_>, SpecError> {
+        finite("t", t)?;
+        options.validate()?;
+        let frames = if options.reference {
+            vec![None; self.layers.len()]
+        } else {
+            self.layers
+                .iter()
+                .map(|l| match l {
+                    Layer::Fft(f) => Some(Arc::new(
+                        f.frame(t, self.fft_fields_for(f, fields, options)),
+                    )),
+                    _ => None,
+                })
+                .collect()
+        };
+        Ok(SurfaceAt {
+            surface: self,
+            t,
+            frames,
+            options: *options,
+        })
+    }
+
+    /// The surface at time `t` with FFT frames supplied by the caller (one entry per layer,
+    /// `Some` for each FFT layer, computed at the same `t` with at least the fields the queries
+    /// need; see [`Surface::fft_fields_for`]).
+    ///
+    /// # Errors
+    /// `t` not finite, invalid `options`, or a frame missing for an FFT layer.
+    pub fn at_with_frames(
+        &self,
+        t: f64,
+        frames: Vec<Option<Arc<FftFrame>>>,
+        options: &QueryOptions,
+    ) -> Result<SurfaceAt<'_>, SpecError> {
+        finite("t", t)?;
+        options.validate()?;
+        let ok = frames.len() == self.layers.len()
+            && self
+                .layers
+                .iter()
+                .zip(&frames)
+                .all(|(l, f)| matches!(l, Layer::Fft(_)) == f.is_some());
+        if !ok && !options.reference {
+            return Err(SpecError::Inconsistent {
+                field: "frames".into(),
+                reason: "one frame is needed per FFT layer, and none for other layers".into(),
+            });
+        }
+        Ok(SurfaceAt {
+            surface: self,
+            t,
+            frames,
+            options: *options,
+        })
+    }
+}
+
+/// A surface frozen at time `t`: cheap to query from many threads at once.
+#[derive(Debug, Clone)]
+pub struct SurfaceAt<'s> {
+    pub(crate) surface: &'s Surface,
+    pub(crate) t: f64,
+    pub(crate) frames: Vec<Option<Arc<FftFrame>>>,
+    pub(crate) options: QueryOptions,
+}
+
+impl SurfaceAt<'_> {
+    /// The time, s.
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+
+    /// The surface.
+    pub fn surface(&self) -> &Surface {
+        self.surface
+    }
+
+    /// The query options in force.
+    pub fn options(&self) -> &QueryOptions {
+        &self.options
+    }
+
+    /// Total inverse FFTs run to build this snapshot's frames.
+    pub fn transforms(&self) -> usize {
+        self.frames.iter().flatten().map(|f| f.transforms()).sum()
+    }
+
+    /// Sum of every layer's displacement `(Dx, y, Dz)` at the undisplaced point `p0`, and its
+    /// derivatives if `derivatives` (otherwise those are zero).
+    pub fn sample(&self, p0: DVec2, derivatives: bool) -> SurfaceSample {
+        let mut out = SurfaceSample::default();
+        for (layer, frame) in self.surface.layers.iter().zip(&self.frames) {
+            match layer {
+                Layer::Sine(l) => accumulate_all(l.waves(), p0, self.t, derivatives, &mut out),
+                Layer::Gerstner(l) => accumulate_all(l.waves(), p0, self.t, derivatives, &mut out),
+                Layer::Fft(f) => {
+                    let s = match frame {
+                        Some(frame) if !self.options.reference => {
+                            frame.sample(p0, self.options.filter)
+                        }
+                        _ => f.sample_reference(p0, self.t),
+                    };
+                    out.displacement += s.displacement;
+                    if derivatives {
+                        // jacobian = (∂Dx/∂x, ∂Dz/∂z, ∂Dx/∂z); ∂Dz/∂x = ∂Dx/∂z (irrotational).
+                        out.d_dx += DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z);
+                        out.d_dz += DVec3::new(s.jacobian.z, s.slope.y, s.jacobian.y);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Slow reference for [`SurfaceAt::sample`]: analytic waves with unreduced phases and the
+    /// platform's f64 sin/cos, FFT layers by direct Fourier summation at the exact point.
+    /// Always computes derivatives. For tests and the accuracy report only.
+    pub fn sample_reference(&self, p0: DVec2) -> SurfaceSample {
+        let mut out = SurfaceSample::default();
+        for layer in &self.surface.layers {
+            match layer {
+                Layer::Sine(_) | Layer::Gerstner(_) => {
+                    for w in layer.waves() {
+                        w.accumulate_reference(p0, self.t, &mut out);
+                    }
+                }
+                Layer::Fft(f) => {
+                    let s = f.sample_reference(p0, self.t);
+                    out.displacement += s.displacement;
+                    out.d_dx += DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z);
+                    out.d_dz += DVec3::new(s.jacobian.z, s.slope.y, s.jacobian.y);
+                }
+            }
+        }
+        out
+    }
+}

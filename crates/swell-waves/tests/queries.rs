@@ -1,0 +1,256 @@
+//! Query behaviour on analytic (sine and Gerstner) surfaces: inversion against a converged f64
+//! reference, exact normals, batch and thread determinism, hard cases.
+
+mod common;
+
+use common::{gerstner_spec, points, sine_spec};
+use glam::{DVec2, DVec3};
+use proptest::prelude::*;
+use swell_waves::{Inversion, InversionMethod, QueryFields, QueryOptions, SpecError, Surface};
+
+fn opts(method: InversionMethod, iterations: u32) -> QueryOptions {
+    QueryOptions {
+        inversion: Inversion {
+            method,
+            iterations,
+            tolerance: 1e-5,
+        },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn default_inversion_matches_converged_reference_up_to_fold_0_9() {
+    for (seed, fold) in [(1, 0.3), (2, 0.6), (3, 0.9)] {
+        let surface = Surface::new(&gerstner_spec(seed, 16, fold)).unwrap();
+        let sea = surface
+            .at(37.25, QueryFields::ALL, &QueryOptions::default())
+            .unwrap();
+        let mut worst = 0.0f64;
+        for p in points(seed, 2000, (0.0, 0.0), 300.0) {
+            let fast = sea.query(p, QueryFields::ALL);
+            let reference = sea.invert_reference(p);
+            assert!(
+                reference.residual < 1e-9,
+                "reference did not converge at {p}"
+            );
+            worst = worst.max((fast.height - reference.sample.displacement.y).abs());
+            assert!(
+                fast.residual <= 1e-3,
+                "S={fold}: residual {} at {p}",
+                fast.residual
+            );
+        }
+        assert!(worst <= 1e-3, "S={fold}: height error {worst} m");
+    }
+}
+
+#[test]
+fn newton_still_converges_at_fold_number_0_99() {
+    let surface = Surface::new(&gerstner_spec(4, 8, 0.99)).unwrap();
+    let sea = surface
+        .at(5.0, QueryFields::ALL, &QueryOptions::default())
+        .unwrap();
+    for p in points(4, 3000, (0.0, 0.0), 200.0) {
+        let r = sea.query(p, QueryFields::ALL);
+        assert!(r.residual <= 1e-3, "residual {} at {p}", r.residual);
+    }
+}
+
+#[test]
+fn fixed_point_is_slower_than_newton_on_steep_seas() {
+    // Not a requirement on fixed-point, a statement of the trade-off the accuracy knob exposes:
+    // three fixed-point steps at S = 0.9 leave centimetres, three Newton steps well under a mm.
+    let surface = Surface::new(&gerstner_spec(5, 16, 0.9)).unwrap();
+    let pts = points(5, 1000, (0.0, 0.0), 200.0);
+    let worst = |m| {
+        let sea = surface.at(1.0, QueryFields::ALL, &opts(m, 3)).unwrap();
+        pts.iter()
+            .map(|&p| sea.query(p, QueryFields::ALL).residual)
+            .fold(0.0, f64::max)
+    };
+    let (fp, nt) = (
+        worst(InversionMethod::FixedPoint),
+        worst(InversionMethod::Newton),
+    );
+    assert!(nt < 1e-3 && fp > 10.0 * nt, "fixed-point {fp}, newton {nt}");
+}
+
+/// The normal is that of the displaced surface: perpendicular to the height field seen in world
+/// coordinates, checked by finite differences of heights at world points.
+#[test]
+fn normal_is_the_displaced_surface_normal() {
+    let surface = Surface::new(&gerstner_spec(6, 12, 0.7)).unwrap();
+    let o = QueryOptions {
+        inversion: Inversion {
+            tolerance: 1e-13,
+            iterations: 40,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let sea = surface.at(3.0, QueryFields::ALL, &o).unwrap();
+    let e = 1e-4;
+    for p in points(6, 200, (0.0, 0.0), 100.0) {
+        let n = sea.query(p, QueryFields::ALL).normal;
+        let hx = (sea.height(p.x + e, p.y) - sea.height(p.x - e, p.y)) / (2.0 * e);
+        let hz = (sea.height(p.x, p.y + e) - sea.height(p.x, p.y - e)) / (2.0 * e);
+        let fd = DVec3::new(-hx, 1.0, -hz).normalize();
+        assert!((n - fd).length() < 1e-5, "{n} vs {fd} at {p}");
+        assert!((n.length() - 1.0).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn batch_is_bit_identical_to_single_and_to_threads() {
+    let surface = Surface::new(&gerstner_spec(7, 16, 0.8)).unwrap();
+    let sea = surface
+        .at(1234.5, QueryFields::ALL, &QueryOptions::default())
+        .unwrap();
+    let pts = points(7, 4097, (1e5, -2e5), 500.0);
+    let batch = sea.query_batch(&pts, QueryFields::ALL);
+    for (p, b) in pts.iter().zip(&batch) {
+        assert_eq!(bits(&sea.query(*p, QueryFields::ALL)), bits(b));
+    }
+    for threads in [2, 3, 8] {
+        let par = sea.query_batch_parallel(&pts, QueryFields::ALL, threads);
+        assert!(
+            par.iter().zip(&batch).all(|(a, b)| bits(a) == bits(b)),
+            "{threads} threads"
+        );
+    }
+    // And a second, independently built surface gives the same bits (no hidden state).
+    let again = Surface::new(&gerstner_spec(7, 16, 0.8)).unwrap();
+    let sea2 = again
+        .at(1234.5, QueryFields::ALL, &QueryOptions::default())
+        .unwrap();
+    assert_eq!(
+        bits(&sea2.query(pts[17], QueryFields::ALL)),
+        bits(&batch[17])
+    );
+}
+
+fn bits(r: &swell_waves::PointResult) -> [u64; 10] {
+    [
+        r.height.to_bits(),
+        r.normal.x.to_bits(),
+        r.normal.y.to_bits(),
+        r.normal.z.to_bits(),
+        r.displacement.x.to_bits(),
+        r.displacement.y.to_bits(),
+        r.displacement.z.to_bits(),
+        r.jacobian.to_bits(),
+        r.residual.to_bits(),
+        r.folded as u64,
+    ]
+}
+
+#[test]
+fn huge_times_and_far_positions_match_the_f64_reference() {
+    let surface = Surface::new(&gerstner_spec(8, 16, 0.6)).unwrap();
+    for &t in &[0.0, 1e6, 1e9, 1e9 + 0.375] {
+        let sea = surface
+            .at(t, QueryFields::ALL, &QueryOptions::default())
+            .unwrap();
+        for &c in &[(0.0, 0.0), (1e7, -1e7), (-1e7, 3e6)] {
+            for p in points(8, 50, c, 50.0) {
+                let fast = sea.sample(p, true);
+                let slow = sea.sample_reference(p);
+                assert!(
+                    (fast.displacement - slow.displacement).length() < 1e-5,
+                    "t={t} p={p}"
+                );
+                let q = sea.query(p, QueryFields::ALL);
+                assert!(q.height.is_finite() && q.residual <= 1e-3);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_surface_without_fft_holds_no_fft_state() {
+    let surface = Surface::new(&sine_spec()).unwrap();
+    assert!(!surface.has_fft());
+    assert!(!surface.has_horizontal_motion());
+    let sea = surface
+        .at(10.0, QueryFields::ALL, &QueryOptions::default())
+        .unwrap();
+    assert_eq!(sea.transforms(), 0);
+    // Sines never move sideways: no inversion, zero residual, height = displacement.y.
+    let p = DVec2::new(3.0, 4.0);
+    let r = sea.query(p, QueryFields::ALL);
+    assert_eq!(r.residual, 0.0);
+    assert_eq!(r.height, r.displacement.y);
+}
+
+#[test]
+fn total_fold_number_across_layers_is_checked() {
+    let mut spec = gerstner_spec(9, 8, 0.6);
+    let second = spec.layers[0].clone();
+    spec.layers.push(second);
+    match Surface::new(&spec).unwrap_err() {
+        SpecError::Folding { field, fold } => {
+            assert_eq!(field, "layers");
+            assert!((fold - 1.2).abs() < 1e-9);
+        }
+        e => panic!("{e}"),
+    }
+}
+
+#[test]
+fn bad_times_and_options_are_errors_not_panics() {
+    let surface = Surface::new(&sine_spec()).unwrap();
+    assert!(
+        surface
+            .at(f64::NAN, QueryFields::ALL, &QueryOptions::default())
+            .is_err()
+    );
+    assert!(
+        surface
+            .at(f64::INFINITY, QueryFields::ALL, &QueryOptions::default())
+            .is_err()
+    );
+    let mut o = QueryOptions::default();
+    o.inversion.iterations = 1000;
+    assert_eq!(
+        surface.at(0.0, QueryFields::ALL, &o).unwrap_err().field(),
+        "accuracy.iterations"
+    );
+    o.inversion.iterations = 4;
+    o.inversion.tolerance = -1.0;
+    assert_eq!(
+        surface.at(0.0, QueryFields::ALL, &o).unwrap_err().field(),
+        "accuracy.tolerance"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Random valid Gerstner seas (S up to 0.9) and points: finite outputs, unit normals,
+    /// residual within 1 mm, batch equal to single.
+    #[test]
+    fn random_seas_give_finite_unit_normal_converged_answers(
+        seed in 0u64..10_000,
+        n in 1usize..24,
+        fold in 0.0f64..0.9,
+        t in -1e7f64..1e9,
+        x in -1e7f64..1e7,
+        z in -1e7f64..1e7,
+    ) {
+        let surface = Surface::new(&gerstner_spec(seed, n, fold)).unwrap();
+        let sea = surface.at(t, QueryFields::ALL, &QueryOptions::default()).unwrap();
+        let pts = points(seed, 8, (x, z), 100.0);
+        let batch = sea.query_batch(&pts, QueryFields::ALL);
+        for (p, b) in pts.iter().zip(&batch) {
+            let r = sea.query(*p, QueryFields::ALL);
+            prop_assert_eq!(bits(&r), bits(b));
+            prop_assert!(r.height.is_finite() && r.jacobian.is_finite());
+            prop_assert!(r.displacement.is_finite() && r.normal.is_finite());
+            prop_assert!((r.normal.length() - 1.0).abs() < 1e-12);
+            prop_assert!(r.normal.y > 0.0);
+            prop_assert!(r.residual <= 1e-3);
+            prop_assert!(!r.folded);
+        }
+    }
+}
