@@ -314,3 +314,41 @@ async fn protobuf_bodies_are_refused_until_supported() {
     assert_eq!(r.status(), 415);
     s.stop().await;
 }
+
+#[tokio::test]
+async fn slow_requests_time_out_with_503() {
+    let mut cfg = config();
+    // Reading and parsing 60k points alone takes far longer than 1 ms.
+    cfg.limits.request_timeout_ms = 1;
+    let s = TestServer::start(cfg).await;
+    let pts: Vec<[f64; 2]> = (0..60_000).map(|i| [i as f64 * 0.5, 1.0]).collect();
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/storm/sample",
+            &json!({"t": 1.0, "points": pts, "fields": ["height", "normal"]}),
+        )
+        .await;
+    assert_eq!((st, code(&v)), (503, "timeout"), "{v}");
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn empty_batches_are_fine() {
+    let s = TestServer::start(config()).await;
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/open-sea/sample",
+            &json!({"t": 1.0, "points": []}),
+        )
+        .await;
+    assert_eq!(st, 200);
+    assert_eq!(v["height"], json!([]));
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/open-sea/orientation",
+            &json!({"t": 1.0, "bodies": []}),
+        )
+        .await;
+    assert_eq!((st, v["bodies"].clone()), (200, json!([])));
+    s.stop().await;
+}

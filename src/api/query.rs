@@ -169,14 +169,23 @@ pub fn run_sample(
         check_coord(limits, w.y, || format!("origin[1] + points[{i}][1]"))?;
         world.push(w);
     }
-    let sea = frames
-        .surface_at(scene, t, fields, &options)
-        .map_err(|e| ApiError::invalid_query(&e))?;
+    // An empty batch has an empty answer: no FFT frame is worth computing for it.
+    let sea = if world.is_empty() {
+        None
+    } else {
+        Some(
+            frames
+                .surface_at(scene, t, fields, &options)
+                .map_err(|e| ApiError::invalid_query(&e))?,
+        )
+    };
     let threads = (world.len() / POINTS_PER_THREAD).clamp(
         1,
         std::thread::available_parallelism().map_or(1, |n| n.get()),
     );
-    let results = sea.query_batch_parallel(&world, fields, threads);
+    let results = sea.map_or_else(Vec::new, |sea| {
+        sea.query_batch_parallel(&world, fields, threads)
+    });
     metrics::counter!("swell_points_sampled_total").increment(world.len() as u64);
     let mut out = SampleResponse {
         t,

@@ -24,7 +24,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     (
         "lake",
         r#"{
-  "description": "Wind chop on a lake: one Gerstner wave plus a seeded Gerstner cascade (fold number 0.6).",
+  "description": "Wind chop on a lake: one Gerstner wave plus a seeded Gerstner cascade (fold number about 0.54).",
   "tick_hz": 30,
   "seed": 7,
   "depth": 12,
@@ -54,7 +54,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     (
         "storm",
         r#"{
-  "description": "Storm: steep JONSWAP sea (U10 = 20 m/s, 300 km fetch) on a 512 m FFT tile at 256², choppiness 1.3, close to folding.",
+  "description": "Storm: steep JONSWAP sea (U10 = 20 m/s, 300 km fetch) on a 512 m FFT tile at 256², choppiness 1.3 for sharp, nearly folding crests.",
   "tick_hz": 30,
   "seed": 1337,
   "layers": [
