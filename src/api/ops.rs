@@ -1,0 +1,207 @@
+//! Operations endpoints: health, readiness, metrics, the OpenAPI document and the docs page.
+//!
+//! The OpenAPI document is written by hand (a small `json!` value) rather than generated with
+//! utoipa: it keeps the build lean and the API is small; `tests/api.rs` checks that every route
+//! the router serves is listed.
+
+use axum::extract::State;
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{Html, IntoResponse, Response};
+use serde_json::{Value, json};
+
+use crate::error::ApiError;
+use crate::state::AppState;
+
+/// `GET /healthz`: the process is up.
+pub async fn healthz() -> axum::Json<Value> {
+    axum::Json(json!({"status": "ok"}))
+}
+
+/// `GET /readyz`: scenes are loaded and the server is not shutting down (503 otherwise).
+pub async fn readyz(State(state): State<AppState>) -> Result<axum::Json<Value>, ApiError> {
+    if state.is_ready() {
+        Ok(axum::Json(
+            json!({"status": "ready", "scenes": state.scenes().len()}),
+        ))
+    } else {
+        Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not_ready",
+            "the server is starting or shutting down",
+        ))
+    }
+}
+
+/// `GET /metrics`: Prometheus text format.
+pub async fn metrics(State(state): State<AppState>) -> Response {
+    metrics::gauge!("swell_frame_cache_entries").set(state.frames.len() as f64);
+    metrics::gauge!("swell_scenes").set(state.scenes().len() as f64);
+    let mut r = state.metrics.render().into_response();
+    r.headers_mut().insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("text/plain; version=0.0.4; charset=utf-8"),
+    );
+    r
+}
+
+/// `GET /openapi.json`.
+pub async fn openapi() -> axum::Json<Value> {
+    axum::Json(openapi_document())
+}
+
+/// Every route as `(method, path)`, in the order of the docs.
+pub const ROUTES: &[(&str, &str, &str)] = &[
+    ("get", "/v1/scenes", "List scenes"),
+    (
+        "get",
+        "/v1/scenes/{id}",
+        "Scene spec, derived waves, model version, spec hash",
+    ),
+    (
+        "put",
+        "/v1/scenes/{id}",
+        "Create or replace a scene (admin)",
+    ),
+    ("delete", "/v1/scenes/{id}", "Delete a scene (admin)"),
+    (
+        "get",
+        "/v1/scenes/{id}/clock",
+        "Scene clock: t, tick, tick_hz, rate, paused",
+    ),
+    (
+        "put",
+        "/v1/scenes/{id}/clock",
+        "Pause, resume, set rate, seek (admin)",
+    ),
+    (
+        "get",
+        "/v1/scenes/{id}/height",
+        "Height at one world point: ?x=&z=[&t=]",
+    ),
+    (
+        "post",
+        "/v1/scenes/{id}/sample",
+        "Batch query: height, normal, displacement, jacobian, residual",
+    ),
+    (
+        "post",
+        "/v1/scenes/{id}/orientation",
+        "Orientation of floating bodies",
+    ),
+    ("get", "/healthz", "Liveness"),
+    ("get", "/readyz", "Readiness"),
+    ("get", "/metrics", "Prometheus metrics"),
+    ("get", "/openapi.json", "This document"),
+    ("get", "/docs", "Human-readable API page"),
+];
+
+fn error_ref() -> Value {
+    json!({"description": "error", "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Error"}}}})
+}
+
+/// The OpenAPI 3.1 document.
+pub fn openapi_document() -> Value {
+    let mut paths = serde_json::Map::new();
+    for (method, path, summary) in ROUTES {
+        let entry = paths.entry(path.to_string()).or_insert_with(|| json!({}));
+        let mut op = json!({
+            "summary": summary,
+            "responses": {"200": {"description": "ok"}, "4XX": error_ref(), "5XX": error_ref()},
+        });
+        if path.contains("{id}") {
+            op["parameters"] = json!([{"name": "id", "in": "path", "required": true,
+                "schema": {"type": "string", "pattern": "^[a-z0-9-]{1,64}$"}}]);
+        }
+        if *path == "/v1/scenes/{id}/height"
+            && let Some(p) = op["parameters"].as_array_mut()
+        {
+            for (n, req) in [("x", true), ("z", true), ("t", false)] {
+                p.push(json!({"name": n, "in": "query", "required": req, "schema": {"type": "number"}}));
+            }
+        }
+        if matches!(*method, "put" | "delete") {
+            op["security"] = json!([{"bearer": []}]);
+        }
+        let schema = match (*method, *path) {
+            ("put", "/v1/scenes/{id}") => Some("SceneSpec"),
+            ("put", "/v1/scenes/{id}/clock") => Some("ClockUpdate"),
+            ("post", "/v1/scenes/{id}/sample") => Some("SampleRequest"),
+            ("post", "/v1/scenes/{id}/orientation") => Some("OrientationRequest"),
+            _ => None,
+        };
+        if let Some(s) = schema {
+            op["requestBody"] = json!({"required": true, "content": {"application/json":
+                {"schema": {"$ref": format!("#/components/schemas/{s}")}}}});
+        }
+        entry[*method] = op;
+    }
+    let num = json!({"type": "number"});
+    let xz = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
+    json!({
+        "openapi": "3.1.0",
+        "info": {
+            "title": "Swell",
+            "version": env!("CARGO_PKG_VERSION"),
+            "description": "Deterministic ocean physics for multiplayer games. Same scene + same t + same point = same bits.",
+        },
+        "paths": paths,
+        "components": {
+            "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"}},
+            "schemas": {
+                "Error": {"type": "object", "properties": {"error": {"type": "object",
+                    "required": ["code", "message"],
+                    "properties": {"code": {"type": "string"}, "message": {"type": "string"}, "field": {"type": "string"}}}}},
+                "SceneSpec": {"type": "object", "required": ["layers"], "properties": {
+                    "description": {"type": "string"}, "tick_hz": num, "seed": {"type": "integer"},
+                    "gravity": num, "depth": {"type": ["number", "null"]},
+                    "layers": {"type": "array", "items": {"type": "object", "required": ["kind"],
+                        "properties": {"kind": {"enum": ["sine", "gerstner", "fft"]}}}}}},
+                "ClockUpdate": {"type": "object", "properties": {"rate": num, "paused": {"type": "boolean"}, "t": num}},
+                "SampleRequest": {"type": "object", "required": ["points"], "properties": {
+                    "t": num, "origin": xz, "points": {"type": "array", "items": xz},
+                    "fields": {"type": "array", "items": {"enum": ["height", "normal", "displacement", "jacobian", "residual"]}},
+                    "accuracy": {"type": "object", "properties": {
+                        "method": {"enum": ["newton", "fixed_point"]}, "iterations": {"type": "integer"},
+                        "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]}}}}},
+                "OrientationRequest": {"type": "object", "required": ["bodies"], "properties": {
+                    "t": num, "bodies": {"type": "array", "items": {"type": "object",
+                        "required": ["position", "length", "beam"], "properties": {
+                            "position": xz, "yaw": num, "length": num, "beam": num,
+                            "probes": {"type": "array", "items": xz}}}}}},
+            },
+        },
+    })
+}
+
+/// `GET /docs`: a self-contained page (no CDN) that renders the endpoint list from
+/// `/openapi.json`.
+pub async fn docs() -> Html<&'static str> {
+    Html(DOCS_HTML)
+}
+
+const DOCS_HTML: &str = r#"<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>Swell API</title>
+<style>
+body{font:15px/1.5 system-ui,sans-serif;max-width:60rem;margin:2rem auto;padding:0 1rem;color:#123}
+h1{margin-bottom:0}.m{display:inline-block;width:4.5rem;font:bold 12px monospace;text-transform:uppercase}
+.get{color:#06c}.post{color:#080}.put{color:#a60}.delete{color:#c00}
+li{list-style:none;margin:.3rem 0}code{background:#eef;padding:0 .2rem}pre{background:#f4f6f8;padding:.6rem;overflow:auto}
+</style></head><body>
+<h1>Swell API</h1><p id="desc"></p>
+<p>Machine-readable: <a href="/openapi.json">/openapi.json</a>. Errors are <code>{"error":{"code","message","field"}}</code>.
+Admin endpoints need <code>Authorization: Bearer &lt;token&gt;</code>.</p>
+<ul id="routes"><li>loading /openapi.json…</li></ul>
+<h2>Schemas</h2><div id="schemas"></div>
+<script>
+fetch('/openapi.json').then(r=>r.json()).then(doc=>{
+  document.getElementById('desc').textContent=doc.info.description+' (version '+doc.info.version+')';
+  const ul=document.getElementById('routes');ul.innerHTML='';
+  for(const [path,ops] of Object.entries(doc.paths)){for(const [m,op] of Object.entries(ops)){
+    const li=document.createElement('li');const s=document.createElement('span');s.className='m '+m;s.textContent=m;
+    const c=document.createElement('code');c.textContent=path;li.append(s,c,' — '+op.summary+(op.security?' 🔒':''));ul.append(li);}}
+  const sc=document.getElementById('schemas');
+  for(const [name,s] of Object.entries(doc.components.schemas)){const h=document.createElement('h3');h.textContent=name;
+    const p=document.createElement('pre');p.textContent=JSON.stringify(s,null,2);sc.append(h,p);}
+}).catch(e=>{document.getElementById('routes').textContent='could not load /openapi.json: '+e;});
+</script></body></html>
+"#;

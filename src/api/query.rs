@@ -1,0 +1,364 @@
+//! Queries: height, sample, orientation.
+//!
+//! The `run_*` functions are plain, blocking and transport-free: they take a scene, a resolved
+//! time and a decoded request and return the response type, so the HTTP handlers here and the
+//! WebSocket handler to come share them. Handlers resolve the scene and its time, then run the
+//! query in `spawn_blocking` (FFT frames and big batches are CPU work).
+
+use std::sync::Arc;
+
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Path, Query, State};
+use glam::DVec2;
+use swell_waves::{Inversion, QueryFields, QueryOptions};
+
+use crate::api::json::Json;
+use crate::api::types::{
+    Accuracy, BodyOrientation, FIELD_NAMES, HeightQuery, HeightResponse, OrientationRequest,
+    OrientationResponse, SampleRequest, SampleResponse,
+};
+use crate::config::Limits;
+use crate::error::ApiError;
+use crate::frames::FrameCache;
+use crate::scene::{Scene, SceneEntry};
+use crate::state::AppState;
+
+/// Points per worker thread before a batch is split: below this, threads cost more than they
+/// save. Splitting never changes the bits (each point is computed alone).
+const POINTS_PER_THREAD: usize = 8192;
+
+/// Checks a time given by a client.
+///
+/// # Errors
+/// 400 naming `field` if `t` is not finite or beyond `limits.max_time`.
+pub fn check_time(limits: &Limits, t: f64, field: &str) -> Result<f64, ApiError> {
+    if t.is_finite() && t.abs() <= limits.max_time {
+        Ok(t)
+    } else {
+        Err(ApiError::invalid(
+            field,
+            format!(
+                "{field} = {t} is out of range: a finite time with |t| <= {}",
+                limits.max_time
+            ),
+        ))
+    }
+}
+
+fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f64, ApiError> {
+    if v.is_finite() && v.abs() <= limits.max_coordinate {
+        Ok(v)
+    } else {
+        let f = field();
+        Err(ApiError::invalid(
+            f.clone(),
+            format!(
+                "{f} = {v} is out of range: a finite coordinate with |x| <= {} m",
+                limits.max_coordinate
+            ),
+        ))
+    }
+}
+
+/// The time a query runs at: the client's `t` (checked) or the scene clock's now.
+///
+/// # Errors
+/// As [`check_time`].
+pub fn resolve_time(state: &AppState, entry: &SceneEntry, t: Option<f64>) -> Result<f64, ApiError> {
+    match t {
+        Some(t) => check_time(&state.limits, t, "t"),
+        None => Ok(state.read_clock(entry).t),
+    }
+}
+
+/// Parses `fields` names into [`QueryFields`] (default: height).
+///
+/// # Errors
+/// 400 `unknown_field` naming the first unknown name.
+pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, ApiError> {
+    let Some(names) = names else {
+        return Ok(QueryFields::HEIGHT);
+    };
+    let mut f = QueryFields::default();
+    for (i, n) in names.iter().enumerate() {
+        match n.as_str() {
+            "height" => f.height = true,
+            "normal" => f.normal = true,
+            "displacement" => f.displacement = true,
+            "jacobian" => f.jacobian = true,
+            "residual" => f.residual = true,
+            other => {
+                return Err(ApiError::new(
+                    axum::http::StatusCode::BAD_REQUEST,
+                    "unknown_field",
+                    format!(
+                        "fields[{i}] = {other:?} is not a field; expected one of {}",
+                        FIELD_NAMES.join(", ")
+                    ),
+                )
+                .with_field(format!("fields[{i}]")));
+            }
+        }
+    }
+    Ok(f)
+}
+
+/// Query options from the wire's accuracy settings (defaults for whatever is absent).
+///
+/// # Errors
+/// 400 naming `accuracy.iterations` or `accuracy.tolerance` (the model's check).
+pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
+    let mut o = QueryOptions::default();
+    if let Some(a) = acc {
+        let d = Inversion::default();
+        o.inversion = Inversion {
+            method: a.method.unwrap_or(d.method),
+            iterations: a.iterations.unwrap_or(d.iterations),
+            tolerance: a.tolerance.unwrap_or(d.tolerance),
+        };
+        if let Some(f) = a.filter {
+            o.filter = f.into();
+        }
+    }
+    o.validate().map_err(|e| ApiError::invalid_query(&e))?;
+    Ok(o)
+}
+
+/// Answers a sample request at time `t` (already resolved and checked). Blocking.
+///
+/// World point = `origin + point`, added in f64 (and not at all when there is no origin).
+///
+/// # Errors
+/// 413 too many points; 400 for an unknown field name, bad accuracy, or a non-finite or
+/// out-of-range coordinate.
+pub fn run_sample(
+    frames: &FrameCache,
+    limits: &Limits,
+    scene: &Scene,
+    t: f64,
+    req: &SampleRequest,
+) -> Result<SampleResponse, ApiError> {
+    if req.points.len() > limits.max_points {
+        return Err(ApiError::too_many_points(
+            "points",
+            req.points.len(),
+            limits.max_points,
+        ));
+    }
+    let fields = parse_fields(req.fields.as_deref())?;
+    let options = query_options(req.accuracy.as_ref())?;
+    let origin = match req.origin {
+        Some([x, z]) => Some(DVec2::new(
+            check_coord(limits, x, || "origin[0]".into())?,
+            check_coord(limits, z, || "origin[1]".into())?,
+        )),
+        None => None,
+    };
+    let mut world = Vec::with_capacity(req.points.len());
+    for (i, &[x, z]) in req.points.iter().enumerate() {
+        let p = DVec2::new(
+            check_coord(limits, x, || format!("points[{i}][0]"))?,
+            check_coord(limits, z, || format!("points[{i}][1]"))?,
+        );
+        let w = match origin {
+            Some(o) => DVec2::new(o.x + p.x, o.y + p.y),
+            None => p,
+        };
+        // The sum of two in-range values can still leave the range.
+        check_coord(limits, w.x, || format!("origin[0] + points[{i}][0]"))?;
+        check_coord(limits, w.y, || format!("origin[1] + points[{i}][1]"))?;
+        world.push(w);
+    }
+    // An empty batch has an empty answer: no FFT frame is worth computing for it.
+    let sea = if world.is_empty() {
+        None
+    } else {
+        Some(
+            frames
+                .surface_at(scene, t, fields, &options)
+                .map_err(|e| ApiError::invalid_query(&e))?,
+        )
+    };
+    let threads = (world.len() / POINTS_PER_THREAD).clamp(
+        1,
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+    );
+    let results = sea.map_or_else(Vec::new, |sea| {
+        sea.query_batch_parallel(&world, fields, threads)
+    });
+    metrics::counter!("swell_points_sampled_total").increment(world.len() as u64);
+    let mut out = SampleResponse {
+        t,
+        ..Default::default()
+    };
+    if fields.height {
+        out.height = Some(results.iter().map(|r| r.height).collect());
+    }
+    if fields.normal {
+        out.normal = Some(results.iter().map(|r| r.normal.to_array()).collect());
+    }
+    if fields.displacement {
+        out.displacement = Some(results.iter().map(|r| r.displacement.to_array()).collect());
+    }
+    if fields.jacobian {
+        out.jacobian = Some(results.iter().map(|r| r.jacobian).collect());
+        out.folded = Some(results.iter().map(|r| r.folded).collect());
+    }
+    if fields.residual {
+        out.residual = Some(results.iter().map(|r| r.residual).collect());
+    }
+    Ok(out)
+}
+
+/// Height at one world point, with the default accuracy. Blocking. Bit-identical to the same
+/// point in [`run_sample`] with default accuracy.
+///
+/// # Errors
+/// 400 for a non-finite or out-of-range coordinate.
+pub fn run_height(
+    frames: &FrameCache,
+    limits: &Limits,
+    scene: &Scene,
+    t: f64,
+    x: f64,
+    z: f64,
+) -> Result<HeightResponse, ApiError> {
+    let x = check_coord(limits, x, || "x".into())?;
+    let z = check_coord(limits, z, || "z".into())?;
+    let sea = frames
+        .surface_at(scene, t, QueryFields::HEIGHT, &QueryOptions::default())
+        .map_err(|e| ApiError::invalid_query(&e))?;
+    let r = sea.query(DVec2::new(x, z), QueryFields::HEIGHT);
+    metrics::counter!("swell_points_sampled_total").increment(1);
+    Ok(HeightResponse {
+        t,
+        height: r.height,
+    })
+}
+
+/// Orientation of every body at time `t`. Blocking.
+///
+/// # Errors
+/// 413 too many bodies or probes in total; 400 naming `bodies[i].…` for a bad body.
+pub fn run_orientation(
+    frames: &FrameCache,
+    limits: &Limits,
+    scene: &Scene,
+    t: f64,
+    req: &OrientationRequest,
+) -> Result<OrientationResponse, ApiError> {
+    if req.bodies.len() > limits.max_bodies {
+        return Err(ApiError::new(
+            axum::http::StatusCode::PAYLOAD_TOO_LARGE,
+            "too_many_bodies",
+            format!(
+                "bodies has {} entries; at most {} per request",
+                req.bodies.len(),
+                limits.max_bodies
+            ),
+        )
+        .with_field("bodies"));
+    }
+    // The default footprint has 9 probes.
+    let probes: usize = req
+        .bodies
+        .iter()
+        .map(|b| b.probes.as_ref().map_or(9, Vec::len))
+        .sum();
+    if probes > limits.max_points {
+        return Err(ApiError::too_many_points(
+            "bodies",
+            probes,
+            limits.max_points,
+        ));
+    }
+    let mut bodies = Vec::with_capacity(req.bodies.len());
+    for (i, b) in req.bodies.iter().enumerate() {
+        check_coord(limits, b.position[0], || format!("bodies[{i}].position[0]"))?;
+        check_coord(limits, b.position[1], || format!("bodies[{i}].position[1]"))?;
+        if !b.yaw.is_finite() {
+            return Err(ApiError::invalid(
+                format!("bodies[{i}].yaw"),
+                format!("bodies[{i}].yaw must be a finite number"),
+            ));
+        }
+        let fp: swell_waves::body::BodyFootprint = b.clone().into();
+        // Validate the footprint now, so no sea is computed for a bad request.
+        fp.probes(&format!("bodies[{i}]"))
+            .map_err(|e| ApiError::invalid_query(&e))?;
+        bodies.push(fp);
+    }
+    let sea = frames
+        .surface_at(scene, t, QueryFields::HEIGHT, &QueryOptions::default())
+        .map_err(|e| ApiError::invalid_query(&e))?;
+    let mut out = Vec::with_capacity(bodies.len());
+    for (i, fp) in bodies.iter().enumerate() {
+        let o = fp
+            .orientation(&sea, &format!("bodies[{i}]"))
+            .map_err(|e| ApiError::invalid_query(&e))?;
+        out.push(BodyOrientation {
+            heave: o.heave,
+            rotation: o.rotation.to_array(),
+            normal: o.normal.to_array(),
+            pitch: o.pitch,
+            roll: o.roll,
+        });
+    }
+    metrics::counter!("swell_points_sampled_total").increment(probes as u64);
+    Ok(OrientationResponse { t, bodies: out })
+}
+
+/// Runs blocking query work off the reactor.
+async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
+) -> Result<T, ApiError> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(ApiError::internal)?
+}
+
+/// `GET /v1/scenes/{id}/height?x=&z=[&t=]`.
+pub async fn height(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    query: Result<Query<HeightQuery>, QueryRejection>,
+) -> Result<axum::Json<HeightResponse>, ApiError> {
+    let entry = state.scene(&id)?;
+    let Query(q) = query.map_err(|r| ApiError::invalid("", r.body_text()))?;
+    let t = resolve_time(&state, &entry, q.t)?;
+    let scene = Arc::clone(&entry.scene);
+    let st = state.clone();
+    blocking(move || run_height(&st.frames, &st.limits, &scene, t, q.x, q.z))
+        .await
+        .map(axum::Json)
+}
+
+/// `POST /v1/scenes/{id}/sample`.
+pub async fn sample(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    Json(req): Json<SampleRequest>,
+) -> Result<axum::Json<SampleResponse>, ApiError> {
+    let entry = state.scene(&id)?;
+    let t = resolve_time(&state, &entry, req.t)?;
+    let scene = Arc::clone(&entry.scene);
+    let st = state.clone();
+    blocking(move || run_sample(&st.frames, &st.limits, &scene, t, &req))
+        .await
+        .map(axum::Json)
+}
+
+/// `POST /v1/scenes/{id}/orientation`.
+pub async fn orientation(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    Json(req): Json<OrientationRequest>,
+) -> Result<axum::Json<OrientationResponse>, ApiError> {
+    let entry = state.scene(&id)?;
+    let t = resolve_time(&state, &entry, req.t)?;
+    let scene = Arc::clone(&entry.scene);
+    let st = state.clone();
+    blocking(move || run_orientation(&st.frames, &st.limits, &scene, t, &req))
+        .await
+        .map(axum::Json)
+}

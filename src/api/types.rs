@@ -1,0 +1,240 @@
+//! Request and response types of the API, apart from the handlers, so every transport (HTTP
+//! JSON today; WebSocket and protobuf next) decodes into and encodes from the same structs.
+//!
+//! Numbers are f64 and travel exactly: serde_json writes the shortest round-trip form and, with
+//! `float_roundtrip`, parses it back to the same bits.
+
+use serde::{Deserialize, Serialize};
+use swell_waves::InversionMethod;
+use swell_waves::fft::SampleFilter;
+
+use crate::scene::SceneSpec;
+use crate::scene::clock::ClockReading;
+
+/// `GET /v1/scenes` answer.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SceneList {
+    /// Every scene, sorted by id.
+    pub scenes: Vec<SceneSummary>,
+}
+
+/// One scene in the list.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SceneSummary {
+    /// Id.
+    pub id: String,
+    /// Description.
+    pub description: String,
+    /// Layer kinds in order (`sine`, `gerstner`, `fft`).
+    pub layers: Vec<String>,
+    /// Tick rate, Hz.
+    pub tick_hz: f64,
+}
+
+/// `GET /v1/scenes/{id}` answer: everything a client needs to render the same sea.
+#[derive(Debug, Clone, Serialize)]
+pub struct SceneDetail {
+    /// Id.
+    pub id: String,
+    /// The spec as stored (defaults filled in).
+    pub spec: SceneSpec,
+    /// Built waves, FFT settings, seeds, generator name.
+    pub derived: serde_json::Value,
+    /// `swell_waves::MODEL_VERSION`.
+    pub model_version: u32,
+    /// FNV-1a 64 (hex) of the canonical spec JSON.
+    pub spec_hash: String,
+    /// The clock now.
+    pub clock: ClockReading,
+}
+
+/// `PUT /v1/scenes/{id}/clock` body. Applied in the order seek, rate, pause.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClockUpdate {
+    /// New rate (scene seconds per real second; negative runs backwards).
+    #[serde(default)]
+    pub rate: Option<f64>,
+    /// Pause (true) or resume (false).
+    #[serde(default)]
+    pub paused: Option<bool>,
+    /// Seek to this scene time, s.
+    #[serde(default)]
+    pub t: Option<f64>,
+}
+
+/// `GET /v1/scenes/{id}/height` query.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeightQuery {
+    /// World x, m.
+    pub x: f64,
+    /// World z, m.
+    pub z: f64,
+    /// Scene time, s; absent means the clock's now.
+    #[serde(default)]
+    pub t: Option<f64>,
+}
+
+/// `GET /v1/scenes/{id}/height` answer.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct HeightResponse {
+    /// The scene time used, s.
+    pub t: f64,
+    /// Height of the surface above (x, z), m.
+    pub height: f64,
+}
+
+/// The fields a sample request may ask for, as named on the wire.
+pub const FIELD_NAMES: [&str; 5] = ["height", "normal", "displacement", "jacobian", "residual"];
+
+/// `POST /v1/scenes/{id}/sample` body.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SampleRequest {
+    /// Scene time, s; absent means the clock's now.
+    #[serde(default)]
+    pub t: Option<f64>,
+    /// World offset `[x, z]` added (in f64) to every point.
+    #[serde(default)]
+    pub origin: Option<[f64; 2]>,
+    /// Points `[x, z]`, m.
+    pub points: Vec<[f64; 2]>,
+    /// Fields to answer (see [`FIELD_NAMES`]); default `["height"]`.
+    #[serde(default)]
+    pub fields: Option<Vec<String>>,
+    /// Accuracy settings; default Newton, 8 iterations, 1e-5 m, bicubic.
+    #[serde(default)]
+    pub accuracy: Option<Accuracy>,
+}
+
+/// Accuracy knobs of a query.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Accuracy {
+    /// Inversion method.
+    #[serde(default)]
+    pub method: Option<InversionMethod>,
+    /// Most inversion steps (0..=64).
+    #[serde(default)]
+    pub iterations: Option<u32>,
+    /// Inversion tolerance, m.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+    /// FFT grid filter.
+    #[serde(default)]
+    pub filter: Option<Filter>,
+}
+
+/// FFT grid sampling filter on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Filter {
+    /// Nearest node.
+    Nearest,
+    /// Bilinear.
+    Bilinear,
+    /// Catmull–Rom bicubic (the default).
+    Bicubic,
+}
+
+impl From<Filter> for SampleFilter {
+    fn from(f: Filter) -> SampleFilter {
+        match f {
+            Filter::Nearest => SampleFilter::Nearest,
+            Filter::Bilinear => SampleFilter::Bilinear,
+            Filter::Bicubic => SampleFilter::Bicubic,
+        }
+    }
+}
+
+/// `POST /v1/scenes/{id}/sample` answer: only the fields asked, each one entry per point.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct SampleResponse {
+    /// The scene time used, s.
+    pub t: f64,
+    /// Heights, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height: Option<Vec<f64>>,
+    /// Unit normals `[x, y, z]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<Vec<[f64; 3]>>,
+    /// Displacements `[Dx, y, Dz]` of the points taken as undisplaced, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub displacement: Option<Vec<[f64; 3]>>,
+    /// Jacobian determinants of the horizontal map.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jacobian: Option<Vec<f64>>,
+    /// `jacobian ≤ 0` (the surface folds): sent with `jacobian`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub folded: Option<Vec<bool>>,
+    /// Inversion residuals, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<Vec<f64>>,
+}
+
+/// `POST /v1/scenes/{id}/orientation` body.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrientationRequest {
+    /// Scene time, s; absent means the clock's now.
+    #[serde(default)]
+    pub t: Option<f64>,
+    /// The bodies.
+    pub bodies: Vec<Body>,
+}
+
+/// A body's footprint on the wire (mirrors `swell_waves::body::BodyFootprint`, with unknown
+/// fields rejected).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    /// World `[x, z]` of the body origin, m.
+    pub position: [f64; 2],
+    /// Yaw, rad (rotation about +y; positive turns the bow from +x towards −z).
+    #[serde(default)]
+    pub yaw: f64,
+    /// Length, m.
+    pub length: f64,
+    /// Beam, m.
+    pub beam: f64,
+    /// Explicit probes `[u, v]` in the body frame; default a 3×3 grid over the footprint.
+    #[serde(default)]
+    pub probes: Option<Vec<[f64; 2]>>,
+}
+
+impl From<Body> for swell_waves::body::BodyFootprint {
+    fn from(b: Body) -> Self {
+        swell_waves::body::BodyFootprint {
+            position: b.position,
+            yaw: b.yaw,
+            length: b.length,
+            beam: b.beam,
+            probes: b.probes,
+        }
+    }
+}
+
+/// `POST /v1/scenes/{id}/orientation` answer.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct OrientationResponse {
+    /// The scene time used, s.
+    pub t: f64,
+    /// One per body, in order.
+    pub bodies: Vec<BodyOrientation>,
+}
+
+/// A body's orientation.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct BodyOrientation {
+    /// Height of the fitted plane at the body origin, m.
+    pub heave: f64,
+    /// World rotation quaternion `[x, y, z, w]`.
+    pub rotation: [f64; 4],
+    /// World unit normal `[x, y, z]`.
+    pub normal: [f64; 3],
+    /// Pitch, rad (bow up positive).
+    pub pitch: f64,
+    /// Roll, rad.
+    pub roll: f64,
+}

@@ -1,0 +1,182 @@
+//! Server configuration: where to listen, where to persist, the admin token, the limits, and the
+//! scenes of an optional TOML file.
+//!
+//! The TOML file holds scenes and limits:
+//!
+//! ```toml
+//! [limits]
+//! max_points = 65536
+//!
+//! [scenes.harbour]
+//! description = "Sheltered harbour"
+//! tick_hz = 30
+//! seed = 7
+//! layers = [{ kind = "sine", waves = [{ amplitude = 0.1, wavelength = 8, direction = [1, 0] }] }]
+//! ```
+//!
+//! Each `[scenes.<id>]` table is a scene spec exactly as `PUT /v1/scenes/{id}` takes it.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::Deserialize;
+
+use crate::scene::SceneSpec;
+
+/// Everything [`crate::Server::bind`] needs.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Address to listen on; port 0 picks a free one (tests).
+    pub bind: SocketAddr,
+    /// Directory of persisted scenes and clocks; `None` keeps everything in memory.
+    pub data_dir: Option<PathBuf>,
+    /// Bearer token for admin endpoints; `None` generates one at start (see
+    /// [`crate::Server::admin_token`]).
+    pub admin_token: Option<String>,
+    /// Whether to start with the built-in scenes (`calm`, `lake`, `open-sea`, `storm`).
+    pub builtin_scenes: bool,
+    /// Scenes from the config file, sorted by id (ids validated at load).
+    pub scenes: Vec<(String, SceneSpec)>,
+    /// Request limits.
+    pub limits: Limits,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            bind: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            data_dir: None,
+            admin_token: None,
+            builtin_scenes: true,
+            scenes: Vec::new(),
+            limits: Limits::default(),
+        }
+    }
+}
+
+/// Request limits. Every limit answers with a 4xx/5xx naming it, never with a stall.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Limits {
+    /// Most points in one sample request (and probes over all bodies of one orientation
+    /// request); beyond it: 413. 65,536 points cost about 10–50 ms of CPU.
+    pub max_points: usize,
+    /// Most bodies in one orientation request.
+    pub max_bodies: usize,
+    /// Largest request body, bytes; beyond it: 413. 8 MiB holds 65,536 points written with
+    /// full f64 precision (about 45 bytes each) with room to spare.
+    pub max_body_bytes: usize,
+    /// Requests served at once; more are shed with 503 rather than queued without bound.
+    pub max_in_flight: usize,
+    /// Longest a request may take, ms; then 503.
+    pub request_timeout_ms: u64,
+    /// FFT frames kept in the shared cache. A 256² frame with every field is 4 MiB.
+    pub frame_cache_entries: usize,
+    /// Largest |x|, |z| of a world point, m. Beyond ~1e12 m phases lose all precision.
+    pub max_coordinate: f64,
+    /// Largest |t|, s, for the same reason.
+    pub max_time: f64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            max_points: 65_536,
+            max_bodies: 1024,
+            max_body_bytes: 8 * 1024 * 1024,
+            max_in_flight: 512,
+            request_timeout_ms: 30_000,
+            frame_cache_entries: 32,
+            max_coordinate: 1e9,
+            max_time: 1e10,
+        }
+    }
+}
+
+impl Limits {
+    /// The request timeout as a duration.
+    pub fn request_timeout(&self) -> Duration {
+        Duration::from_millis(self.request_timeout_ms)
+    }
+}
+
+/// The TOML config file's shape.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileConfig {
+    #[serde(default)]
+    limits: Option<Limits>,
+    #[serde(default)]
+    scenes: toml::Table,
+}
+
+/// Why a config file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML of the expected shape.
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// What a config file holds.
+#[derive(Debug, Clone, Default)]
+pub struct FileContents {
+    /// Scenes, sorted by id.
+    pub scenes: Vec<(String, SceneSpec)>,
+    /// Limits, if the file sets them.
+    pub limits: Option<Limits>,
+}
+
+/// Reads a TOML config file: its scenes (validated as specs, not yet built) and limits.
+///
+/// # Errors
+/// The file cannot be read, is not TOML, has unknown keys, a bad scene id, or a scene spec that
+/// does not parse.
+pub fn load_file(path: &Path) -> Result<FileContents, ConfigError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    parse_toml(&text).map_err(|message| ConfigError::Parse {
+        path: path.to_owned(),
+        message,
+    })
+}
+
+/// Parses config TOML text (see [`load_file`]).
+///
+/// # Errors
+/// A message naming the scene and field that is wrong.
+pub fn parse_toml(text: &str) -> Result<FileContents, String> {
+    let file: FileConfig = toml::from_str(text).map_err(|e| e.to_string())?;
+    let mut scenes = Vec::new();
+    for (id, value) in file.scenes {
+        crate::scene::validate_id(&id).map_err(|e| format!("scenes.{id}: {}", e.message))?;
+        // Through serde_json::Value so the TOML and the HTTP body share one parser (and its
+        // unknown-field checks).
+        let json = serde_json::to_value(&value).map_err(|e| format!("scenes.{id}: {e}"))?;
+        let spec = SceneSpec::from_value(json).map_err(|e| {
+            let field = e.field.map(|f| format!(".{f}")).unwrap_or_default();
+            format!("scenes.{id}{field}: {}", e.message)
+        })?;
+        scenes.push((id, spec));
+    }
+    Ok(FileContents {
+        scenes,
+        limits: file.limits,
+    })
+}

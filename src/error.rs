@@ -1,0 +1,159 @@
+//! [`ApiError`]: the one error every handler returns, rendered as
+//! `{"error":{"code","message","field"?}}` with a fitting status.
+//!
+//! Client mistakes (4xx) are logged at `debug` at most; only server faults (5xx) are logged as
+//! errors, and their internals never reach the client.
+
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+use swell_waves::SpecError;
+
+/// A request that could not be answered: a status, a stable machine-readable `code`, a message
+/// for people, and the offending field's path when there is one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ApiError {
+    /// HTTP status.
+    pub status: StatusCode,
+    /// Stable code, e.g. `bad_json`, `not_found`, `invalid_spec`.
+    pub code: &'static str,
+    /// What was wrong, in words.
+    pub message: String,
+    /// Path of the offending field (`points[3][0]`, `layers[1].waves[0].steepness`).
+    pub field: Option<String>,
+}
+
+/// The wire form of an error: `{"error": {...}}`.
+#[derive(Debug, Serialize)]
+struct ErrorBody<'a> {
+    error: ErrorDetail<'a>,
+}
+
+#[derive(Debug, Serialize)]
+struct ErrorDetail<'a> {
+    code: &'a str,
+    message: &'a str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    field: Option<&'a str>,
+}
+
+impl ApiError {
+    /// An error with no field.
+    pub fn new(status: StatusCode, code: &'static str, message: impl Into<String>) -> Self {
+        Self {
+            status,
+            code,
+            message: message.into(),
+            field: None,
+        }
+    }
+
+    /// Names the offending field.
+    pub fn with_field(mut self, field: impl Into<String>) -> Self {
+        let f = field.into();
+        self.field = if f.is_empty() { None } else { Some(f) };
+        self
+    }
+
+    /// 400 `bad_json`: the body is not JSON of the expected shape.
+    pub fn bad_json(message: impl Into<String>) -> Self {
+        Self::new(StatusCode::BAD_REQUEST, "bad_json", message)
+    }
+
+    /// 400 `invalid_value`: a well-formed request with a value outside what is allowed.
+    pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::new(StatusCode::BAD_REQUEST, "invalid_value", message).with_field(field)
+    }
+
+    /// 404 `not_found`: no such scene.
+    pub fn scene_not_found(id: &str) -> Self {
+        Self::new(
+            StatusCode::NOT_FOUND,
+            "not_found",
+            format!("no scene with id {id:?}"),
+        )
+    }
+
+    /// 422 `invalid_spec`: the model rejected a scene spec; message and field are the model's.
+    pub fn invalid_spec(e: &SpecError) -> Self {
+        Self::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid_spec",
+            e.to_string(),
+        )
+        .with_field(e.field())
+    }
+
+    /// 400 `invalid_value` from a model error about a query (times, options, bodies).
+    pub fn invalid_query(e: &SpecError) -> Self {
+        Self::invalid(e.field(), e.to_string())
+    }
+
+    /// 413 `too_many_points`.
+    pub fn too_many_points(field: &str, n: usize, max: usize) -> Self {
+        Self::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_many_points",
+            format!("{field} asks for {n} points; at most {max} per request"),
+        )
+        .with_field(field)
+    }
+
+    /// 500 `internal`: something failed on our side. The detail is logged, not sent.
+    pub fn internal(detail: impl std::fmt::Display) -> Self {
+        tracing::error!(%detail, "internal error");
+        Self::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "internal",
+            "internal server error",
+        )
+    }
+
+    /// 503 `overloaded`.
+    pub fn overloaded(message: impl Into<String>) -> Self {
+        Self::new(StatusCode::SERVICE_UNAVAILABLE, "overloaded", message)
+    }
+}
+
+impl std::fmt::Display for ApiError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} {}: {}",
+            self.status.as_u16(),
+            self.code,
+            self.message
+        )
+    }
+}
+
+impl std::error::Error for ApiError {}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        if self.status.is_client_error() {
+            tracing::debug!(status = self.status.as_u16(), code = self.code, message = %self.message, "rejected request");
+        }
+        let body = ErrorBody {
+            error: ErrorDetail {
+                code: self.code,
+                message: &self.message,
+                field: self.field.as_deref(),
+            },
+        };
+        // Serialising this struct cannot fail (strings only); fall back to a fixed body anyway.
+        let bytes = serde_json::to_vec(&body).unwrap_or_else(|_| {
+            br#"{"error":{"code":"internal","message":"internal server error"}}"#.to_vec()
+        });
+        let mut resp = (self.status, bytes).into_response();
+        resp.headers_mut().insert(
+            header::CONTENT_TYPE,
+            HeaderValue::from_static("application/json"),
+        );
+        if self.status == StatusCode::UNAUTHORIZED {
+            resp.headers_mut()
+                .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+        }
+        resp
+    }
+}

@@ -1,0 +1,229 @@
+//! # swell (the server)
+//!
+//! An axum + tokio service over the [`swell_waves`] model: scenes (named wave models with a
+//! clock), and HTTP endpoints that answer height, normal, displacement and body-orientation
+//! queries, bit-identical for the same scene, time and point on every replica.
+//!
+//! ```no_run
+//! # async fn run() -> Result<(), Box<dyn std::error::Error>> {
+//! let server = swell::Server::bind(swell::Config::default()).await?;
+//! println!("listening on {}", server.local_addr());
+//! server.run(async { let _ = tokio::signal::ctrl_c().await; }).await?;
+//! # Ok(()) }
+//! ```
+//!
+//! # Layout
+//! - [`config`] — [`Config`], limits, the TOML scene file.
+//! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
+//! - [`state`] — the registry and admin operations (validate → persist → swap).
+//! - [`frames`] — the shared, bounded FFT frame cache.
+//! - [`api`] — routes, middleware, request/response types, handlers.
+//! - [`error`] — [`ApiError`], the one error type of every endpoint.
+//!
+//! # Determinism
+//! A query's answer depends only on the scene spec, `t` and the point: `t` is taken from the
+//! request (or read once from the scene clock and returned), points and times are parsed exactly
+//! (serde_json `float_roundtrip`, Rust's correctly rounded `f64` parser for query strings), and
+//! numbers are written in shortest round-trip form. A world point is `origin + point` in f64.
+//! FFT frames are shared but computed from `(layer, t)` alone, so caching never changes bits.
+
+pub mod api;
+pub mod config;
+pub mod error;
+pub mod frames;
+pub mod scene;
+pub mod state;
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
+use tokio::net::TcpListener;
+
+pub use api::router;
+pub use config::{Config, Limits};
+pub use error::ApiError;
+pub use state::AppState;
+
+/// Why the server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    /// Binding the socket or opening the data dir failed.
+    #[error("{what}: {source}")]
+    Io {
+        /// What was being done.
+        what: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// A scene could not be loaded, or the token could not be generated.
+    #[error("{0}")]
+    Setup(String),
+}
+
+/// Histogram buckets, seconds: 50 µs (a cached single-point query) to 10 s (a timed-out batch).
+const LATENCY_BUCKETS: &[f64] = &[
+    0.00005, 0.0001, 0.00025, 0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0,
+    2.5, 10.0,
+];
+
+/// The process-wide Prometheus recorder. `metrics` has one global recorder per process, so
+/// several servers in one process (tests) share it.
+fn metrics_handle() -> PrometheusHandle {
+    static HANDLE: OnceLock<PrometheusHandle> = OnceLock::new();
+    HANDLE
+        .get_or_init(|| {
+            let builder = PrometheusBuilder::new()
+                .set_buckets_for_metric(Matcher::Suffix("_seconds".into()), LATENCY_BUCKETS)
+                .unwrap_or_else(|_| PrometheusBuilder::new());
+            let recorder = builder.build_recorder();
+            let handle = recorder.handle();
+            if metrics::set_global_recorder(recorder).is_err() {
+                tracing::warn!("a metrics recorder was already installed; /metrics will be empty");
+            }
+            handle
+        })
+        .clone()
+}
+
+/// A bound, loaded server, not yet serving.
+#[derive(Debug)]
+pub struct Server {
+    listener: TcpListener,
+    state: AppState,
+}
+
+impl Server {
+    /// Loads scenes (built-in, configured, persisted) and binds the socket.
+    ///
+    /// # Errors
+    /// The socket cannot be bound, the data dir cannot be opened, a configured scene is invalid.
+    pub async fn bind(config: Config) -> Result<Server, StartError> {
+        let store = match &config.data_dir {
+            Some(dir) => Some(
+                scene::store::Store::open(dir).map_err(|source| StartError::Io {
+                    what: format!("opening data dir {}", dir.display()),
+                    source,
+                })?,
+            ),
+            None => None,
+        };
+        let token = match config.admin_token.clone().filter(|t| !t.is_empty()) {
+            Some(t) => t,
+            None => api::admin::generate_token()
+                .map_err(|e| StartError::Setup(format!("generating an admin token: {e}")))?,
+        };
+        let state = AppState::new(config.limits.clone(), store, token, metrics_handle());
+        let loading = state.clone();
+        let builtin = config.builtin_scenes;
+        let scenes = config.scenes.clone();
+        tokio::task::spawn_blocking(move || loading.load(builtin, &scenes))
+            .await
+            .map_err(|e| StartError::Setup(e.to_string()))?
+            .map_err(StartError::Setup)?;
+        let listener = TcpListener::bind(config.bind)
+            .await
+            .map_err(|source| StartError::Io {
+                what: format!("binding {}", config.bind),
+                source,
+            })?;
+        Ok(Server { listener, state })
+    }
+
+    /// The bound address (the real port when the config asked for port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        // A bound listener always has a local address.
+        self.listener
+            .local_addr()
+            .unwrap_or_else(|_| SocketAddr::from(([0, 0, 0, 0], 0)))
+    }
+
+    /// The admin token in force (configured or generated).
+    pub fn admin_token(&self) -> &str {
+        self.state.admin_token()
+    }
+
+    /// The shared state (for in-process tools and tests).
+    pub fn state(&self) -> &AppState {
+        &self.state
+    }
+
+    /// Serves until `shutdown` completes, then stops accepting, lets in-flight requests finish
+    /// and returns. Readiness turns off as soon as shutdown starts, so a load balancer stops
+    /// sending new work while the last requests drain.
+    ///
+    /// # Errors
+    /// The accept loop failed.
+    pub async fn run(
+        self,
+        shutdown: impl Future<Output = ()> + Send + 'static,
+    ) -> std::io::Result<()> {
+        let state = self.state.clone();
+        let app = router(self.state.clone());
+        // The Prometheus handle keeps histogram windows bounded only if upkeep runs.
+        let upkeep_handle = self.state.metrics.clone();
+        let upkeep = tokio::spawn(async move {
+            let mut tick = tokio::time::interval(Duration::from_secs(5));
+            loop {
+                tick.tick().await;
+                upkeep_handle.run_upkeep();
+            }
+        });
+        state.set_ready(true);
+        let addr = self.local_addr();
+        tracing::info!(%addr, scenes = state.scenes().len(), "serving");
+        let draining = state.clone();
+        let result = axum::serve(self.listener, app)
+            .with_graceful_shutdown(async move {
+                shutdown.await;
+                draining.set_ready(false);
+                tracing::info!("shutting down: draining in-flight requests");
+            })
+            .await;
+        upkeep.abort();
+        tracing::info!("stopped");
+        result
+    }
+}
+
+/// Binds with `config` and serves until `shutdown` completes.
+///
+/// # Errors
+/// As [`Server::bind`] and [`Server::run`].
+pub async fn serve(
+    config: Config,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), StartError> {
+    let server = Server::bind(config).await?;
+    server.run(shutdown).await.map_err(|source| StartError::Io {
+        what: "serving".into(),
+        source,
+    })
+}
+
+/// Completes on SIGINT (Ctrl-C) or, on Unix, SIGTERM: the shutdown signal of `swell serve`.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        if tokio::signal::ctrl_c().await.is_err() {
+            // No signal handler: never complete from this branch.
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => tracing::info!("SIGINT received"),
+        () = term => tracing::info!("SIGTERM received"),
+    }
+}

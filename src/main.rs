@@ -1,0 +1,97 @@
+//! `swell`: the command line. Parses arguments and calls the library; nothing else.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, Parser, Subcommand};
+use tracing_subscriber::EnvFilter;
+
+/// Swell: deterministic ocean physics for multiplayer games.
+#[derive(Debug, Parser)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    /// `swell` alone means `swell serve` with these options.
+    #[command(flatten)]
+    serve: ServeArgs,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Serve the HTTP API (the default).
+    Serve(ServeArgs),
+    /// List the built-in scene ids and descriptions.
+    Scenes,
+}
+
+#[derive(Debug, Clone, Args)]
+struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, env = "SWELL_BIND", default_value = "127.0.0.1:8080")]
+    bind: SocketAddr,
+    /// TOML file with extra scenes (`[scenes.<id>]`) and `[limits]`.
+    #[arg(long, env = "SWELL_CONFIG")]
+    config: Option<PathBuf>,
+    /// Directory where admin changes (scenes, clocks) are persisted and restored from.
+    #[arg(long, env = "SWELL_DATA_DIR", default_value = "./swell-data")]
+    data_dir: PathBuf,
+    /// Admin bearer token; without one a random token is generated and printed once.
+    #[arg(long, env = "SWELL_ADMIN_TOKEN", hide_env_values = true)]
+    admin_token: Option<String>,
+    /// Start without the built-in scenes.
+    #[arg(long)]
+    no_builtin_scenes: bool,
+}
+
+#[tokio::main]
+async fn main() -> anyhow::Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| EnvFilter::new("info,tower_http=warn")),
+        )
+        .init();
+    let cli = Cli::parse();
+    match cli.command {
+        Some(Command::Scenes) => {
+            for (id, spec) in swell::scene::builtin::specs() {
+                println!("{id}\t{}", spec.description);
+            }
+            Ok(())
+        }
+        Some(Command::Serve(args)) => serve(args).await,
+        None => serve(cli.serve).await,
+    }
+}
+
+async fn serve(args: ServeArgs) -> anyhow::Result<()> {
+    let mut config = swell::Config {
+        bind: args.bind,
+        data_dir: Some(args.data_dir),
+        admin_token: args.admin_token.clone(),
+        builtin_scenes: !args.no_builtin_scenes,
+        ..Default::default()
+    };
+    if let Some(path) = &args.config {
+        let file = swell::config::load_file(path)?;
+        config.scenes = file.scenes;
+        if let Some(l) = file.limits {
+            config.limits = l;
+        }
+    }
+    let server = swell::Server::bind(config)
+        .await
+        .context("starting the server")?;
+    if args.admin_token.is_none() {
+        // Printed once, to stdout (not the log), so it can be captured and is not kept in logs.
+        println!("admin token: {}", server.admin_token());
+    }
+    println!("swell listening on http://{}", server.local_addr());
+    server
+        .run(swell::shutdown_signal())
+        .await
+        .context("serving")?;
+    Ok(())
+}

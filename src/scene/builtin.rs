@@ -1,0 +1,98 @@
+//! The scenes `swell serve` starts with, so it is useful with no configuration.
+//!
+//! Written as JSON (the same text a client would `PUT`) so they double as examples.
+
+use super::SceneSpec;
+
+/// `(id, spec JSON)` of every built-in scene, in listing order.
+pub const BUILTIN: &[(&str, &str)] = &[
+    (
+        "calm",
+        r#"{
+  "description": "Calm water: three compound sine waves, no horizontal motion. The cheapest scene.",
+  "tick_hz": 30,
+  "seed": 1,
+  "layers": [
+    {"kind": "sine", "waves": [
+      {"amplitude": 0.12, "wavelength": 18, "direction": [1, 0.2]},
+      {"amplitude": 0.06, "wavelength": 7.5, "direction": [0.3, 1], "phase": 1.1},
+      {"amplitude": 0.03, "wavelength": 3.2, "direction": [-0.6, 0.8], "phase": 2.3}
+    ]}
+  ]
+}"#,
+    ),
+    (
+        "lake",
+        r#"{
+  "description": "Wind chop on a lake: one Gerstner wave plus a seeded Gerstner cascade (fold number about 0.54).",
+  "tick_hz": 30,
+  "seed": 7,
+  "depth": 12,
+  "layers": [
+    {"kind": "gerstner",
+     "waves": [{"amplitude": 0.25, "wavelength": 22, "direction": [1, 0.4], "steepness": 0.5}],
+     "cascade": {"wavelength": 8, "amplitude": 0.08, "steepness": 0.5, "direction": [1, 0.4]}}
+  ]
+}"#,
+    ),
+    (
+        "open-sea",
+        r#"{
+  "description": "Open sea: JONSWAP wind sea (U10 = 10 m/s, 100 km fetch) on a 256 m FFT tile at 256², plus a long Gerstner swell.",
+  "tick_hz": 30,
+  "seed": 42,
+  "layers": [
+    {"kind": "fft", "resolution": 256, "tile_size": 256, "choppiness": 1.0, "repeat_period": 200,
+     "wind_direction": [1, 0.3],
+     "spectrum": {"kind": "jonswap", "wind_speed": 10, "fetch": 100000, "gamma": 3.3},
+     "spreading": {"kind": "donelan_banner"}},
+    {"kind": "gerstner",
+     "waves": [{"amplitude": 0.6, "wavelength": 160, "direction": [0.4, 1], "steepness": 0.3}]}
+  ]
+}"#,
+    ),
+    (
+        "storm",
+        r#"{
+  "description": "Storm: steep JONSWAP sea (U10 = 20 m/s, 300 km fetch) on a 512 m FFT tile at 256², choppiness 1.3 for sharp, nearly folding crests.",
+  "tick_hz": 30,
+  "seed": 1337,
+  "layers": [
+    {"kind": "fft", "resolution": 256, "tile_size": 512, "choppiness": 1.3, "repeat_period": 300,
+     "wind_direction": [1, -0.2],
+     "spectrum": {"kind": "jonswap", "wind_speed": 20, "fetch": 300000, "gamma": 3.3},
+     "spreading": {"kind": "mitsuyasu"}}
+  ]
+}"#,
+    ),
+];
+
+/// The built-in scene specs, parsed.
+///
+/// # Panics
+/// Never for the shipped texts: a unit test parses and builds every one.
+pub fn specs() -> Vec<(String, SceneSpec)> {
+    BUILTIN
+        .iter()
+        .map(|(id, text)| {
+            let v: serde_json::Value = serde_json::from_str(text).expect("built-in scene JSON");
+            let spec = SceneSpec::from_value(v).expect("built-in scene spec");
+            ((*id).to_owned(), spec)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    #[test]
+    fn every_builtin_builds() {
+        for (id, spec) in specs() {
+            crate::scene::validate_id(&id).unwrap();
+            let s = Scene::build(&id, spec).unwrap_or_else(|e| panic!("{id}: {e}"));
+            assert!(!s.spec.description.is_empty());
+        }
+    }
+}

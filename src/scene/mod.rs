@@ -1,0 +1,263 @@
+//! Scenes: a named wave model (a [`SurfaceSpec`] plus a description and a tick rate), its built
+//! [`Surface`], and its clock.
+//!
+//! - [`builtin`] — the scenes `swell serve` starts with.
+//! - [`clock`] — scene time: `t = rate·(now − epoch) + offset`, pause, seek.
+//! - [`store`] — atomic persistence of scenes and clocks in the data dir.
+
+pub mod builtin;
+pub mod clock;
+pub mod store;
+
+use std::sync::{Arc, Mutex};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use swell_waves::surface::layer_seed;
+use swell_waves::{Layer, LayerSpec, Surface, SurfaceSpec};
+
+use crate::error::ApiError;
+pub use clock::Clock;
+
+/// Largest tick rate a scene may ask for, Hz: ticks drive stream frames, and 1 kHz is already far
+/// beyond any game's network rate.
+pub const MAX_TICK_HZ: f64 = 1000.0;
+/// Longest scene description, bytes.
+pub const MAX_DESCRIPTION: usize = 4096;
+/// Name of the seeded generator every layer draws from, as clients should look it up.
+pub const RNG_NAME: &str = "pcg32-splitmix64 (see swell_waves::math)";
+
+/// A scene as written by people: `{"description","tick_hz", ...SurfaceSpec fields}`.
+///
+/// Serialises flat (the surface fields beside `description` and `tick_hz`). Parsing goes through
+/// [`SceneSpec::from_value`], which rejects unknown fields at every level and names them (serde's
+/// `flatten` cannot be combined with `deny_unknown_fields`, so the split is done by hand).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SceneSpec {
+    /// What the scene is, for people.
+    pub description: String,
+    /// Ticks per second of scene time (`tick = floor(t·tick_hz)`), in (0, 1000]. Default 30.
+    pub tick_hz: f64,
+    /// The waves.
+    #[serde(flatten)]
+    pub surface: SurfaceSpec,
+}
+
+/// Default tick rate, Hz: a common game network rate.
+pub const DEFAULT_TICK_HZ: f64 = 30.0;
+
+impl<'de> Deserialize<'de> for SceneSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        SceneSpec::from_value(v).map_err(|e| serde::de::Error::custom(e.message))
+    }
+}
+
+impl SceneSpec {
+    /// Parses a scene from JSON. Checks the shape (unknown fields, types) and the scene's own
+    /// fields; the surface itself is validated when it is built ([`Scene::build`]).
+    ///
+    /// # Errors
+    /// 400 `bad_json` naming the path of a wrongly typed or unknown field; 422 `invalid_spec` for
+    /// a bad `tick_hz` or description.
+    pub fn from_value(v: Value) -> Result<SceneSpec, ApiError> {
+        let Value::Object(mut map) = v else {
+            return Err(ApiError::bad_json("a scene spec must be a JSON object"));
+        };
+        let description = match map.remove("description") {
+            None | Some(Value::Null) => String::new(),
+            Some(Value::String(s)) => s,
+            Some(_) => {
+                return Err(
+                    ApiError::bad_json("description must be a string").with_field("description")
+                );
+            }
+        };
+        let tick_hz = match map.remove("tick_hz") {
+            None | Some(Value::Null) => DEFAULT_TICK_HZ,
+            Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
+            Some(_) => {
+                return Err(ApiError::bad_json("tick_hz must be a number").with_field("tick_hz"));
+            }
+        };
+        let surface: SurfaceSpec = crate::api::json::from_value(Value::Object(map))?;
+        let spec = SceneSpec {
+            description,
+            tick_hz,
+            surface,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// Checks the scene's own fields.
+    ///
+    /// # Errors
+    /// 422 naming `tick_hz` or `description`.
+    pub fn validate(&self) -> Result<(), ApiError> {
+        if !(self.tick_hz.is_finite() && self.tick_hz > 0.0 && self.tick_hz <= MAX_TICK_HZ) {
+            return Err(ApiError::invalid_spec(
+                &swell_waves::SpecError::OutOfRange {
+                    field: "tick_hz".into(),
+                    value: self.tick_hz,
+                    allowed: format!("in (0, {MAX_TICK_HZ}] Hz"),
+                },
+            ));
+        }
+        if self.description.len() > MAX_DESCRIPTION {
+            return Err(ApiError::invalid_spec(&swell_waves::SpecError::BadLength {
+                field: "description".into(),
+                len: self.description.len(),
+                allowed: format!("at most {MAX_DESCRIPTION} bytes"),
+            }));
+        }
+        Ok(())
+    }
+
+    /// The canonical JSON of the spec: fields in declaration order, numbers in shortest
+    /// round-trip form. Its hash identifies the sea.
+    pub fn canonical_json(&self) -> String {
+        // Serialising plain data (no maps with non-string keys, no non-finite floats after
+        // validation) cannot fail; an empty string would only weaken the hash, not break it.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+}
+
+/// Checks a scene id: `[a-z0-9-]{1,64}`.
+///
+/// # Errors
+/// 400 `invalid_value` naming `id`.
+pub fn validate_id(id: &str) -> Result<(), ApiError> {
+    let ok = !id.is_empty()
+        && id.len() <= 64
+        && id
+            .bytes()
+            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-');
+    if ok {
+        Ok(())
+    } else {
+        Err(ApiError::invalid(
+            "id",
+            format!("scene id {id:?} must match [a-z0-9-]{{1,64}}"),
+        ))
+    }
+}
+
+/// FNV-1a, 64 bit, as 16 lower-case hex digits. Specified (offset basis 0xcbf29ce484222325,
+/// prime 0x100000001b3) so clients can recompute it over the canonical spec JSON.
+pub fn fnv1a64_hex(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// A built scene: immutable once made. Replacing a scene builds a new one.
+#[derive(Debug)]
+pub struct Scene {
+    /// The id.
+    pub id: String,
+    /// The spec it was built from.
+    pub spec: SceneSpec,
+    /// The built surface.
+    pub surface: Surface,
+    /// [`fnv1a64_hex`] of [`SceneSpec::canonical_json`].
+    pub spec_hash: String,
+}
+
+impl Scene {
+    /// Validates and builds a scene. CPU work (an FFT layer's spectrum): call off the reactor.
+    ///
+    /// # Errors
+    /// 422 with the model's message and field.
+    pub fn build(id: &str, spec: SceneSpec) -> Result<Scene, ApiError> {
+        spec.validate()?;
+        let surface = Surface::new(&spec.surface).map_err(|e| ApiError::invalid_spec(&e))?;
+        let spec_hash = fnv1a64_hex(spec.canonical_json().as_bytes());
+        Ok(Scene {
+            id: id.to_owned(),
+            spec,
+            surface,
+            spec_hash,
+        })
+    }
+
+    /// Layer kinds in order.
+    pub fn layer_kinds(&self) -> Vec<&'static str> {
+        self.spec
+            .surface
+            .layers
+            .iter()
+            .map(LayerSpec::kind)
+            .collect()
+    }
+
+    /// Everything derived from the spec that a client needs to render the same sea: each layer's
+    /// built waves (sine, Gerstner) or FFT settings in use, seeds and the generator's name.
+    pub fn derived(&self) -> Value {
+        let layers: Vec<Value> = self
+            .surface
+            .layers()
+            .iter()
+            .zip(&self.spec.surface.layers)
+            .enumerate()
+            .map(|(i, (layer, spec))| {
+                let default_seed = layer_seed(self.spec.surface.seed, i);
+                match (layer, spec) {
+                    (Layer::Sine(l), _) => serde_json::json!({
+                        "kind": "sine",
+                        "waves": l.waves(),
+                    }),
+                    (Layer::Gerstner(l), LayerSpec::Gerstner(g)) => serde_json::json!({
+                        "kind": "gerstner",
+                        "seed": g.seed.unwrap_or(default_seed),
+                        "fold_number": l.fold_number(),
+                        "waves": l.waves(),
+                    }),
+                    (Layer::Fft(f), LayerSpec::Fft(s)) => serde_json::json!({
+                        "kind": "fft",
+                        "resolution": f.resolution(),
+                        "tile_size": f.tile_size(),
+                        "choppiness": f.choppiness(),
+                        "repeat_period": f.repeat_period(),
+                        "seed": s.seed.unwrap_or(default_seed),
+                        "backend": f.backend(),
+                        "modes": f.modes(),
+                        "variance": f.variance(),
+                        "significant_wave_height": 4.0 * f.variance().sqrt(),
+                        "rng": RNG_NAME,
+                    }),
+                    // A built layer always has the kind of its spec.
+                    (l, _) => serde_json::json!({ "kind": kind_of(l) }),
+                }
+            })
+            .collect();
+        serde_json::json!({
+            "fold_number": self.surface.fold_number(),
+            "horizontal_motion": self.surface.has_horizontal_motion(),
+            "gravity": self.spec.surface.gravity,
+            "depth": self.spec.surface.depth,
+            "rng": RNG_NAME,
+            "layers": layers,
+        })
+    }
+}
+
+fn kind_of(l: &Layer) -> &'static str {
+    match l {
+        Layer::Sine(_) => "sine",
+        Layer::Gerstner(_) => "gerstner",
+        Layer::Fft(_) => "fft",
+    }
+}
+
+/// A scene in the registry: the built scene (swapped whole on replace) and its clock.
+#[derive(Debug)]
+pub struct SceneEntry {
+    /// The scene.
+    pub scene: Arc<Scene>,
+    /// Its clock. A std mutex: held for a few arithmetic operations, never across an await.
+    pub clock: Mutex<Clock>,
+}

@@ -1,0 +1,323 @@
+//! The shared state of a running server: the scene registry, the frame cache, the data dir, the
+//! admin token and the limits.
+//!
+//! Scenes live in a `BTreeMap` (sorted listing) behind a std `RwLock` held only to clone an
+//! `Arc`. Admin changes (scene put/delete, clock set) are serialised by one async mutex and follow
+//! one order: validate and build → persist → swap in memory. A change that fails at any step
+//! leaves both disk and memory as they were.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::Instant;
+
+use metrics_exporter_prometheus::PrometheusHandle;
+use serde_json::Value;
+
+use crate::api::types::ClockUpdate;
+use crate::config::Limits;
+use crate::error::ApiError;
+use crate::frames::FrameCache;
+use crate::scene::clock::ClockReading;
+use crate::scene::store::{ClockRecord, SceneRecord, Store, unix_now};
+use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
+
+/// Cheap to clone: one `Arc`.
+#[derive(Debug, Clone)]
+pub struct AppState(Arc<Inner>);
+
+/// The state itself.
+#[derive(Debug)]
+pub struct Inner {
+    /// Request limits.
+    pub limits: Limits,
+    /// Shared FFT frames.
+    pub frames: FrameCache,
+    /// The Prometheus handle that renders `/metrics`.
+    pub metrics: PrometheusHandle,
+    scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
+    store: Option<Store>,
+    admin_token: String,
+    admin_lock: tokio::sync::Mutex<()>,
+    ready: AtomicBool,
+    base: Instant,
+}
+
+impl std::ops::Deref for AppState {
+    type Target = Inner;
+    fn deref(&self) -> &Inner {
+        &self.0
+    }
+}
+
+/// Whether a put created a scene or replaced one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PutOutcome {
+    /// New id.
+    Created,
+    /// Existing id; its clock was kept.
+    Replaced,
+}
+
+impl AppState {
+    /// A state with no scenes.
+    pub fn new(
+        limits: Limits,
+        store: Option<Store>,
+        admin_token: String,
+        metrics: PrometheusHandle,
+    ) -> AppState {
+        AppState(Arc::new(Inner {
+            frames: FrameCache::new(limits.frame_cache_entries),
+            limits,
+            metrics,
+            scenes: RwLock::new(BTreeMap::new()),
+            store,
+            admin_token,
+            admin_lock: tokio::sync::Mutex::new(()),
+            ready: AtomicBool::new(false),
+            base: Instant::now(),
+        }))
+    }
+
+    /// Seconds on the monotonic clock that scene clocks run on.
+    pub fn now(&self) -> f64 {
+        self.base.elapsed().as_secs_f64()
+    }
+
+    /// The admin token.
+    pub fn admin_token(&self) -> &str {
+        &self.admin_token
+    }
+
+    /// Whether the server takes traffic (scenes loaded, not shutting down).
+    pub fn is_ready(&self) -> bool {
+        self.ready.load(Ordering::Relaxed)
+    }
+
+    /// Marks the server ready or not.
+    pub fn set_ready(&self, ready: bool) {
+        self.ready.store(ready, Ordering::Relaxed);
+    }
+
+    fn read_scenes(&self) -> std::sync::RwLockReadGuard<'_, BTreeMap<String, Arc<SceneEntry>>> {
+        // Writers only insert/remove whole entries, so a poisoned map is still consistent.
+        self.scenes.read().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn write_scenes(&self) -> std::sync::RwLockWriteGuard<'_, BTreeMap<String, Arc<SceneEntry>>> {
+        self.scenes.write().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// A scene by id.
+    ///
+    /// # Errors
+    /// 404 if there is none.
+    pub fn scene(&self, id: &str) -> Result<Arc<SceneEntry>, ApiError> {
+        self.read_scenes()
+            .get(id)
+            .cloned()
+            .ok_or_else(|| ApiError::scene_not_found(id))
+    }
+
+    /// Every scene, sorted by id.
+    pub fn scenes(&self) -> Vec<Arc<SceneEntry>> {
+        self.read_scenes().values().cloned().collect()
+    }
+
+    /// A scene's clock reading now.
+    pub fn read_clock(&self, entry: &SceneEntry) -> ClockReading {
+        let clock = *entry.clock.lock().unwrap_or_else(|p| p.into_inner());
+        clock.read(self.now(), entry.scene.spec.tick_hz)
+    }
+
+    /// Inserts a scene at start-up (no persistence, no lock), with a fresh clock at t = 0.
+    pub fn insert_loaded(&self, scene: Scene, clock: Option<Clock>) {
+        let clock = clock.unwrap_or_else(|| Clock::starting_at(self.now(), 0.0));
+        let id = scene.id.clone();
+        self.write_scenes().insert(
+            id,
+            Arc::new(SceneEntry {
+                scene: Arc::new(scene),
+                clock: Mutex::new(clock),
+            }),
+        );
+    }
+
+    /// Removes a scene at start-up.
+    pub fn remove_loaded(&self, id: &str) {
+        self.write_scenes().remove(id);
+    }
+
+    /// Creates or replaces scene `id` from its spec JSON; a replaced scene keeps its clock.
+    ///
+    /// # Errors
+    /// 400 for a bad id or malformed spec, 422 for an invalid one, 500 if it cannot be persisted.
+    pub async fn put_scene(
+        &self,
+        id: &str,
+        spec: Value,
+    ) -> Result<(PutOutcome, Arc<SceneEntry>), ApiError> {
+        crate::scene::validate_id(id)?;
+        let parsed = SceneSpec::from_value(spec)?;
+        let owned_id = id.to_owned();
+        // Building an FFT layer evaluates its spectrum at every mode: CPU work, off the reactor.
+        let scene = tokio::task::spawn_blocking(move || Scene::build(&owned_id, parsed))
+            .await
+            .map_err(ApiError::internal)??;
+        let _guard = self.admin_lock.lock().await;
+        if let Some(store) = self.store.clone() {
+            // Persist the canonical form: what the scene is, with defaults filled in.
+            let json = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
+            let sid = id.to_owned();
+            tokio::task::spawn_blocking(move || store.put_scene(&sid, &json))
+                .await
+                .map_err(ApiError::internal)?
+                .map_err(ApiError::internal)?;
+        }
+        let mut map = self.write_scenes();
+        let (outcome, clock) = match map.get(id) {
+            Some(old) => (
+                PutOutcome::Replaced,
+                *old.clock.lock().unwrap_or_else(|p| p.into_inner()),
+            ),
+            None => (PutOutcome::Created, Clock::starting_at(self.now(), 0.0)),
+        };
+        let entry = Arc::new(SceneEntry {
+            scene: Arc::new(scene),
+            clock: Mutex::new(clock),
+        });
+        map.insert(id.to_owned(), entry.clone());
+        Ok((outcome, entry))
+    }
+
+    /// Deletes scene `id`.
+    ///
+    /// # Errors
+    /// 404 if there is none, 500 if the deletion cannot be persisted.
+    pub async fn delete_scene(&self, id: &str) -> Result<(), ApiError> {
+        let _guard = self.admin_lock.lock().await;
+        self.scene(id)?;
+        if let Some(store) = self.store.clone() {
+            let sid = id.to_owned();
+            tokio::task::spawn_blocking(move || store.delete_scene(&sid))
+                .await
+                .map_err(ApiError::internal)?
+                .map_err(ApiError::internal)?;
+        }
+        self.write_scenes().remove(id);
+        Ok(())
+    }
+
+    /// Applies a clock update (seek, then rate, then pause) and returns the new reading.
+    ///
+    /// # Errors
+    /// 404 unknown scene; 400 for a non-finite or out-of-range `t` or `rate`; 500 if it cannot
+    /// be persisted.
+    pub async fn set_clock(&self, id: &str, update: ClockUpdate) -> Result<ClockReading, ApiError> {
+        if let Some(t) = update.t {
+            crate::api::query::check_time(&self.limits, t, "t")?;
+        }
+        if let Some(r) = update.rate
+            && !(r.is_finite() && r.abs() <= MAX_RATE)
+        {
+            return Err(ApiError::invalid(
+                "rate",
+                format!("rate = {r} is out of range: |rate| <= {MAX_RATE}"),
+            ));
+        }
+        let _guard = self.admin_lock.lock().await;
+        let entry = self.scene(id)?;
+        let now = self.now();
+        let unix = unix_now();
+        let mut clock = *entry.clock.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(t) = update.t {
+            clock.seek(now, t);
+        }
+        if let Some(r) = update.rate {
+            clock.set_rate(now, r);
+        }
+        if let Some(p) = update.paused {
+            clock.set_paused(now, p);
+        }
+        if let Some(store) = self.store.clone() {
+            let rec = ClockRecord {
+                t: clock.t(now),
+                rate: clock.rate(),
+                paused: clock.paused(),
+                unix,
+            };
+            let sid = id.to_owned();
+            tokio::task::spawn_blocking(move || store.put_clock(&sid, rec))
+                .await
+                .map_err(ApiError::internal)?
+                .map_err(ApiError::internal)?;
+        }
+        *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
+        Ok(self.read_clock(&entry))
+    }
+
+    /// Loads built-in, configured and persisted scenes, in that order (later sources win; a
+    /// persisted deletion removes a built-in or configured scene). Blocking: builds every scene.
+    ///
+    /// # Errors
+    /// A built-in or configured scene that does not build (a persisted one that no longer builds
+    /// is logged and skipped, so a model upgrade cannot keep the server down).
+    pub fn load(&self, builtin: bool, configured: &[(String, SceneSpec)]) -> Result<(), String> {
+        if builtin {
+            for (id, spec) in crate::scene::builtin::specs() {
+                let scene =
+                    Scene::build(&id, spec).map_err(|e| format!("built-in scene {id}: {e}"))?;
+                self.insert_loaded(scene, None);
+            }
+        }
+        for (id, spec) in configured {
+            let scene = Scene::build(id, spec.clone())
+                .map_err(|e| format!("configured scene {id}: {}", e.message))?;
+            self.insert_loaded(scene, None);
+        }
+        let Some(store) = &self.store else {
+            return Ok(());
+        };
+        let loaded = store.load_scenes();
+        for (path, why) in loaded.bad {
+            tracing::error!(path = %path.display(), %why, "skipping unreadable scene file");
+        }
+        for (id, rec) in loaded.records {
+            match rec {
+                SceneRecord::Deleted => self.remove_loaded(&id),
+                SceneRecord::Put(v) => {
+                    match SceneSpec::from_value(v).and_then(|spec| Scene::build(&id, spec)) {
+                        Ok(scene) => self.insert_loaded(scene, None),
+                        Err(e) => {
+                            tracing::error!(scene = %id, error = %e.message, "skipping persisted scene that no longer builds");
+                        }
+                    }
+                }
+            }
+        }
+        // Clocks: a persisted reading, advanced by the wall time since it was taken.
+        let now = self.now();
+        let unix = unix_now();
+        for entry in self.scenes() {
+            let id = &entry.scene.id;
+            match store.load_clock(id) {
+                Ok(Some(rec)) => {
+                    let t = if rec.paused {
+                        rec.t
+                    } else {
+                        rec.t + rec.rate * (unix - rec.unix).max(0.0)
+                    };
+                    let clock = Clock::with_state(now, t, rec.rate, rec.paused);
+                    *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
+                }
+                Ok(None) => {}
+                Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable clock file"),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Largest |rate| of a clock: a day per second is beyond any fast-forward a game needs.
+pub const MAX_RATE: f64 = 86_400.0;

@@ -1,0 +1,200 @@
+//! Test harness: a real server on 127.0.0.1 with an ephemeral port, in this process.
+#![allow(dead_code)]
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use reqwest::{Client, Method, Response};
+use serde_json::Value;
+use tokio::sync::oneshot;
+use tokio::task::JoinHandle;
+
+pub const TOKEN: &str = "test-token";
+
+/// A config for tests: ephemeral port, fixed token, built-in scenes, no data dir.
+pub fn config() -> swell::Config {
+    swell::Config {
+        bind: SocketAddr::from(([127, 0, 0, 1], 0)),
+        admin_token: Some(TOKEN.into()),
+        ..Default::default()
+    }
+}
+
+pub fn config_with_dir(dir: PathBuf) -> swell::Config {
+    swell::Config {
+        data_dir: Some(dir),
+        ..config()
+    }
+}
+
+pub struct TestServer {
+    pub addr: SocketAddr,
+    pub client: Client,
+    stop: Option<oneshot::Sender<()>>,
+    task: Option<JoinHandle<std::io::Result<()>>>,
+}
+
+impl TestServer {
+    pub async fn start(config: swell::Config) -> TestServer {
+        let server = swell::Server::bind(config).await.expect("server starts");
+        let addr = server.local_addr();
+        let (tx, rx) = oneshot::channel::<()>();
+        let task = tokio::spawn(server.run(async move {
+            let _ = rx.await;
+        }));
+        let client = Client::builder().no_proxy().build().expect("client");
+        TestServer {
+            addr,
+            client,
+            stop: Some(tx),
+            task: Some(task),
+        }
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("http://{}{}", self.addr, path)
+    }
+
+    /// Graceful shutdown; returns once the server has stopped.
+    pub async fn stop(mut self) {
+        if let Some(tx) = self.stop.take() {
+            let _ = tx.send(());
+        }
+        if let Some(task) = self.task.take() {
+            task.await
+                .expect("server task")
+                .expect("server ran cleanly");
+        }
+    }
+
+    /// Starts a graceful shutdown without waiting for it.
+    pub fn begin_stop(&mut self) -> JoinHandle<std::io::Result<()>> {
+        if let Some(tx) = self.stop.take() {
+            let _ = tx.send(());
+        }
+        self.task.take().expect("running")
+    }
+
+    pub async fn get(&self, path: &str) -> Response {
+        self.client.get(self.url(path)).send().await.expect("GET")
+    }
+
+    pub async fn get_json(&self, path: &str) -> (u16, Value) {
+        into_json(self.get(path).await).await
+    }
+
+    pub async fn post_json(&self, path: &str, body: &Value) -> (u16, Value) {
+        let r = self
+            .client
+            .post(self.url(path))
+            .json(body)
+            .send()
+            .await
+            .expect("POST");
+        into_json(r).await
+    }
+
+    pub async fn post_raw(&self, path: &str, body: &str) -> (u16, Value) {
+        let r = self
+            .client
+            .post(self.url(path))
+            .header("content-type", "application/json")
+            .body(body.to_owned())
+            .send()
+            .await
+            .expect("POST");
+        into_json(r).await
+    }
+
+    /// An admin request with the right token (`token = Some(TOKEN)`), another, or none.
+    pub async fn admin(
+        &self,
+        method: Method,
+        path: &str,
+        body: Option<&Value>,
+        token: Option<&str>,
+    ) -> (u16, Value) {
+        let mut rb = self.client.request(method, self.url(path));
+        if let Some(t) = token {
+            rb = rb.bearer_auth(t);
+        }
+        if let Some(b) = body {
+            rb = rb.json(b);
+        }
+        into_json(rb.send().await.expect("admin request")).await
+    }
+
+    pub async fn put_scene(&self, id: &str, spec: &Value) -> (u16, Value) {
+        self.admin(
+            Method::PUT,
+            &format!("/v1/scenes/{id}"),
+            Some(spec),
+            Some(TOKEN),
+        )
+        .await
+    }
+
+    pub async fn put_clock(&self, id: &str, update: &Value) -> (u16, Value) {
+        self.admin(
+            Method::PUT,
+            &format!("/v1/scenes/{id}/clock"),
+            Some(update),
+            Some(TOKEN),
+        )
+        .await
+    }
+}
+
+pub async fn into_json(r: Response) -> (u16, Value) {
+    let status = r.status().as_u16();
+    let text = r.text().await.expect("body");
+    let v = if text.is_empty() {
+        Value::Null
+    } else {
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
+    };
+    (status, v)
+}
+
+/// f64 bits of a JSON number.
+pub fn bits(v: &Value) -> u64 {
+    v.as_f64()
+        .unwrap_or_else(|| panic!("not a number: {v}"))
+        .to_bits()
+}
+
+/// The error code of an error body.
+pub fn code(v: &Value) -> &str {
+    v["error"]["code"]
+        .as_str()
+        .unwrap_or_else(|| panic!("not an error: {v}"))
+}
+
+/// A small Gerstner scene spec.
+pub fn small_spec() -> Value {
+    serde_json::json!({
+        "description": "test sea",
+        "tick_hz": 20,
+        "seed": 3,
+        "layers": [
+            {"kind": "gerstner", "waves": [
+                {"amplitude": 0.4, "wavelength": 30, "direction": [1, 0.5], "steepness": 0.6},
+                {"amplitude": 0.1, "wavelength": 9, "direction": [-0.2, 1], "steepness": 0.4, "phase": 0.3}
+            ]}
+        ]
+    })
+}
+
+/// A small FFT scene spec (64², cheap frames).
+pub fn fft_spec() -> Value {
+    serde_json::json!({
+        "description": "small fft",
+        "seed": 11,
+        "layers": [
+            {"kind": "fft", "resolution": 64, "tile_size": 64, "choppiness": 1.0, "repeat_period": 100,
+             "wind_direction": [1, 0.2],
+             "spectrum": {"kind": "jonswap", "wind_speed": 8, "fetch": 50000}},
+            {"kind": "sine", "waves": [{"amplitude": 0.05, "wavelength": 5, "direction": [0, 1]}]}
+        ]
+    })
+}

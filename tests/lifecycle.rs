@@ -1,0 +1,133 @@
+//! Persistence across a restart, and graceful shutdown.
+
+mod common;
+
+use common::{TOKEN, TestServer, bits, config, config_with_dir, fft_spec, small_spec};
+use reqwest::Method;
+use serde_json::json;
+
+#[tokio::test]
+async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let pts = json!([[1.5, -2.25], [40.0, 8.0]]);
+    let ask = json!({"t": 12.5, "points": pts, "fields": ["height", "normal"]});
+
+    let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+    assert_eq!(s.put_scene("harbour", &small_spec()).await.0, 201);
+    assert_eq!(s.put_scene("tile", &fft_spec()).await.0, 201);
+    let (st, _) = s
+        .put_clock("harbour", &json!({"t": 77.0, "paused": true, "rate": 2.0}))
+        .await;
+    assert_eq!(st, 200);
+    // Deleting a built-in persists too.
+    let (st, _) = s
+        .admin(Method::DELETE, "/v1/scenes/storm", None, Some(TOKEN))
+        .await;
+    assert_eq!(st, 204);
+    let (_, before_h) = s.post_json("/v1/scenes/harbour/sample", &ask).await;
+    let (_, before_f) = s.post_json("/v1/scenes/tile/sample", &ask).await;
+    let (_, detail_before) = s.get_json("/v1/scenes/tile").await;
+    s.stop().await;
+
+    let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+    let (_, after_h) = s.post_json("/v1/scenes/harbour/sample", &ask).await;
+    let (_, after_f) = s.post_json("/v1/scenes/tile/sample", &ask).await;
+    assert_eq!(before_h, after_h);
+    assert_eq!(before_f, after_f);
+    for i in 0..2 {
+        assert_eq!(bits(&before_f["height"][i]), bits(&after_f["height"][i]));
+    }
+    let (_, detail_after) = s.get_json("/v1/scenes/tile").await;
+    assert_eq!(detail_before["spec_hash"], detail_after["spec_hash"]);
+    let (_, c) = s.get_json("/v1/scenes/harbour/clock").await;
+    assert_eq!(
+        (c["t"].as_f64(), c["paused"].as_bool(), c["rate"].as_f64()),
+        (Some(77.0), Some(true), Some(2.0))
+    );
+    let (st, _) = s.get_json("/v1/scenes/storm").await;
+    assert_eq!(st, 404, "a deleted built-in stays deleted");
+    // A query without t at the restored paused clock.
+    let (_, h) = s.get_json("/v1/scenes/harbour/height?x=1.5&z=-2.25").await;
+    assert_eq!(h["t"], json!(77.0));
+    s.stop().await;
+
+    // No temp files left in the data dir.
+    for sub in ["scenes", "clocks"] {
+        for e in std::fs::read_dir(dir.path().join(sub)).unwrap() {
+            let name = e.unwrap().file_name();
+            assert!(!name.to_string_lossy().ends_with(".tmp"), "{name:?}");
+        }
+    }
+}
+
+#[tokio::test]
+async fn a_rejected_put_leaves_disk_and_memory_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+    let mut bad = small_spec();
+    bad["gravity"] = json!(-1);
+    let (st, _) = s.put_scene("harbour", &bad).await;
+    assert_eq!(st, 422);
+    assert!(!dir.path().join("scenes/harbour.json").exists());
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn config_file_scenes_load() {
+    let toml = r#"
+[limits]
+max_points = 10
+
+[scenes.pond]
+description = "a pond"
+tick_hz = 10
+layers = [{ kind = "sine", waves = [{ amplitude = 0.1, wavelength = 8, direction = [1, 0] }] }]
+"#;
+    let file = swell::config::parse_toml(toml).unwrap();
+    let mut cfg = config();
+    cfg.scenes = file.scenes;
+    cfg.limits = file.limits.unwrap();
+    let s = TestServer::start(cfg).await;
+    let (st, v) = s.get_json("/v1/scenes/pond").await;
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["spec"]["tick_hz"], json!(10.0));
+    let pts: Vec<[f64; 2]> = vec![[0.0, 0.0]; 11];
+    let (st, _) = s
+        .post_json("/v1/scenes/pond/sample", &json!({"points": pts}))
+        .await;
+    assert_eq!(st, 413);
+    s.stop().await;
+
+    let err = swell::config::parse_toml("[scenes.pond]\nlayers = []\ncolour = 1\n").unwrap_err();
+    assert!(err.contains("colour"), "{err}");
+}
+
+/// Shutdown waits for an in-flight request: a big batch started before the signal completes
+/// with 200, the server then stops, and new connections are refused.
+#[tokio::test]
+async fn graceful_shutdown_finishes_in_flight_requests() {
+    let mut s = TestServer::start(config()).await;
+    let pts: Vec<[f64; 2]> = (0..60_000)
+        .map(|i| [(i % 300) as f64 * 0.7, (i / 300) as f64 * 0.9])
+        .collect();
+    let body = json!({"t": 5.0, "points": pts, "fields": ["height", "normal"]});
+    let client = s.client.clone();
+    let url = s.url("/v1/scenes/storm/sample");
+    let inflight = tokio::spawn(async move { client.post(url).json(&body).send().await });
+    // Let the request reach the server before the shutdown starts.
+    tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    let stopped = s.begin_stop();
+    let resp = inflight
+        .await
+        .unwrap()
+        .expect("in-flight request completes");
+    assert_eq!(resp.status(), 200);
+    let v: serde_json::Value = resp.json().await.unwrap();
+    assert_eq!(v["height"].as_array().unwrap().len(), 60_000);
+    tokio::time::timeout(std::time::Duration::from_secs(10), stopped)
+        .await
+        .expect("shutdown completes")
+        .unwrap()
+        .unwrap();
+    assert!(s.client.get(s.url("/healthz")).send().await.is_err());
+}
