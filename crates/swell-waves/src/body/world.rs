@@ -156,7 +156,12 @@ pub fn substeps_for(model: &BodyModel, settings: &WorldSettings) -> u32 {
     n.next_power_of_two().min(MAX_SUBSTEPS)
 }
 
-/// A set of bodies in one sea, stepped at a fixed rate. See the [module docs](self).
+/// A set of bodies in one sea, stepped at a fixed rate.
+///
+/// Determinism: the state at tick n is a pure function of the settings, the sea, the bodies'
+/// specs and initial states and the input log. Bodies are stepped in id order (`BTreeMap`),
+/// inputs summed in the order given, and a body's trajectory does not depend on the other
+/// bodies. [`World::snapshot`] / [`World::restore`] reproduce every later tick to the bit.
 #[derive(Debug, Clone)]
 pub struct World {
     settings: WorldSettings,

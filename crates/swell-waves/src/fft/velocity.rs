@@ -64,10 +64,12 @@ impl FftVelocityFrame {
 }
 
 impl FftLayer {
-    /// The orbital velocity grids at time `t`, s (the time derivative of the displacement series). Time is reduced
-    /// modulo the repeat period exactly as in [`FftLayer::frame`], so velocity frames at `t` and
-    /// `t + T` are bit-identical. Deterministic with the portable backend. See the `fft` module docs
-    /// for the series; `velocity` grids are the time derivative of the displacement grids.
+    /// The orbital velocity grids at time `t`, s: the time derivative of the displacement
+    /// series, `Σ_k c(k)·∂h̃/∂t·e^{i k·x}` with
+    /// `∂h̃/∂t = −iω_q·h0(k)·e^{−iω_q t} + iω_q·conj(h0(−k))·e^{+iω_q t}` and the multipliers
+    /// c(k) of the `Height`, `DisplacementX`, `DisplacementZ` grids. Time is reduced modulo the
+    /// repeat period exactly as in [`FftLayer::frame`], so velocity frames at `t` and `t + T`
+    /// are bit-identical. Deterministic with the portable backend.
     pub fn velocity_frame(&self, t: f64) -> FftVelocityFrame {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
