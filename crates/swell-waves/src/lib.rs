@@ -37,7 +37,9 @@
 //!   grid sampling, and the direct-summation reference.
 //! - [`surface`] — [`Surface`] (the layers a scene declares) and [`SurfaceAt`] (frozen at `t`).
 //! - [`query`] — height with inversion, normal, displacement, Jacobian/fold, residual; batches.
-//! - [`body`] — floating-body orientation from probe points.
+//! - [`body`] — floating bodies: orientation from probe points, and the deterministic rigid-body
+//!   buoyancy simulation ([`body::World`]).
+//! - [`velocity`] — orbital velocity of the water at the surface (∂/∂t of the displacement).
 //! - [`error`] — [`SpecError`], the typed validation error.
 //!
 //! # Conventions
@@ -84,6 +86,7 @@ pub mod query;
 pub mod sine;
 pub mod spectrum;
 pub mod surface;
+pub mod velocity;
 pub mod wave;
 
 pub use error::SpecError;

@@ -263,6 +263,7 @@ impl Surface {
             t,
             frames,
             options: *options,
+            velocities: Vec::new(),
         })
     }
 
@@ -297,6 +298,7 @@ impl Surface {
             t,
             frames,
             options: *options,
+            velocities: Vec::new(),
         })
     }
 }
@@ -308,6 +310,9 @@ pub struct SurfaceAt<'s> {
     pub(crate) t: f64,
     pub(crate) frames: Vec<Option<Arc<FftFrame>>>,
     pub(crate) options: QueryOptions,
+    /// Orbital velocity grids per layer (`Some` for FFT layers once computed; empty until
+    /// [`SurfaceAt::with_velocity`] or [`SurfaceAt::with_velocity_frames`]).
+    pub(crate) velocities: Vec<Option<Arc<crate::fft::FftVelocityFrame>>>,
 }
 
 impl SurfaceAt<'_> {

@@ -48,11 +48,13 @@ mod sample;
 #[cfg(test)]
 mod tests;
 mod transform;
+mod velocity;
 
 pub use fields::{FftFields, FftGrid};
 pub use frame::FftFrame;
 pub use layer::{FftLayer, MAX_CHOPPINESS, MAX_RESOLUTION, MIN_RESOLUTION};
 pub use sample::{FftSample, SampleFilter};
+pub use velocity::FftVelocityFrame;
 
 use crate::spectrum::{SpectrumSpec, SpreadingSpec};
 #[cfg(feature = "serde")]

@@ -46,3 +46,38 @@ impl FftLayer {
         }
     }
 }
+
+impl FftLayer {
+    /// Orbital velocity `(vx, vy, vz)`, m/s, at undisplaced point `p0` and time `t` by direct
+    /// summation: the reference for [`FftLayer::velocity_frame`]. Same reductions as
+    /// [`FftLayer::sample_reference`], with `∂h̃/∂t` in place of `h̃`.
+    pub fn velocity_reference(&self, p0: DVec2, t: f64) -> DVec3 {
+        let n = self.n;
+        let t_r = t.rem_euclid(self.repeat_period);
+        let x = p0.x.rem_euclid(self.tile_size);
+        let z = p0.y.rem_euclid(self.tile_size);
+        let mut acc = [0.0f64; 3];
+        for (idx, mode) in self.half.iter().enumerate() {
+            let (m, q) = (idx / n, idx % n);
+            if mode.is_empty() || (m == 0 && q >= n / 2) {
+                continue;
+            }
+            let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
+            let r = super::velocity::htilde_rate(mode, s, c);
+            let (sx, cx) = sin_cos(reduce_phase(mode.kx * x + mode.kz * z));
+            let e = r * Complex::new(cx, sx);
+            for (slot, grid) in [
+                FftGrid::DisplacementX,
+                FftGrid::Height,
+                FftGrid::DisplacementZ,
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let v = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, e);
+                acc[slot] += 2.0 * v.re;
+            }
+        }
+        DVec3::new(acc[0], acc[1], acc[2])
+    }
+}

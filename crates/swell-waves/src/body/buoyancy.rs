@@ -1,0 +1,87 @@
+//! Hydrostatic and hydrodynamic loads on a hull in one sea snapshot.
+//!
+//! For each cell (a vertical column of height h, volume V, width w = sqrt(V/h)) at world centre
+//! c, with u the body's up axis in the world:
+//! - its world vertical half-extent is `e = ½·(h·|u_y| + w·sqrt(1 − u_y²))` (the column's
+//!   height when level, its width when on its side);
+//! - its submerged fraction is `f = clamp((η − (c_y − e)) / (2e), 0, 1)`, with η the sea
+//!   height above the cell's world (x, z) (inverting horizontal displacement);
+//! - buoyancy `ρ·g·V·f·ŷ` acts at c, so a hull tilted or lifted unevenly feels a righting
+//!   torque about the centre of mass;
+//! - drag `−f·(V/ΣV)·(c₁ + c₂·|u_rel|)·u_rel` acts at c, where u_rel is the cell's velocity
+//!   (`v + ω × r`) minus the water particle velocity there ([`crate::velocity`]).
+//!
+//! Angular damping adds `−c_ω·(V_sub/ΣV)·ω`.
+
+use glam::{DMat3, DVec2, DVec3};
+
+use super::spec::BodyModel;
+use crate::surface::SurfaceAt;
+
+/// Forces and torques about the centre of mass, world frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Loads {
+    /// Buoyancy plus gravity, N.
+    pub(crate) force: DVec3,
+    /// Buoyancy torque about the centre of mass, N·m.
+    pub(crate) torque: DVec3,
+    /// Drag force, N.
+    pub(crate) drag_force: DVec3,
+    /// Drag and damping torque, N·m.
+    pub(crate) drag_torque: DVec3,
+    /// Translational drag rate `Σ f·(V/ΣV)·(c₁ + c₂·|u_rel|)`, N·s/m (for the limiter).
+    pub(crate) drag_rate: f64,
+    /// Rotational drag rate `Σ f·(V/ΣV)·(c₁ + c₂·|u_rel|)·|r|² + c_ω·V_sub/ΣV`, N·m·s.
+    pub(crate) drag_rate_rot: f64,
+    /// Submerged volume, m³.
+    pub(crate) submerged: f64,
+}
+
+/// The loads on `model` with centre of mass at `com` (world), rotation matrix `rot`, velocity
+/// `v` and angular velocity `w`, in `sea`, water density `rho`, gravity `g`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn loads(
+    model: &BodyModel,
+    com: DVec3,
+    rot: &DMat3,
+    v: DVec3,
+    w: DVec3,
+    sea: &SurfaceAt<'_>,
+    rho: f64,
+    g: f64,
+) -> Loads {
+    let mut out = Loads {
+        force: DVec3::new(0.0, -model.mass * g, 0.0),
+        ..Loads::default()
+    };
+    let up_y = rot.y_axis.y;
+    let side = (1.0 - up_y * up_y).max(0.0).sqrt();
+    let inv_vol = 1.0 / model.hull.volume;
+    for cell in &model.hull.cells {
+        let r = *rot * (cell.position - model.com);
+        let c = com + r;
+        let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);
+        let water = sea.water_at(DVec2::new(c.x, c.z), model.min_wavelength);
+        let f = ((water.height - (c.y - half)) / (2.0 * half)).clamp(0.0, 1.0);
+        if f.is_nan() || f > 0.0 {
+            // NaN falls through to the sums, so the step's finiteness check catches it.
+            let fb = DVec3::new(0.0, rho * g * cell.volume * f, 0.0);
+            out.force += fb;
+            out.torque += r.cross(fb);
+            out.submerged += f * cell.volume;
+            let u = v + w.cross(r) - water.velocity;
+            let rate = f
+                * (cell.volume * inv_vol)
+                * (model.linear_drag + model.quadratic_drag * u.length());
+            let fd = u * -rate;
+            out.drag_force += fd;
+            out.drag_torque += r.cross(fd);
+            out.drag_rate += rate;
+            out.drag_rate_rot += rate * r.length_squared();
+        }
+    }
+    let frac = out.submerged * inv_vol;
+    out.drag_torque -= w * (model.angular_damping * frac);
+    out.drag_rate_rot += model.angular_damping * frac;
+    out
+}

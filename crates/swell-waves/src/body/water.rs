@@ -1,0 +1,111 @@
+//! The sea as a body sees it: height and water velocity above a world point, with the body's
+//! wavelength filter applied to analytic layers.
+
+use glam::{DVec2, DVec3};
+
+use crate::query::InversionMethod;
+use crate::surface::{Layer, SurfaceAt};
+use crate::velocity::keeps;
+use crate::wave::SurfaceSample;
+
+/// Height and velocity of the water at one world point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WaterPoint {
+    /// Surface elevation above the world point, m.
+    pub height: f64,
+    /// Velocity of the surface particle there, m/s.
+    pub velocity: DVec3,
+}
+
+impl SurfaceAt<'_> {
+    /// [`SurfaceAt::sample`] leaving out analytic (sine and Gerstner) waves shorter than
+    /// `min_wavelength`, m; FFT layers are never filtered. `min_wavelength = 0` gives exactly
+    /// the bits of [`SurfaceAt::sample`].
+    pub fn sample_filtered(
+        &self,
+        p0: DVec2,
+        derivatives: bool,
+        min_wavelength: f64,
+    ) -> SurfaceSample {
+        let mut out = SurfaceSample::default();
+        for (layer, frame) in self.surface.layers().iter().zip(&self.frames) {
+            match layer {
+                Layer::Sine(_) | Layer::Gerstner(_) => {
+                    for w in layer.waves() {
+                        if keeps(w, min_wavelength) {
+                            w.accumulate(p0, self.t, derivatives, &mut out);
+                        }
+                    }
+                }
+                Layer::Fft(f) => {
+                    let s = match frame {
+                        Some(frame) if !self.options.reference => {
+                            frame.sample(p0, self.options.filter)
+                        }
+                        _ => f.sample_reference(p0, self.t),
+                    };
+                    out.displacement += s.displacement;
+                    if derivatives {
+                        out.d_dx += DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z);
+                        out.d_dz += DVec3::new(s.jacobian.z, s.slope.y, s.jacobian.y);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Height and water velocity above world `(x, z)` with analytic waves shorter than
+    /// `min_wavelength` left out: solves `p0 + D(p0) = world` on the filtered surface with the
+    /// snapshot's inversion settings (the same iteration as [`SurfaceAt::invert`]: best iterate
+    /// kept, Newton falling back to a fixed-point step where the Jacobian is singular), then
+    /// reads the elevation and the particle velocity at the source point.
+    /// `min_wavelength = 0` gives the same height bits as [`SurfaceAt::height`].
+    pub fn water_at(&self, world: DVec2, min_wavelength: f64) -> WaterPoint {
+        let (source, height) = if self.surface.has_horizontal_motion() {
+            self.invert_filtered(world, min_wavelength)
+        } else {
+            let s = self.sample_filtered(world, false, min_wavelength);
+            (world, s.displacement.y)
+        };
+        WaterPoint {
+            height,
+            velocity: self.velocity_filtered(source, min_wavelength),
+        }
+    }
+
+    /// The source point and its elevation.
+    fn invert_filtered(&self, target: DVec2, min_wavelength: f64) -> (DVec2, f64) {
+        let inv = self.options.inversion;
+        let newton = inv.method == InversionMethod::Newton;
+        let mut p = target;
+        let (mut best, mut best_y, mut best_r) = (target, 0.0, f64::INFINITY);
+        let mut it = 0;
+        loop {
+            let s = self.sample_filtered(p, newton, min_wavelength);
+            let f = p + DVec2::new(s.displacement.x, s.displacement.z) - target;
+            let r = f.length();
+            if r < best_r {
+                (best, best_y, best_r) = (p, s.displacement.y, r);
+            }
+            if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {
+                break;
+            }
+            let step = if newton {
+                let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
+                let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
+                let det = a * d - b * c;
+                if det > 1e-9 {
+                    DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
+                } else {
+                    f
+                }
+            } else {
+                f
+            };
+            p -= step;
+            it += 1;
+        }
+        (best, best_y)
+    }
+}

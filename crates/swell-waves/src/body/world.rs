@@ -1,0 +1,516 @@
+//! A set of rigid floating bodies stepped together at a fixed rate: the deterministic
+//! simulation a scene's authority runs.
+//!
+//! # Determinism
+//! The state at tick n is a pure function of the world settings, the sea (its spec), the bodies'
+//! specs and initial states and the input log: bodies live in a `BTreeMap` and are stepped in id
+//! order, inputs are summed in the order they were given, every sum has a fixed order, and all
+//! maths is plain IEEE arithmetic plus the crate's `sin_cos`. Bodies do not interact, so one
+//! body's trajectory does not depend on which other bodies exist. [`World::snapshot`] /
+//! [`World::restore`] copy the whole state, so a restored world reproduces every later tick to
+//! the bit.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use glam::{DMat3, DQuat, DVec3};
+
+use super::buoyancy::loads;
+use super::spec::{BodyModel, BodySpec};
+use super::state::{BodyState, BodyStatus, quat_from_rotation_vector};
+use crate::error::{SpecError, finite, positive};
+use crate::query::{QueryFields, QueryOptions};
+use crate::surface::{Surface, SurfaceAt};
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+/// A body's id within a world.
+pub type BodyId = u64;
+
+/// Largest tick rate, Hz: beyond 1 kHz a game server gains nothing and the sea evaluations
+/// per second explode.
+pub const MAX_TICK_HZ: f64 = 1000.0;
+/// Most substeps per tick a body may take (the clamp of [`substeps_for`]).
+pub const MAX_SUBSTEPS: u32 = 256;
+/// Largest phase advance of the stiffest natural oscillation per substep, rad. Semi-implicit
+/// Euler is stable for `h·ω < 2`; at 0.25 the oscillation period is off by `(h·ω)²/24 ≈ 0.3%`
+/// and a natural period spans at least 25 substeps, so the moment a column leaves the water is
+/// resolved too. Halving it doubles the cost of stiff bodies.
+pub const PHASE_PER_SUBSTEP: f64 = 0.25;
+
+/// Settings shared by every body of a world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(default, deny_unknown_fields))]
+pub struct WorldSettings {
+    /// Ticks per second, Hz (in (0, 1000]); the step is `dt = 1/tick_hz`. Default 30.
+    pub tick_hz: f64,
+    /// Water density ρ, kg/m³ (> 0). Default 1025 (sea water).
+    pub water_density: f64,
+    /// Gravity g, m/s² (> 0). Default 9.81; use the sea's.
+    pub gravity: f64,
+    /// Sea time of tick 0, s (finite). Tick n is at `start_time + n/tick_hz`. Default 0.
+    pub start_time: f64,
+}
+
+impl Default for WorldSettings {
+    fn default() -> Self {
+        Self {
+            tick_hz: 30.0,
+            water_density: 1025.0,
+            gravity: crate::spectrum::STANDARD_GRAVITY,
+            start_time: 0.0,
+        }
+    }
+}
+
+impl WorldSettings {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// `tick_hz` not in (0, 1000]; `water_density` or `gravity` not finite and > 0;
+    /// `start_time` not finite.
+    pub fn validate(&self) -> Result<(), SpecError> {
+        let hz = positive("tick_hz", self.tick_hz)?;
+        if hz > MAX_TICK_HZ {
+            return Err(SpecError::OutOfRange {
+                field: "tick_hz".into(),
+                value: hz,
+                allowed: format!("in (0, {MAX_TICK_HZ}] Hz"),
+            });
+        }
+        positive("water_density", self.water_density)?;
+        positive("gravity", self.gravity)?;
+        finite("start_time", self.start_time)?;
+        Ok(())
+    }
+}
+
+/// A force and torque applied to one body, in the body frame, for a span of ticks (thrust,
+/// rudder, a push).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct BodyInput {
+    /// The body.
+    pub body: BodyId,
+    /// Force in the body frame, N, applied at the centre of mass.
+    pub force: [f64; 3],
+    /// Torque in the body frame, N·m.
+    pub torque: [f64; 3],
+    /// First tick it acts on.
+    pub from_tick: u64,
+    /// Number of ticks it acts for (≥ 1).
+    pub ticks: u64,
+}
+
+impl BodyInput {
+    fn active(&self, tick: u64) -> bool {
+        tick >= self.from_tick && tick - self.from_tick < self.ticks
+    }
+}
+
+/// One body in a world: its model, state and status.
+#[derive(Debug, Clone)]
+pub struct Body {
+    model: Arc<BodyModel>,
+    state: BodyState,
+    status: BodyStatus,
+}
+
+impl Body {
+    /// The validated model.
+    pub fn model(&self) -> &BodyModel {
+        &self.model
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &BodyState {
+        &self.state
+    }
+
+    /// The status after the last step.
+    pub fn status(&self) -> &BodyStatus {
+        &self.status
+    }
+}
+
+/// Substeps per tick for a body: `n = clamp(ceil(dt·ω/0.25), 1, 256)` rounded up to a power of
+/// two, with ω the larger of the heave and rotation natural frequencies
+/// ([`BodyModel::heave_frequency`], [`BodyModel::rotation_frequency`]) and 0.25 rad the
+/// [`PHASE_PER_SUBSTEP`]. The power of two makes substep times nest (`i/n` of a tick is exact
+/// and the same for every n that has it), so bodies share sea snapshots within a tick.
+pub fn substeps_for(model: &BodyModel, settings: &WorldSettings) -> u32 {
+    let (rho, g) = (settings.water_density, settings.gravity);
+    let omega = model
+        .heave_frequency(rho, g)
+        .max(model.rotation_frequency(rho, g));
+    let raw = (omega / settings.tick_hz / PHASE_PER_SUBSTEP).ceil();
+    let n = if raw.is_finite() && raw >= 1.0 {
+        raw.min(f64::from(MAX_SUBSTEPS)) as u32
+    } else if raw.is_nan() || raw > 1.0 {
+        MAX_SUBSTEPS
+    } else {
+        1
+    };
+    n.next_power_of_two().min(MAX_SUBSTEPS)
+}
+
+/// A set of bodies in one sea, stepped at a fixed rate.
+///
+/// Determinism: the state at tick n is a pure function of the settings, the sea, the bodies'
+/// specs and initial states and the input log. Bodies are stepped in id order (`BTreeMap`),
+/// inputs summed in the order given, and a body's trajectory does not depend on the other
+/// bodies. [`World::snapshot`] / [`World::restore`] reproduce every later tick to the bit.
+#[derive(Debug, Clone)]
+pub struct World {
+    settings: WorldSettings,
+    tick: u64,
+    next_id: BodyId,
+    bodies: BTreeMap<BodyId, Body>,
+    /// Per body, in the order given.
+    inputs: BTreeMap<BodyId, Vec<BodyInput>>,
+}
+
+/// A copy of a world's whole state (settings, tick, bodies, input log), for
+/// [`World::restore`].
+#[derive(Debug, Clone)]
+pub struct WorldSnapshot(World);
+
+impl WorldSnapshot {
+    /// The tick the snapshot was taken at.
+    pub fn tick(&self) -> u64 {
+        self.0.tick
+    }
+}
+
+impl World {
+    /// An empty world at tick 0.
+    ///
+    /// # Errors
+    /// Invalid settings (see [`WorldSettings::validate`]).
+    pub fn new(settings: WorldSettings) -> Result<World, SpecError> {
+        settings.validate()?;
+        Ok(World {
+            settings,
+            tick: 0,
+            next_id: 0,
+            bodies: BTreeMap::new(),
+            inputs: BTreeMap::new(),
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &WorldSettings {
+        &self.settings
+    }
+
+    /// The next tick to be stepped (the number of steps taken so far).
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Sea time of tick `tick`, s: `start_time + tick/tick_hz`.
+    pub fn time_of_tick(&self, tick: u64) -> f64 {
+        self.substep_time(tick, 0)
+    }
+
+    /// Sea time of the current tick, s (the state is the state at this time).
+    pub fn time(&self) -> f64 {
+        self.time_of_tick(self.tick)
+    }
+
+    /// `start_time + (tick + key/256)/tick_hz`; `key/256` is exact.
+    fn substep_time(&self, tick: u64, key: u32) -> f64 {
+        self.settings.start_time
+            + (tick as f64 + f64::from(key) / f64::from(MAX_SUBSTEPS)) / self.settings.tick_hz
+    }
+
+    /// Adds a body with the next free id (one more than the largest ever given) and returns
+    /// the id.
+    ///
+    /// # Errors
+    /// An invalid spec (`body.…`, see [`BodySpec::build`]) or initial state (`state.…`).
+    pub fn add(&mut self, spec: &BodySpec, initial: BodyState) -> Result<BodyId, SpecError> {
+        let id = self.next_id;
+        self.insert(id, spec, initial)?;
+        Ok(id)
+    }
+
+    /// Adds or replaces the body `id`.
+    ///
+    /// # Errors
+    /// As [`World::add`].
+    pub fn insert(
+        &mut self,
+        id: BodyId,
+        spec: &BodySpec,
+        initial: BodyState,
+    ) -> Result<(), SpecError> {
+        let model = spec.build("body")?;
+        let state = initial.validated("state")?;
+        let status = BodyStatus {
+            substeps: substeps_for(&model, &self.settings),
+            ..BodyStatus::default()
+        };
+        self.bodies.insert(
+            id,
+            Body {
+                model: Arc::new(model),
+                state,
+                status,
+            },
+        );
+        self.next_id = self.next_id.max(id.saturating_add(1));
+        Ok(())
+    }
+
+    /// Removes a body and its inputs; whether it existed.
+    pub fn remove(&mut self, id: BodyId) -> bool {
+        self.inputs.remove(&id);
+        self.bodies.remove(&id).is_some()
+    }
+
+    /// The body `id`.
+    pub fn body(&self, id: BodyId) -> Option<&Body> {
+        self.bodies.get(&id)
+    }
+
+    /// Every body, in id order.
+    pub fn bodies(&self) -> impl Iterator<Item = (BodyId, &Body)> {
+        self.bodies.iter().map(|(&id, b)| (id, b))
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// Whether the world has no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// Appends an input to the log. Inputs for the same body and tick add up, in the order
+    /// given.
+    ///
+    /// # Errors
+    /// An unknown body (`input.body`), a non-finite force or torque component
+    /// (`input.force[i]`, `input.torque[i]`), or `ticks = 0` (`input.ticks`).
+    pub fn input(&mut self, input: BodyInput) -> Result<(), SpecError> {
+        if !self.bodies.contains_key(&input.body) {
+            return Err(SpecError::Inconsistent {
+                field: "input.body".into(),
+                reason: format!("no body with id {}", input.body),
+            });
+        }
+        for i in 0..3 {
+            finite(&format!("input.force[{i}]"), input.force[i])?;
+            finite(&format!("input.torque[{i}]"), input.torque[i])?;
+        }
+        if input.ticks == 0 {
+            return Err(SpecError::OutOfRange {
+                field: "input.ticks".into(),
+                value: 0.0,
+                allowed: ">= 1".into(),
+            });
+        }
+        self.inputs.entry(input.body).or_default().push(input);
+        Ok(())
+    }
+
+    /// The input log, per body in id order, each in the order given.
+    pub fn inputs(&self) -> impl Iterator<Item = &BodyInput> {
+        self.inputs.values().flatten()
+    }
+
+    /// Drops inputs that ended before the current tick (they cannot act again). Does not change
+    /// any later state.
+    pub fn prune_inputs(&mut self) {
+        let tick = self.tick;
+        for list in self.inputs.values_mut() {
+            list.retain(|i| i.from_tick.saturating_add(i.ticks) > tick);
+        }
+        self.inputs.retain(|_, l| !l.is_empty());
+    }
+
+    /// A copy of the whole state.
+    pub fn snapshot(&self) -> WorldSnapshot {
+        WorldSnapshot(self.clone())
+    }
+
+    /// Puts the world back to a snapshot: every later tick then repeats to the bit.
+    pub fn restore(&mut self, snapshot: &WorldSnapshot) {
+        *self = snapshot.0.clone();
+    }
+
+    /// Steps every body by one tick, `dt = 1/tick_hz`, with the sea at substep time t given by
+    /// `sea(t)`. Within one step `sea` is called once per distinct substep time, in increasing
+    /// order of first use (`t` = tick time first); it must return the surface at exactly that
+    /// time with height queries available and, for FFT layers, velocity grids
+    /// ([`SurfaceAt::with_velocity`]; without them velocities are summed directly, slowly).
+    /// [`World::step_surface`] does this for a whole [`Surface`].
+    ///
+    /// Each body takes [`substeps_for`] substeps of semi-implicit Euler (see [`crate::body`]).
+    /// A body whose state becomes non-finite is put back to its state before the step with its
+    /// velocities zeroed, and flagged ([`BodyStatus::quarantined`], [`BodyStatus::rollbacks`]).
+    pub fn step<'s>(&mut self, mut sea: impl FnMut(f64) -> SurfaceAt<'s>) {
+        let tick = self.tick;
+        let dt = 1.0 / self.settings.tick_hz;
+        let (rho, g) = (self.settings.water_density, self.settings.gravity);
+        // Sea snapshots of this tick, keyed by substep time in 1/256 of a tick.
+        let mut cache: Vec<(u32, SurfaceAt<'s>)> = Vec::new();
+        let times: Vec<f64> = (0..MAX_SUBSTEPS)
+            .map(|k| self.substep_time(tick, k))
+            .collect();
+        for (id, body) in self.bodies.iter_mut() {
+            let (mut f_in, mut t_in) = (DVec3::ZERO, DVec3::ZERO);
+            for i in self.inputs.get(id).into_iter().flatten() {
+                if i.active(tick) {
+                    f_in += DVec3::from_array(i.force);
+                    t_in += DVec3::from_array(i.torque);
+                }
+            }
+            let n = body.status.substeps;
+            let h = dt / f64::from(n);
+            let start = body.state;
+            let mut state = start;
+            let mut submerged = 0.0;
+            let mut ok = true;
+            for i in 0..n {
+                let key = i * (MAX_SUBSTEPS / n);
+                let pos = match cache.iter().position(|(k, _)| *k == key) {
+                    Some(p) => p,
+                    None => {
+                        cache.push((key, sea(times[key as usize])));
+                        cache.len() - 1
+                    }
+                };
+                let s = substep(
+                    &body.model,
+                    &mut state,
+                    &cache[pos].1,
+                    f_in,
+                    t_in,
+                    h,
+                    rho,
+                    g,
+                );
+                submerged = s;
+                if !state.is_finite() {
+                    ok = false;
+                    break;
+                }
+            }
+            if ok && state.is_finite() && submerged.is_finite() {
+                body.state = state;
+                body.status.submerged = submerged;
+                body.status.quarantined = false;
+            } else {
+                body.state = BodyState {
+                    velocity: DVec3::ZERO,
+                    angular_velocity: DVec3::ZERO,
+                    ..start
+                };
+                body.status.quarantined = true;
+                body.status.rollbacks += 1;
+            }
+        }
+        self.tick += 1;
+    }
+
+    /// [`World::step`] with the sea of `surface`: `surface.at(t, HEIGHT, options)` with
+    /// velocity grids for FFT layers, per substep time. Fine for analytic layers; for FFT layers
+    /// a server that shares frames between requests should call [`World::step`] with its cache.
+    ///
+    /// # Errors
+    /// Invalid `options` (nothing is stepped then).
+    pub fn step_surface(
+        &mut self,
+        surface: &Surface,
+        options: &QueryOptions,
+    ) -> Result<(), SpecError> {
+        options.validate()?;
+        // Substep times are finite (validated settings) and the options are valid, so `at`
+        // cannot fail below; a flat zero-layer fallback is not needed.
+        self.step(|t| match surface.at(t, QueryFields::HEIGHT, options) {
+            Ok(s) => s.with_velocity(),
+            Err(_) => unreachable_sea(surface, options),
+        });
+        Ok(())
+    }
+}
+
+/// Only reachable if `Surface::at` rejects a finite time with valid options, which it does not;
+/// returns the surface at t = 0 rather than panicking.
+#[cold]
+fn unreachable_sea<'s>(surface: &'s Surface, options: &QueryOptions) -> SurfaceAt<'s> {
+    surface
+        .at_with_frames(
+            0.0,
+            vec![None; surface.layers().len()],
+            &QueryOptions {
+                reference: true,
+                ..*options
+            },
+        )
+        .unwrap_or_else(|_| unreachable!("reference snapshots need no frames"))
+}
+
+/// One semi-implicit Euler substep of length `h`; returns the submerged volume fraction.
+///
+/// Linear: `v ← v + h·F/m`, `x ← x + h·v`. Angular, in the world frame: `L = I_w·ω + h·τ` with
+/// `I_w = R·I·Rᵀ`, the orientation advanced by the rotation vector `h·I_w⁻¹·L`, then
+/// `ω = I_w'⁻¹·L` with the new orientation (so a torque-free body keeps its angular momentum
+/// exactly). Drag is limited so that one substep never removes more than the relative velocity
+/// (the implicit-Euler bound): if `h·Σrate > m` the drag force is scaled by `m/(h·Σrate)`, and
+/// likewise the drag torque against the smallest moment of inertia.
+#[allow(clippy::too_many_arguments)]
+fn substep(
+    model: &BodyModel,
+    state: &mut BodyState,
+    sea: &SurfaceAt<'_>,
+    f_in: DVec3,
+    t_in: DVec3,
+    h: f64,
+    rho: f64,
+    g: f64,
+) -> f64 {
+    let rot = DMat3::from_quat(state.rotation);
+    let com = state.position + rot * model.com;
+    let l = loads(
+        model,
+        com,
+        &rot,
+        state.velocity,
+        state.angular_velocity,
+        sea,
+        rho,
+        g,
+    );
+    let lin_scale = if h * l.drag_rate > model.mass {
+        model.mass / (h * l.drag_rate)
+    } else {
+        1.0
+    };
+    let rot_scale = if h * l.drag_rate_rot > model.min_moment {
+        model.min_moment / (h * l.drag_rate_rot)
+    } else {
+        1.0
+    };
+    let force = l.force + l.drag_force * lin_scale + rot * f_in;
+    let torque = l.torque + l.drag_torque * rot_scale + rot * t_in;
+
+    let v = state.velocity + force * (h / model.mass);
+    let com = com + v * h;
+    let inv_world = |r: &DMat3| *r * model.inv_inertia * r.transpose();
+    let momentum = rot * (model.inertia * (rot.transpose() * state.angular_velocity)) + torque * h;
+    let w_mid = inv_world(&rot) * momentum;
+    let q: DQuat = (quat_from_rotation_vector(w_mid * h) * state.rotation).normalize();
+    let rot_new = DMat3::from_quat(q);
+    state.angular_velocity = inv_world(&rot_new) * momentum;
+    state.rotation = q;
+    state.velocity = v;
+    state.position = com - rot_new * model.com;
+    l.submerged / model.hull.volume
+}

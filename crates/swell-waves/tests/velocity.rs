@@ -1,0 +1,158 @@
+//! The water velocity query against the time derivative of the displacement (central
+//! differences), and the FFT velocity grids against direct summation.
+
+mod common;
+
+use glam::{DVec2, DVec3};
+use swell_waves::fft::{FftBackend, FftSpec};
+use swell_waves::spectrum::{SpectrumSpec, SpreadingSpec};
+use swell_waves::{LayerSpec, QueryFields, QueryOptions, Surface, SurfaceSpec};
+
+fn fft_layer(choppiness: f64) -> LayerSpec {
+    LayerSpec::Fft(FftSpec {
+        resolution: 32,
+        tile_size: 100.0,
+        choppiness,
+        repeat_period: 60.0,
+        spectrum: SpectrumSpec::PiersonMoskowitz { wind_speed: 8.0 },
+        spreading: SpreadingSpec::default(),
+        wind_direction: [1.0, 0.4],
+        // No waves shorter than 8 grid cells, where the bicubic filter is accurate.
+        band: Some(swell_waves::fft::Band {
+            min_wavelength: 25.0,
+            max_wavelength: None,
+        }),
+        seed: Some(5),
+        backend: FftBackend::Portable,
+    })
+}
+
+/// Central difference of the displacement at fixed p0: (D(t + e) − D(t − e)) / 2e.
+fn dd_dt(s: &Surface, p0: DVec2, t: f64, e: f64, opts: &QueryOptions) -> DVec3 {
+    let at = |t: f64| s.at(t, QueryFields::ALL, opts).unwrap().displacement(p0);
+    (at(t + e) - at(t - e)) / (2.0 * e)
+}
+
+#[test]
+fn analytic_velocity_is_the_time_derivative_of_displacement() {
+    let mut spec = common::gerstner_spec(3, 12, 0.8);
+    spec.layers.extend(common::sine_spec().layers);
+    let s = Surface::new(&spec).unwrap();
+    let opts = QueryOptions::default();
+    for &(x, z, t) in &[(0.0, 0.0, 0.0), (13.2, -40.1, 7.3), (-300.0, 25.0, 1234.5)] {
+        let p0 = DVec2::new(x, z);
+        let v = s.at(t, QueryFields::HEIGHT, &opts).unwrap().velocity(p0);
+        let fd = dd_dt(&s, p0, t, 1e-4, &opts);
+        // Central difference error ~ e²·|d³D/dt³| ≤ 1e-8·Σ A·ω³ plus rounding 1e-16/1e-4.
+        assert!((v - fd).length() < 1e-6, "{v} vs {fd} at {x} {z} {t}");
+        let r = s
+            .at(t, QueryFields::HEIGHT, &opts)
+            .unwrap()
+            .velocity_reference(p0);
+        assert!((v - r).length() < 1e-9, "{v} vs reference {r}");
+    }
+}
+
+#[test]
+fn a_single_gerstner_particle_circles_at_omega_a() {
+    // Q = 1: the particle runs round a circle of radius A at angular speed ω, so |v| = ω·A.
+    let spec: SurfaceSpec = serde_json::from_value(serde_json::json!({"layers": [{"kind": "gerstner",
+        "waves": [{"amplitude": 0.8, "wavelength": 30.0, "direction": [0.6, 0.8], "steepness": 1.0}]}]}))
+    .unwrap();
+    let s = Surface::new(&spec).unwrap();
+    let w = s.layers()[0].waves()[0];
+    for i in 0..20 {
+        let t = 0.37 * i as f64;
+        let v = s
+            .at(t, QueryFields::HEIGHT, &QueryOptions::default())
+            .unwrap()
+            .velocity(DVec2::new(1.0, 2.0));
+        assert!((v.length() - w.omega * 0.8).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn fft_velocity_grid_matches_direct_summation_and_time_difference() {
+    for chop in [0.0, 1.0] {
+        let spec = SurfaceSpec {
+            seed: 1,
+            gravity: 9.81,
+            depth: None,
+            layers: vec![fft_layer(chop)],
+        };
+        let s = Surface::new(&spec).unwrap();
+        let swell_waves::Layer::Fft(layer) = &s.layers()[0] else {
+            unreachable!()
+        };
+        let opts = QueryOptions::default();
+        let t = 17.25;
+        let sea = s.at(t, QueryFields::HEIGHT, &opts).unwrap().with_velocity();
+        let frame = layer.velocity_frame(t);
+        assert_eq!(frame.transforms(), if chop > 0.0 { 3 } else { 1 });
+        // Scale: the largest particle speed is about Σ ω·|h̃|; compare relative to the r.m.s.
+        let mut rms = 0.0;
+        let mut worst: f64 = 0.0;
+        let n = 32;
+        for i in 0..n {
+            // At grid nodes the grid is exact (up to FFT rounding).
+            let node = DVec2::new(i as f64 * 100.0 / 32.0, (i * 7 % 32) as f64 * 100.0 / 32.0);
+            let g = sea.velocity(node);
+            let r = layer.velocity_reference(node, t);
+            rms += r.length_squared() / n as f64;
+            worst = worst.max((g - r).length());
+        }
+        let rms = rms.sqrt();
+        assert!(rms > 0.01, "sea too calm to test: {rms}");
+        assert!(
+            worst < 1e-9 * rms.max(1.0),
+            "node error {worst} (rms {rms})"
+        );
+        // Between nodes the bicubic filter: within a few percent of the r.m.s. (the same
+        // filter error as the height grid's on a sea of waves ≥ 8 cells long).
+        let mut worst: f64 = 0.0;
+        for i in 0..50 {
+            let p = DVec2::new(3.7 * i as f64 + 0.3, -2.9 * i as f64 + 0.8);
+            worst = worst.max((sea.velocity(p) - layer.velocity_reference(p, t)).length());
+        }
+        assert!(worst < 0.05 * rms, "between nodes {worst} vs rms {rms}");
+        // The reference is the time derivative of the reference displacement (ω quantised the
+        // same way in both).
+        let p = DVec2::new(12.5, 40.0);
+        let e = 1e-4;
+        let d = |t: f64| layer.sample_reference(p, t).displacement;
+        let fd = (d(t + e) - d(t - e)) / (2.0 * e);
+        let v = layer.velocity_reference(p, t);
+        assert!((v - fd).length() < 1e-6 * rms.max(1.0), "{v} vs {fd}");
+        // Without velocity grids the snapshot falls back to the (same) direct sum.
+        let plain = s.at(t, QueryFields::HEIGHT, &opts).unwrap();
+        assert_eq!(plain.velocity(p), v);
+    }
+}
+
+#[test]
+fn velocity_at_a_world_point_follows_the_particle_found_by_inversion() {
+    let s = Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap();
+    let sea = s
+        .at(4.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    let world = DVec2::new(5.0, -3.0);
+    let source = sea.invert(world, false).source;
+    assert_eq!(sea.velocity_at(world), sea.velocity(source));
+    // Filtered water query with no filter: same height bits as the plain query.
+    let w = sea.water_at(world, 0.0);
+    assert_eq!(w.height.to_bits(), sea.height(world.x, world.y).to_bits());
+    assert_eq!(w.velocity, sea.velocity(source));
+    // With every wave filtered out the water is flat and still.
+    let w = sea.water_at(world, 1e6);
+    assert_eq!((w.height, w.velocity), (0.0, DVec3::ZERO));
+}
+
+#[test]
+fn velocity_frames_from_the_caller_must_match_the_layers() {
+    let s = Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap();
+    let sea = s
+        .at(4.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    let e = sea.with_velocity_frames(vec![]).unwrap_err();
+    assert_eq!(e.field(), "velocity_frames");
+}
