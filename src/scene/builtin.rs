@@ -54,11 +54,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
     (
         "storm",
         r#"{
-  "description": "Storm: steep JONSWAP sea (U10 = 20 m/s, 300 km fetch) on a 512 m FFT tile at 256², choppiness 1.3 for sharp, nearly folding crests.",
+  "description": "Storm: steep JONSWAP sea (U10 = 20 m/s, 300 km fetch) on a 256 m FFT tile at 256², choppiness 2.6: sharp crests that just fold (Jacobian slightly below 0: foam).",
   "tick_hz": 30,
   "seed": 1337,
   "layers": [
-    {"kind": "fft", "resolution": 256, "tile_size": 512, "choppiness": 1.3, "repeat_period": 300,
+    {"kind": "fft", "resolution": 256, "tile_size": 256, "choppiness": 2.6, "repeat_period": 300,
      "wind_direction": [1, -0.2],
      "spectrum": {"kind": "jonswap", "wind_speed": 20, "fetch": 300000, "gamma": 3.3},
      "spreading": {"kind": "mitsuyasu"}}
@@ -93,6 +93,42 @@ mod tests {
             crate::scene::validate_id(&id).unwrap();
             let s = Scene::build(&id, spec).unwrap_or_else(|e| panic!("{id}: {e}"));
             assert!(!s.spec.description.is_empty());
+        }
+    }
+
+    /// Smallest Jacobian determinant of the horizontal map over FFT grid nodes at a few times
+    /// (1 for a scene without horizontal motion): below 0 the surface folds (foam).
+    fn min_jacobian(id: &str) -> f64 {
+        use swell_waves::{QueryFields, QueryOptions};
+        let (_, spec) = specs().into_iter().find(|(i, _)| i == id).unwrap();
+        let scene = Scene::build(id, spec).unwrap();
+        let mut min = f64::INFINITY;
+        for t in [0.0, 7.3, 41.0] {
+            let sea = scene
+                .surface
+                .at(t, QueryFields::ALL, &QueryOptions::default())
+                .unwrap();
+            for i in 0..128 {
+                for j in 0..128 {
+                    let p = glam::DVec2::new(i as f64 * 2.0 + 0.5, j as f64 * 2.0 + 0.25);
+                    min = min.min(sea.sample(p, true).jacobian());
+                }
+            }
+        }
+        min
+    }
+
+    /// What the built-ins promise: `storm` is steep enough to fold a little (foam on the
+    /// crests), the others never fold.
+    #[test]
+    fn storm_is_near_folding_and_the_others_are_not() {
+        let storm = min_jacobian("storm");
+        eprintln!("storm min J = {storm}");
+        assert!((-0.6..0.1).contains(&storm), "storm min J = {storm}");
+        for id in ["calm", "lake", "open-sea"] {
+            let j = min_jacobian(id);
+            eprintln!("{id} min J = {j}");
+            assert!(j > 0.2, "{id} min J = {j}");
         }
     }
 }
