@@ -70,26 +70,21 @@ impl FftLayer {
         let t_r = t.rem_euclid(self.repeat_period);
         let mut grids: [Option<Vec<f64>>; 8] = Default::default();
         let mut transforms = 0;
-        let wanted: Vec<FftGrid> = FftGrid::ALL
-            .into_iter()
-            .filter(|&g| fields.has(g))
-            .collect();
-        if !wanted.is_empty() {
+        if fields.grid_count() > 0 {
+            // Buffers come from the layer's pool: a frame allocates only the grids it returns.
+            let mut scratch = self.transform.take_scratch();
+            let mut htilde = std::mem::take(&mut scratch.htilde);
+            let mut buf = std::mem::take(&mut scratch.spectrum);
             let zero = Complex::new(0.0, 0.0);
-            let htilde: Vec<Complex<f64>> = self
-                .half
-                .iter()
-                .map(|mode| {
-                    if mode.is_empty() {
-                        return zero;
-                    }
+            for (h, mode) in htilde.iter_mut().zip(&self.half) {
+                *h = if mode.is_empty() {
+                    zero
+                } else {
                     let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
                     mode.evolve(s, c)
-                })
-                .collect();
-            let mut buf = vec![zero; htilde.len()];
-            let mut scratch = self.transform.scratch();
-            for grid in wanted {
+                };
+            }
+            for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
                 for ((b, h), mode) in buf.iter_mut().zip(&htilde).zip(&self.half) {
                     *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *h);
                 }
@@ -98,6 +93,9 @@ impl FftLayer {
                 grids[grid.index()] = Some(out);
                 transforms += 1;
             }
+            scratch.htilde = htilde;
+            scratch.spectrum = buf;
+            self.transform.give_back(scratch);
         }
         FftFrame {
             t,

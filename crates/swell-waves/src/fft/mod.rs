@@ -52,7 +52,7 @@ mod transform;
 pub use fields::{FftFields, FftGrid};
 pub use frame::FftFrame;
 pub use layer::{FftLayer, MAX_CHOPPINESS, MAX_RESOLUTION, MIN_RESOLUTION};
-pub use sample::{FftSample, SampleFilter};
+pub use sample::{FftSample, SampleFilter, sample_between};
 
 use crate::spectrum::{SpectrumSpec, SpreadingSpec};
 #[cfg(feature = "serde")]
