@@ -893,7 +893,8 @@ fn chart(knobs: &[Knob], path: &std::path::Path) {
         }
         let (x0, x1) = (x0 / 2.0, x1 * 3.0);
         let (y0, y1) = (y0 / 5.0, y1 * 5.0);
-        let title: String = k.title.chars().take(70).collect();
+        // The panel title is the knob's name, without the table title's details.
+        let title = k.title.split([':', '(']).next().unwrap_or(k.title).trim();
         let mut c = ChartBuilder::on(area)
             .caption(title, ("sans-serif", 15))
             .margin(12)

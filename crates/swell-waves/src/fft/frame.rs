@@ -66,9 +66,28 @@ impl FftLayer {
     /// The result depends only on the layer, `t_r` and `fields`; with the portable backend it is
     /// the same to the bit on every platform.
     pub fn frame(&self, t: f64, fields: FftFields) -> FftFrame {
+        let mut frame = FftFrame {
+            t,
+            fields: FftFields::NONE,
+            n: self.n,
+            tile_size: self.tile_size,
+            grids: Default::default(),
+            transforms: 0,
+        };
+        self.frame_into(t, fields, &mut frame);
+        frame
+    }
+
+    /// [`FftLayer::frame`] into an existing frame, reusing its grid buffers (a frame of this
+    /// layer, or of any layer of the same resolution): the same bits as `frame(t, fields)`, since
+    /// every value of every grid asked is overwritten, but no allocation and no fresh pages from
+    /// the OS once the buffers exist. A tick loop that keeps the previous tick's frame recycles
+    /// it here; grids not in `fields` are dropped.
+    pub fn frame_into(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
         let mut grids: [Option<Vec<f64>>; 8] = Default::default();
+        let mut old = std::mem::take(&mut frame.grids);
         let mut transforms = 0;
         if fields.grid_count() > 0 {
             // Buffers come from the layer's pool: a frame allocates only the grids it returns.
@@ -88,7 +107,10 @@ impl FftLayer {
                 for ((b, h), mode) in buf.iter_mut().zip(&htilde).zip(&self.half) {
                     *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *h);
                 }
-                let mut out = vec![0.0; n * n];
+                let mut out = old[grid.index()]
+                    .take()
+                    .filter(|g| g.len() == n * n)
+                    .unwrap_or_else(|| vec![0.0; n * n]);
                 self.transform.process(&mut buf, &mut scratch, &mut out);
                 grids[grid.index()] = Some(out);
                 transforms += 1;
@@ -97,13 +119,13 @@ impl FftLayer {
             scratch.spectrum = buf;
             self.transform.give_back(scratch);
         }
-        FftFrame {
+        *frame = FftFrame {
             t,
             fields,
             n,
             tile_size: self.tile_size,
             grids,
             transforms,
-        }
+        };
     }
 }

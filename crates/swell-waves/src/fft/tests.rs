@@ -595,6 +595,13 @@ fn pooled_scratch_does_not_change_frames() {
     let _ = used.frame(99.0, FftFields::ALL);
     let _ = used.frame(1.0, FftFields::SLOPES);
     assert_eq!(bits(&used.frame(13.5, FftFields::ALL)), want);
+    // Recycling an old frame's grids gives the same bits (every value is overwritten).
+    let mut recycled = used.frame(50.0, FftFields::ALL);
+    used.frame_into(13.5, FftFields::ALL, &mut recycled);
+    assert_eq!(bits(&recycled), want);
+    used.frame_into(13.5, FftFields::HEIGHT, &mut recycled);
+    assert_eq!(recycled.fields(), FftFields::HEIGHT);
+    assert_eq!(bits(&recycled), bits(&fresh.frame(13.5, FftFields::HEIGHT)));
     std::thread::scope(|scope| {
         let hs: Vec<_> = (0..3)
             .map(|_| scope.spawn(|| bits(&used.frame(13.5, FftFields::ALL))))
