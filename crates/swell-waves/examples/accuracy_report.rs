@@ -299,11 +299,11 @@ fn inversion(size: Size) -> Knob {
                  step counts use tolerance 0 so every point takes them all."
             .into(),
         rows,
-        advice: "Newton reaches the reference to well under 1 mm in 2–3 steps even at S = 0.9, \
-                 where fixed-point needs 16 steps and more; the default (Newton, up to 8 steps, \
-                 stop at 0.01 mm) stops early on easy points, so it costs little more than 3 \
-                 steps. Skipping inversion (reading the height at the undisplaced point) is only \
-                 acceptable for calm seas."
+        advice: "Newton reaches the reference to well under 1 mm in 3 steps even at S = 0.9 \
+                 (2 steps leave millimetres there), where fixed-point needs about 8 steps for the \
+                 same; the default (Newton, up to 8 steps, stop at 0.01 mm) stops early on easy \
+                 points, so it costs about 3 steps. Skipping inversion (reading the height at the \
+                 undisplaced point) is off by metres on these seas: never do it for a choppy sea."
             .into(),
     }
 }
@@ -417,8 +417,10 @@ fn filter(size: Size) -> Knob {
                  summed directly at the exact point: the filter's own error, no truncation."
             .into(),
         rows,
-        advice: "Bicubic is the default for a reason: it costs about twice bilinear per point \
-                 but its error is several times smaller; nearest is only for debugging views."
+        advice: "Bicubic (the default) is the most accurate, at about twice bilinear's cost per \
+                 point; since a 256² grid's own truncation error (previous table) is of the same \
+                 order, bilinear is a fair saving where sampling cost dominates. Nearest is for \
+                 debug views only."
             .into(),
     }
 }
@@ -548,10 +550,11 @@ fn precision(size: Size) -> Knob {
                  (`SurfaceAt::sample_batch_f32`)."
             .into(),
         rows,
-        advice: "f32 after an f64 phase reduction is accurate to a fraction of a millimetre — \
-                 enough for rendering — but it is not bit-identical to the model and saves \
-                 little here, because the f64 phase reduction is most of the work. Keep f64 for \
-                 anything that must agree between machines."
+        advice: "f32 after an f64 phase reduction is accurate to about a micrometre — plenty \
+                 for rendering — but in this implementation it is not faster: the f64 phase \
+                 reduction is most of the work and the f32 lanes add conversions. It exists for \
+                 clients that have no f64 (GPU shaders); it is not bit-identical to the model, so \
+                 keep f64 for anything that must agree between machines."
             .into(),
     }
 }
@@ -702,10 +705,11 @@ fn gerstner_count(size: Size) -> Knob {
             times.len()
         ),
         rows,
-        advice: "A few dozen sampled waves already carry the spectrum's energy; more waves buy \
-                 a less periodic, more natural sea, not a better Hs, at a cost linear in the \
-                 count. Past ~64 waves an FFT layer is cheaper per point and richer, if its \
-                 per-tick frame is affordable."
+        advice: "Every count reproduces the spectrum's Hs to a few per cent (each realisation \
+                 scatters about as much as the FFT's): more waves buy a less repetitive, more \
+                 natural sea, not a better Hs, at a cost linear in the count. An FFT layer is \
+                 cheaper per point than even 16 waves and far richer, but pays a frame per tick \
+                 (about 2 ms at 256², see the FFT tables); sampled waves need no frame at all."
             .into(),
     }
 }
