@@ -2,15 +2,22 @@
 //! portable vs native FFT backends. A naive scalar loop with std sin/cos sits in the same bench
 //! so speed-ups are ratios measured in one run.
 //!
-//! Run: `cargo bench -p swell-waves --bench waves` (add `-- --quick` for a fast pass).
+//! Run: `cargo bench -p swell-waves --bench waves` (add `-- --quick` for a fast pass). The
+//! `targets/*` groups hold the performance targets, each next to its yardstick so the
+//! ratio comes from one run; `docs/performance.md` records them.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlannerScalar};
 use serde_json::json;
-use swell_waves::fft::{FftFields, SampleFilter};
-use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec, wave::Wave};
+use swell_waves::fft::{FftFields, FftGrid, SampleFilter};
+use swell_waves::wave::SurfaceSample;
+use swell_waves::{
+    Inversion, InversionMethod, Layer, QueryFields, QueryOptions, Surface, SurfaceSpec, wave::Wave,
+};
 
 const POINTS: usize = 4096;
 
@@ -51,6 +58,195 @@ fn naive_gerstner(waves: &[Wave], pts: &[DVec2], t: f64, out: &mut [[f64; 3]]) {
         }
         *o = d;
     }
+}
+
+/// The naive way with normals: per point, per wave, std sin/cos on the unreduced phase, the
+/// displacement and its six derivatives summed, then the normal. The same work as
+/// `sample_batch(.., true)` + `SurfaceSample::normal`.
+fn naive_gerstner_normal(waves: &[Wave], pts: &[DVec2], t: f64, out: &mut [[f64; 6]]) {
+    for (p, o) in pts.iter().zip(out.iter_mut()) {
+        let mut d = [0.0; 3];
+        let (mut ddx, mut ddz) = ([0.0; 3], [0.0; 3]);
+        for w in waves {
+            let th = w.wavenumber * w.direction.dot(*p) - w.omega * t + w.phase;
+            let (s, c) = th.sin_cos();
+            let (dx, dz) = (w.direction.x, w.direction.y);
+            let qa = w.steepness * w.amplitude;
+            d[0] += qa * dx * c;
+            d[1] += w.amplitude * s;
+            d[2] += qa * dz * c;
+            let akc = w.amplitude * w.wavenumber * c;
+            let qaks = qa * w.wavenumber * s;
+            ddx[0] -= qaks * dx * dx;
+            ddx[1] += akc * dx;
+            ddx[2] -= qaks * dx * dz;
+            ddz[0] -= qaks * dx * dz;
+            ddz[1] += akc * dz;
+            ddz[2] -= qaks * dz * dz;
+        }
+        let tx = glam::DVec3::new(1.0 + ddx[0], ddx[1], ddx[2]);
+        let tz = glam::DVec3::new(ddz[0], ddz[1], 1.0 + ddz[2]);
+        let n = tz.cross(tx).normalize();
+        *o = [d[0], d[1], d[2], n.x, n.y, n.z];
+    }
+}
+
+/// Plain bilinear lookup of a periodic N×N grid (N a power of two) at world (x, z): the
+/// yardstick for the model's grid sampling.
+fn plain_bilinear(g: &[f64], n: usize, inv_cell: f64, x: f64, z: f64) -> f64 {
+    let (gx, gz) = (x * inv_cell, z * inv_cell);
+    let (fx0, fz0) = (gx.floor(), gz.floor());
+    let (fx, fz) = (gx - fx0, gz - fz0);
+    let m = n as i64 - 1;
+    let (i, j) = ((fx0 as i64 & m) as usize, (fz0 as i64 & m) as usize);
+    let (i1, j1) = ((i + 1) & (n - 1), (j + 1) & (n - 1));
+    let r0 = (1.0 - fx) * g[j * n + i] + fx * g[j * n + i1];
+    let r1 = (1.0 - fx) * g[j1 * n + i] + fx * g[j1 * n + i1];
+    (1.0 - fz) * r0 + fz * r1
+}
+
+/// The bare 2-D inverse real transforms a frame needs, one per grid: N/2 column FFTs and N/2
+/// packed row FFTs of length N each (RustFFT's scalar planner, as the portable backend), on
+/// preallocated buffers, nothing else.
+struct BareTransforms {
+    fft: std::sync::Arc<dyn Fft<f64>>,
+    cols: Vec<Complex<f64>>,
+    rows: Vec<Complex<f64>>,
+    scratch: Vec<Complex<f64>>,
+}
+
+impl BareTransforms {
+    fn new(n: usize) -> Self {
+        let fft = FftPlannerScalar::new().plan_fft_inverse(n);
+        let z = Complex::new(0.0, 0.0);
+        let scratch = vec![z; fft.get_inplace_scratch_len()];
+        Self {
+            fft,
+            cols: vec![Complex::new(0.1, 0.2); n / 2 * n],
+            rows: vec![Complex::new(0.3, 0.4); n / 2 * n],
+            scratch,
+        }
+    }
+    fn run(&mut self, grids: usize) {
+        for _ in 0..grids {
+            self.fft
+                .process_with_scratch(&mut self.cols, &mut self.scratch);
+            self.fft
+                .process_with_scratch(&mut self.rows, &mut self.scratch);
+        }
+    }
+}
+
+/// The targets, each beside its yardstick.
+fn targets(c: &mut Criterion) {
+    let pts = points();
+    let mut g = c.benchmark_group("targets");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(POINTS as u64));
+
+    // 1. 16-wave Gerstner displacement + normal, batch vs naive std sin/cos.
+    let s = gerstner16(0.9);
+    let sea = s
+        .at(10.0, QueryFields::ALL, &QueryOptions::default())
+        .unwrap();
+    let waves = s.layers()[0].waves().to_vec();
+    let mut naive = vec![[0.0; 6]; POINTS];
+    g.bench_function("gerstner16_disp_normal/naive_std_sincos", |b| {
+        b.iter(|| naive_gerstner_normal(&waves, black_box(&pts), 10.0, &mut naive))
+    });
+    let mut buf = vec![SurfaceSample::default(); POINTS];
+    let mut normals = vec![glam::DVec3::ZERO; POINTS];
+    g.bench_function("gerstner16_disp_normal/batch", |b| {
+        b.iter(|| {
+            sea.sample_batch(black_box(&pts), true, &mut buf);
+            for (n, s) in normals.iter_mut().zip(&buf) {
+                *n = s.normal();
+            }
+        })
+    });
+
+    // 2. Height with inversion to ≤ 1 mm at S = 0.9 vs one displacement evaluation. Newton
+    // with a 1 mm residual tolerance (the accuracy report shows the default settings reach
+    // 0.003 mm and Newton × 3 0.0003 mm at S = 0.9).
+    g.bench_function("height_S0.9/one_displacement_evaluation", |b| {
+        b.iter(|| sea.sample_batch(black_box(&pts), false, &mut buf))
+    });
+    let mm = QueryOptions {
+        inversion: Inversion {
+            method: InversionMethod::Newton,
+            iterations: 8,
+            tolerance: 1e-3,
+        },
+        ..Default::default()
+    };
+    let sea_mm = s.at(10.0, QueryFields::HEIGHT, &mm).unwrap();
+    let mut res = vec![Default::default(); POINTS];
+    g.bench_function("height_S0.9/newton_to_1mm", |b| {
+        b.iter(|| sea_mm.query_batch_into(black_box(&pts), QueryFields::HEIGHT, &mut res))
+    });
+    g.finish();
+
+    // 3. FFT frame 256² all fields vs the bare transforms; height-only vs full.
+    let mut g = c.benchmark_group("targets_fft");
+    g.sample_size(10);
+    let s = fft_surface(256, "portable", 1.0);
+    let mut bare = BareTransforms::new(256);
+    g.bench_function("frame256/bare_8_inverse_real_transforms", |b| {
+        b.iter(|| bare.run(8))
+    });
+    g.bench_function("frame256/all_fields", |b| {
+        b.iter(|| s.fft_frame(0, black_box(10.0), FftFields::ALL))
+    });
+    g.bench_function("frame256/height_only", |b| {
+        b.iter(|| s.fft_frame(0, black_box(10.0), FftFields::HEIGHT))
+    });
+    // The same frames recycling the previous frame's grids (what a tick loop does): no fresh
+    // pages from the OS for the output.
+    let layer = match &s.layers()[0] {
+        Layer::Fft(f) => f,
+        _ => unreachable!(),
+    };
+    let mut recycled = layer.frame(10.0, FftFields::ALL);
+    g.bench_function("frame256/all_fields_recycled", |b| {
+        b.iter(|| layer.frame_into(black_box(10.0), FftFields::ALL, &mut recycled))
+    });
+    let mut recycled_h = layer.frame(10.0, FftFields::HEIGHT);
+    g.bench_function("frame256/height_only_recycled", |b| {
+        b.iter(|| layer.frame_into(black_box(10.0), FftFields::HEIGHT, &mut recycled_h))
+    });
+    g.finish();
+
+    // 4. Bilinear FFT-grid height sample vs one plain bilinear lookup of the same grid.
+    let mut g = c.benchmark_group("targets_sample");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(POINTS as u64));
+    let frame = s.fft_frame(0, 10.0, FftFields::HEIGHT).unwrap();
+    let grid = frame.grid(FftGrid::Height).unwrap().to_vec();
+    let layer_n = match &s.layers()[0] {
+        Layer::Fft(f) => f.resolution(),
+        _ => unreachable!(),
+    };
+    let inv_cell = layer_n as f64 / 256.0;
+    g.bench_function("height_bilinear/plain_lookup", |b| {
+        b.iter(|| {
+            pts.iter()
+                .map(|p| plain_bilinear(&grid, layer_n, inv_cell, black_box(p.x), p.y))
+                .sum::<f64>()
+        })
+    });
+    g.bench_function("height_bilinear/frame_sample", |b| {
+        b.iter(|| {
+            pts.iter()
+                .map(|&p| {
+                    frame
+                        .sample(black_box(p), SampleFilter::Bilinear)
+                        .displacement
+                        .y
+                })
+                .sum::<f64>()
+        })
+    });
+    g.finish();
 }
 
 fn analytic(c: &mut Criterion) {
@@ -169,5 +365,5 @@ fn fft(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, analytic, fft);
+criterion_group!(benches, targets, analytic, fft);
 criterion_main!(benches);

@@ -67,7 +67,9 @@
 //! - sin/cos come from a fixed polynomial kernel in [`math`]; exp/ln/pow/tanh from the pure-Rust
 //!   `libm` crate; no `mul_add`, no fast-math, no platform maths in results;
 //! - each point is evaluated on its own (no reductions across points), so a batch answer equals
-//!   the single answer and threads only split the work;
+//!   the single answer and threads only split the work; batches run blocks of
+//!   [`wave::BLOCK`] points through branch-free, vectorisable kernels, and a single point is a
+//!   block of one, so both run the same code and the same arithmetic at every x86-64 level;
 //! - random numbers come from the generator specified in [`math`] (PCG32 keyed by splitmix64),
 //!   pinned by tests; FFT draws are keyed by wave vector, not by grid size;
 //! - FFT frames use RustFFT's scalar planner by default ([`fft::FftBackend::Portable`]); the

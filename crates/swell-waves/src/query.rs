@@ -189,59 +189,84 @@ impl SurfaceAt<'_> {
     /// Solves `p0 + D(p0) = target` with the snapshot's inversion settings. Returns the best
     /// iterate seen (lowest residual), so more iterations never make the answer worse.
     /// `derivatives` asks for the derivatives at the returned point (for normals/Jacobians).
+    ///
+    /// This is [`SurfaceAt::invert_lanes`] with a block of one point.
     pub fn invert(&self, target: DVec2, derivatives: bool) -> Inverted {
+        self.invert_lanes(&[target], derivatives)[0]
+    }
+
+    /// [`SurfaceAt::invert`] for `B` targets at once. Each lane runs its own iteration (its own
+    /// step count and stopping test); every round evaluates the whole block with
+    /// [`SurfaceAt::sample_lanes`] and lanes that have stopped ignore the result. Lane `l` is
+    /// bit-identical to `invert(targets[l])`.
+    pub fn invert_lanes<const B: usize>(
+        &self,
+        targets: &[DVec2; B],
+        derivatives: bool,
+    ) -> [Inverted; B] {
         let inv = self.options.inversion;
         if !self.surface.has_horizontal_motion() {
-            return Inverted {
-                source: target,
-                sample: self.sample(target, derivatives),
+            let s = self.sample_lanes(targets, derivatives);
+            return std::array::from_fn(|l| Inverted {
+                source: targets[l],
+                sample: s.get(l),
                 residual: 0.0,
                 iterations: 0,
-            };
+            });
         }
         let newton = inv.method == InversionMethod::Newton;
         let need_d = newton || derivatives;
-        let mut p = target;
-        let mut best: Option<Inverted> = None;
-        let mut it = 0;
-        loop {
-            let s = self.sample(p, need_d);
-            let f = p + DVec2::new(s.displacement.x, s.displacement.z) - target;
-            let r = f.length();
-            if best.is_none_or(|b| r < b.residual) {
-                best = Some(Inverted {
-                    source: p,
-                    sample: s,
-                    residual: r,
-                    iterations: it,
-                });
-            }
-            if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {
-                break;
-            }
-            let step = if newton {
-                // J = ∂F/∂p0 = [[1 + ∂Dx/∂x, ∂Dx/∂z], [∂Dz/∂x, 1 + ∂Dz/∂z]].
-                let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
-                let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
-                let det = a * d - b * c;
-                if det > 1e-9 {
-                    DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
-                } else {
-                    f
-                }
-            } else {
-                f
-            };
-            p -= step;
-            it += 1;
-        }
-        // `best` is always set: the loop body runs at least once.
-        best.unwrap_or(Inverted {
-            source: target,
+        let mut p = *targets;
+        let mut best = [Inverted {
+            source: DVec2::ZERO,
             sample: SurfaceSample::default(),
             residual: f64::INFINITY,
             iterations: 0,
-        })
+        }; B];
+        let mut seen = [false; B];
+        let mut active = [true; B];
+        let mut it = 0;
+        while active.iter().any(|&a| a) {
+            let lanes = self.sample_lanes(&p, need_d);
+            for l in 0..B {
+                if !active[l] {
+                    continue;
+                }
+                let s = lanes.get(l);
+                let target = targets[l];
+                let f = p[l] + DVec2::new(s.displacement.x, s.displacement.z) - target;
+                let r = f.length();
+                if !seen[l] || r < best[l].residual {
+                    seen[l] = true;
+                    best[l] = Inverted {
+                        source: p[l],
+                        sample: s,
+                        residual: r,
+                        iterations: it,
+                    };
+                }
+                if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {
+                    active[l] = false;
+                    continue;
+                }
+                let step = if newton {
+                    // J = ∂F/∂p0 = [[1 + ∂Dx/∂x, ∂Dx/∂z], [∂Dz/∂x, 1 + ∂Dz/∂z]].
+                    let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
+                    let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
+                    let det = a * d - b * c;
+                    if det > 1e-9 {
+                        DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
+                    } else {
+                        f
+                    }
+                } else {
+                    f
+                };
+                p[l] -= step;
+            }
+            it += 1;
+        }
+        best
     }
 
     /// Slow reference inversion: Newton on [`SurfaceAt::sample_reference`] for up to 200 steps,
@@ -294,36 +319,65 @@ impl SurfaceAt<'_> {
         self.invert(DVec2::new(x, z), false).sample.displacement.y
     }
 
-    /// Answers `fields` at the world point `world`.
+    /// Answers `fields` at the world point `world` ([`SurfaceAt::query_lanes`] with one point).
     pub fn query(&self, world: DVec2, fields: QueryFields) -> PointResult {
-        let mut out = PointResult::default();
+        self.query_lanes(&[world], fields)[0]
+    }
+
+    /// Answers `fields` at `B` world points at once; lane `l` is bit-identical to
+    /// `query(worlds[l])`.
+    pub fn query_lanes<const B: usize>(
+        &self,
+        worlds: &[DVec2; B],
+        fields: QueryFields,
+    ) -> [PointResult; B] {
+        let mut out = [PointResult::default(); B];
         if fields.height || fields.normal || fields.jacobian || fields.residual {
             let derivs = fields.normal || fields.jacobian;
-            let inv = self.invert(world, derivs);
-            if fields.height {
-                out.height = inv.sample.displacement.y;
-            }
-            if fields.normal {
-                out.normal = inv.sample.normal();
-            }
-            if fields.jacobian {
-                out.jacobian = inv.sample.jacobian();
-                out.folded = out.jacobian <= 0.0;
-            }
-            if fields.residual {
-                out.residual = inv.residual;
+            let inv = self.invert_lanes(worlds, derivs);
+            for (o, inv) in out.iter_mut().zip(&inv) {
+                if fields.height {
+                    o.height = inv.sample.displacement.y;
+                }
+                if fields.normal {
+                    o.normal = inv.sample.normal();
+                }
+                if fields.jacobian {
+                    o.jacobian = inv.sample.jacobian();
+                    o.folded = o.jacobian <= 0.0;
+                }
+                if fields.residual {
+                    o.residual = inv.residual;
+                }
             }
         }
         if fields.displacement {
-            out.displacement = self.displacement(world);
+            let d = self.sample_lanes(worlds, false);
+            for (l, o) in out.iter_mut().enumerate() {
+                o.displacement = d.get(l).displacement;
+            }
         }
         out
     }
 
-    /// Answers `fields` for every point, in order. Bit-identical to calling
-    /// [`SurfaceAt::query`] point by point.
+    /// Answers `fields` for every point, in order, in blocks of [`crate::wave::BLOCK`] points.
+    /// Bit-identical to calling [`SurfaceAt::query`] point by point.
     pub fn query_batch(&self, points: &[DVec2], fields: QueryFields) -> Vec<PointResult> {
-        points.iter().map(|&p| self.query(p, fields)).collect()
+        let mut out = vec![PointResult::default(); points.len()];
+        self.query_batch_into(points, fields, &mut out);
+        out
+    }
+
+    /// [`SurfaceAt::query_batch`] into a caller's buffer (no allocation).
+    ///
+    /// # Panics
+    /// If `out.len() != points.len()`.
+    pub fn query_batch_into(&self, points: &[DVec2], fields: QueryFields, out: &mut [PointResult]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        crate::surface::for_blocks(points, out, |block, dst| {
+            let r = self.query_lanes(block, fields);
+            dst.copy_from_slice(&r[..dst.len()]);
+        });
     }
 
     /// Like [`SurfaceAt::query_batch`], split over `threads` OS threads (scoped). Each point is
@@ -342,11 +396,7 @@ impl SurfaceAt<'_> {
         let mut out = vec![PointResult::default(); points.len()];
         std::thread::scope(|scope| {
             for (src, dst) in points.chunks(chunk).zip(out.chunks_mut(chunk)) {
-                scope.spawn(move || {
-                    for (p, o) in src.iter().zip(dst.iter_mut()) {
-                        *o = self.query(*p, fields);
-                    }
-                });
+                scope.spawn(move || self.query_batch_into(src, fields, dst));
             }
         });
         out

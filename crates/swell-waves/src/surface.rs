@@ -15,7 +15,7 @@ use crate::math::splitmix64;
 use crate::query::{QueryFields, QueryOptions};
 use crate::sine::{SineLayer, SineLayerSpec};
 use crate::spectrum::{Dispersion, STANDARD_GRAVITY};
-use crate::wave::{SurfaceSample, Wave, accumulate_all};
+use crate::wave::{Lanes, SurfaceSample, Wave, WaveSoA};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -96,6 +96,8 @@ impl Layer {
 #[derive(Debug)]
 pub struct Surface {
     layers: Vec<Layer>,
+    /// The analytic layers' waves as arrays for the block kernels (`None` for FFT layers).
+    soa: Vec<Option<WaveSoA>>,
     dispersion: Dispersion,
     fold: f64,
     horizontal: bool,
@@ -163,8 +165,16 @@ impl Surface {
             Layer::Gerstner(g) => g.waves().iter().any(|w| w.steepness > 0.0),
             Layer::Fft(f) => f.choppiness() > 0.0,
         });
+        let soa = layers
+            .iter()
+            .map(|l| match l {
+                Layer::Fft(_) => None,
+                _ => Some(WaveSoA::new(l.waves())),
+            })
+            .collect();
         Ok(Surface {
             layers,
+            soa,
             dispersion,
             fold,
             horizontal,
@@ -338,29 +348,104 @@ impl SurfaceAt<'_> {
 
     /// Sum of every layer's displacement `(Dx, y, Dz)` at the undisplaced point `p0`, and its
     /// derivatives if `derivatives` (otherwise those are zero).
+    ///
+    /// This is [`SurfaceAt::sample_lanes`] with a block of one point: the single and batch
+    /// paths run the same code, so they agree to the bit.
     pub fn sample(&self, p0: DVec2, derivatives: bool) -> SurfaceSample {
-        let mut out = SurfaceSample::default();
-        for (layer, frame) in self.surface.layers.iter().zip(&self.frames) {
-            match layer {
-                Layer::Sine(l) => accumulate_all(l.waves(), p0, self.t, derivatives, &mut out),
-                Layer::Gerstner(l) => accumulate_all(l.waves(), p0, self.t, derivatives, &mut out),
-                Layer::Fft(f) => {
-                    let s = match frame {
-                        Some(frame) if !self.options.reference => {
-                            frame.sample(p0, self.options.filter)
-                        }
-                        _ => f.sample_reference(p0, self.t),
-                    };
-                    out.displacement += s.displacement;
-                    if derivatives {
-                        // jacobian = (∂Dx/∂x, ∂Dz/∂z, ∂Dx/∂z); ∂Dz/∂x = ∂Dx/∂z (irrotational).
-                        out.d_dx += DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z);
-                        out.d_dz += DVec3::new(s.jacobian.z, s.slope.y, s.jacobian.y);
+        self.sample_lanes(&[p0], derivatives).get(0)
+    }
+
+    /// [`SurfaceAt::sample`] for a block of `B` points at once (the analytic layers go through
+    /// the vectorised [`WaveSoA`] kernel). Lane `l` is bit-identical to `sample(points[l])`.
+    #[inline]
+    pub fn sample_lanes<const B: usize>(&self, points: &[DVec2; B], derivatives: bool) -> Lanes<B> {
+        let x: [f64; B] = std::array::from_fn(|l| points[l].x);
+        let z: [f64; B] = std::array::from_fn(|l| points[l].y);
+        let mut out = Lanes::<B>::default();
+        for ((layer, frame), soa) in self
+            .surface
+            .layers
+            .iter()
+            .zip(&self.frames)
+            .zip(&self.surface.soa)
+        {
+            match (layer, soa) {
+                (Layer::Fft(f), _) => {
+                    for (l, &p0) in points.iter().enumerate() {
+                        let s = match frame {
+                            Some(frame) if !self.options.reference => {
+                                frame.sample(p0, self.options.filter)
+                            }
+                            _ => f.sample_reference(p0, self.t),
+                        };
+                        add_fft(&mut out, l, &s, derivatives);
                     }
                 }
+                (_, Some(soa)) => soa.accumulate_lanes(&x, &z, self.t, derivatives, &mut out),
+                (_, None) => {}
             }
         }
         out
+    }
+
+    /// [`SurfaceAt::sample`] for every point of `points` into `out` (same length), in blocks
+    /// of [`crate::wave::BLOCK`]: bit-identical to calling `sample` point by point.
+    ///
+    /// # Panics
+    /// If `out.len() != points.len()`.
+    pub fn sample_batch(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        for_blocks(points, out, |block, dst| {
+            let lanes = self.sample_lanes(block, derivatives);
+            for (l, o) in dst.iter_mut().enumerate() {
+                *o = lanes.get(l);
+            }
+        });
+    }
+
+    /// Single-precision variant of [`SurfaceAt::sample_batch`] — an approximation knob, not the
+    /// default: analytic layers use [`WaveSoA::accumulate_lanes_f32`] (phases formed and reduced
+    /// in f64, then f32 sin/cos, products and sums); FFT layers are read from their f64 frames
+    /// as usual. Deterministic, but not bit-identical to the f64 path (see `docs/accuracy.md` for
+    /// its error).
+    ///
+    /// # Panics
+    /// If `out.len() != points.len()`.
+    pub fn sample_batch_f32(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        for_blocks(points, out, |block, dst| {
+            let x: [f64; crate::wave::BLOCK] = std::array::from_fn(|l| block[l].x);
+            let z: [f64; crate::wave::BLOCK] = std::array::from_fn(|l| block[l].y);
+            let mut lanes = Lanes::default();
+            for ((layer, frame), soa) in self
+                .surface
+                .layers
+                .iter()
+                .zip(&self.frames)
+                .zip(&self.surface.soa)
+            {
+                match (layer, soa) {
+                    (Layer::Fft(f), _) => {
+                        for (l, &p0) in block.iter().enumerate() {
+                            let s = match frame {
+                                Some(frame) if !self.options.reference => {
+                                    frame.sample(p0, self.options.filter)
+                                }
+                                _ => f.sample_reference(p0, self.t),
+                            };
+                            add_fft(&mut lanes, l, &s, derivatives);
+                        }
+                    }
+                    (_, Some(soa)) => {
+                        soa.accumulate_lanes_f32(&x, &z, self.t, derivatives, &mut lanes)
+                    }
+                    (_, None) => {}
+                }
+            }
+            for (l, o) in dst.iter_mut().enumerate() {
+                *o = lanes.get(l);
+            }
+        });
     }
 
     /// Slow reference for [`SurfaceAt::sample`]: analytic waves with unreduced phases and the
@@ -384,5 +469,44 @@ impl SurfaceAt<'_> {
             }
         }
         out
+    }
+}
+
+/// Adds an FFT layer's fields to lane `l`: displacement always, derivatives only if asked
+/// (exactly the additions the one-point path has always made). jacobian = (∂Dx/∂x, ∂Dz/∂z,
+/// ∂Dx/∂z) and ∂Dz/∂x = ∂Dx/∂z (the displacement is irrotational).
+#[inline]
+fn add_fft<const B: usize>(
+    out: &mut Lanes<B>,
+    l: usize,
+    s: &crate::fft::FftSample,
+    derivatives: bool,
+) {
+    if derivatives {
+        out.add(
+            l,
+            &SurfaceSample {
+                displacement: s.displacement,
+                d_dx: DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z),
+                d_dz: DVec3::new(s.jacobian.z, s.slope.y, s.jacobian.y),
+            },
+        );
+    } else {
+        out.add_displacement(l, s.displacement);
+    }
+}
+
+/// Runs `f` over `points` in blocks of [`crate::wave::BLOCK`], with the matching slice of `out`.
+/// The last, partial block is padded by repeating its last point; padded lanes are computed and
+/// dropped (lanes never interact, so padding cannot change a result).
+pub(crate) fn for_blocks<T>(
+    points: &[DVec2],
+    out: &mut [T],
+    mut f: impl FnMut(&[DVec2; crate::wave::BLOCK], &mut [T]),
+) {
+    const B: usize = crate::wave::BLOCK;
+    for (src, dst) in points.chunks(B).zip(out.chunks_mut(B)) {
+        let block: [DVec2; B] = std::array::from_fn(|l| src[l.min(src.len() - 1)]);
+        f(&block, dst);
     }
 }

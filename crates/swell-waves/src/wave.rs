@@ -139,6 +139,8 @@ impl Wave {
     }
 
     /// Adds this wave's displacement (and, if `derivatives`, its derivatives) at `p0`, time `t`.
+    ///
+    /// Same arithmetic, operation for operation, as one lane of [`WaveSoA::accumulate_lanes`].
     #[inline]
     pub fn accumulate(&self, p0: DVec2, t: f64, derivatives: bool, out: &mut SurfaceSample) {
         let (s, c) = sin_cos(self.phase_at(p0, t));
@@ -187,6 +189,229 @@ pub fn accumulate_all(
 ) {
     for w in waves {
         w.accumulate(p0, t, derivatives, out);
+    }
+}
+
+/// Points per block of the batch kernels: 8 f64 lanes fill two AVX2 registers (or one AVX-512
+/// register) per quantity; with 9 accumulators per lane that still fits the register file.
+/// The block size never changes a result, only speed (every lane is computed on its own).
+pub const BLOCK: usize = 8;
+
+/// A set of waves stored as a structure of arrays, for evaluating many points at once.
+///
+/// Per wave it keeps exactly the factors the scalar path forms first (`Q·A·dx`, `A·k`, …, each
+/// rounded as [`Wave::accumulate`] rounds it), so that the block kernels give the same bits as
+/// the one-point path: each lane computes `θ = reduce_phase((k·(dx·x + dz·z) − ω·t) + φ)`,
+/// `(s, c) = math::sin_cos(θ)` and adds the terms in wave order, exactly as
+/// [`Wave::accumulate`] does. Lanes never mix, so results do not depend on the block size or on
+/// which other points share the block.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WaveSoA {
+    k: Vec<f64>,
+    omega: Vec<f64>,
+    phase: Vec<f64>,
+    dx: Vec<f64>,
+    dz: Vec<f64>,
+    a: Vec<f64>,
+    /// `Q·A·dx`, `Q·A·dz`: horizontal displacement amplitudes.
+    qadx: Vec<f64>,
+    qadz: Vec<f64>,
+    /// `A·k` and `Q·A·k`: derivative amplitudes.
+    ak: Vec<f64>,
+    qak: Vec<f64>,
+}
+
+/// Accumulators of one block: `(Dx, y, Dz)` and the six derivatives, one lane per point.
+#[derive(Debug, Clone, Copy)]
+pub struct Lanes<const B: usize> {
+    /// `Dx`, `y`, `Dz` per lane.
+    pub disp: [[f64; B]; 3],
+    /// `∂(Dx, y, Dz)/∂x0` per lane.
+    pub d_dx: [[f64; B]; 3],
+    /// `∂(Dx, y, Dz)/∂z0` per lane.
+    pub d_dz: [[f64; B]; 3],
+}
+
+impl<const B: usize> Default for Lanes<B> {
+    fn default() -> Self {
+        Self {
+            disp: [[0.0; B]; 3],
+            d_dx: [[0.0; B]; 3],
+            d_dz: [[0.0; B]; 3],
+        }
+    }
+}
+
+impl<const B: usize> Lanes<B> {
+    /// Lane `l` as a [`SurfaceSample`].
+    #[inline]
+    pub fn get(&self, l: usize) -> SurfaceSample {
+        let v = |a: &[[f64; B]; 3]| glam::DVec3::new(a[0][l], a[1][l], a[2][l]);
+        SurfaceSample {
+            displacement: v(&self.disp),
+            d_dx: v(&self.d_dx),
+            d_dz: v(&self.d_dz),
+        }
+    }
+
+    /// Adds `d` to lane `l`'s displacement only.
+    #[inline]
+    pub fn add_displacement(&mut self, l: usize, d: glam::DVec3) {
+        self.disp[0][l] += d.x;
+        self.disp[1][l] += d.y;
+        self.disp[2][l] += d.z;
+    }
+
+    /// Adds `s` to lane `l` (component-wise, as [`SurfaceSample::add`] does).
+    #[inline]
+    pub fn add(&mut self, l: usize, s: &SurfaceSample) {
+        let put = |a: &mut [[f64; B]; 3], v: glam::DVec3| {
+            a[0][l] += v.x;
+            a[1][l] += v.y;
+            a[2][l] += v.z;
+        };
+        put(&mut self.disp, s.displacement);
+        put(&mut self.d_dx, s.d_dx);
+        put(&mut self.d_dz, s.d_dz);
+    }
+}
+
+impl WaveSoA {
+    /// Lays `waves` out as arrays.
+    pub fn new(waves: &[Wave]) -> Self {
+        let col = |f: &dyn Fn(&Wave) -> f64| waves.iter().map(f).collect::<Vec<f64>>();
+        Self {
+            k: col(&|w| w.wavenumber),
+            omega: col(&|w| w.omega),
+            phase: col(&|w| w.phase),
+            dx: col(&|w| w.direction.x),
+            dz: col(&|w| w.direction.y),
+            a: col(&|w| w.amplitude),
+            qadx: col(&|w| w.steepness * w.amplitude * w.direction.x),
+            qadz: col(&|w| w.steepness * w.amplitude * w.direction.y),
+            ak: col(&|w| w.amplitude * w.wavenumber),
+            qak: col(&|w| w.steepness * w.amplitude * w.wavenumber),
+        }
+    }
+
+    /// Number of waves.
+    pub fn len(&self) -> usize {
+        self.k.len()
+    }
+
+    /// Whether there are no waves.
+    pub fn is_empty(&self) -> bool {
+        self.k.is_empty()
+    }
+
+    /// Adds every wave at the `B` undisplaced points `(x[l], z[l])`, time `t`, into `out`
+    /// (derivatives too if `derivatives`). Bit-identical, lane by lane, to
+    /// [`accumulate_all`] on each point.
+    #[inline]
+    pub fn accumulate_lanes<const B: usize>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+    ) {
+        if derivatives {
+            self.kernel::<B, true>(x, z, t, out);
+        } else {
+            self.kernel::<B, false>(x, z, t, out);
+        }
+    }
+
+    /// The block kernel: waves outer (so each lane sums in wave order, like the scalar path),
+    /// lanes inner (branch-free, so the lane loop vectorises).
+    #[inline(always)]
+    fn kernel<const B: usize, const D: bool>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        out: &mut Lanes<B>,
+    ) {
+        let n = self.k.len();
+        let (k, om, ph) = (&self.k[..n], &self.omega[..n], &self.phase[..n]);
+        let (dxs, dzs, a) = (&self.dx[..n], &self.dz[..n], &self.a[..n]);
+        let (qadx, qadz, ak, qak) = (
+            &self.qadx[..n],
+            &self.qadz[..n],
+            &self.ak[..n],
+            &self.qak[..n],
+        );
+        for w in 0..n {
+            let (kw, wt, phw) = (k[w], om[w] * t, ph[w]);
+            let (dx, dz) = (dxs[w], dzs[w]);
+            for l in 0..B {
+                let along = dx * x[l] + dz * z[l];
+                let (s, c) = sin_cos(reduce_phase(kw * along - wt + phw));
+                out.disp[0][l] += qadx[w] * c;
+                out.disp[1][l] += a[w] * s;
+                out.disp[2][l] += qadz[w] * c;
+                if D {
+                    let ak_c = ak[w] * c;
+                    let qak_s = qak[w] * s;
+                    out.d_dx[0][l] -= qak_s * dx * dx;
+                    out.d_dx[1][l] += ak_c * dx;
+                    out.d_dx[2][l] -= qak_s * dx * dz;
+                    out.d_dz[0][l] -= qak_s * dx * dz;
+                    out.d_dz[1][l] += ak_c * dz;
+                    out.d_dz[2][l] -= qak_s * dz * dz;
+                }
+            }
+        }
+    }
+
+    /// Single-precision evaluation (an approximation knob, not the model's default): each phase
+    /// is formed and reduced in f64 exactly as in [`WaveSoA::accumulate_lanes`], then sin/cos
+    /// ([`crate::math::sin_cos_f32`]), the products and the sums run in f32. Typical error: a few
+    /// f32 ulp of the summed amplitudes (≈ 10⁻⁷ relative; see `docs/accuracy.md`). Results are
+    /// returned widened to f64 in `out` (added to what is there, after the f32 sum).
+    // Indexing several lane arrays by one counter is the shape the vectoriser wants.
+    #[allow(clippy::needless_range_loop)]
+    pub fn accumulate_lanes_f32<const B: usize>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+    ) {
+        let mut acc = [[[0.0f32; B]; 3]; 3];
+        for w in 0..self.k.len() {
+            let (kw, wt, phw) = (self.k[w], self.omega[w] * t, self.phase[w]);
+            let (dx, dz) = (self.dx[w], self.dz[w]);
+            let (dxf, dzf) = (dx as f32, dz as f32);
+            let (qadx, qadz, a) = (self.qadx[w] as f32, self.qadz[w] as f32, self.a[w] as f32);
+            let (ak, qak) = (self.ak[w] as f32, self.qak[w] as f32);
+            for l in 0..B {
+                let along = dx * x[l] + dz * z[l];
+                let (s, c) = crate::math::sin_cos_f32(reduce_phase(kw * along - wt + phw));
+                acc[0][0][l] += qadx * c;
+                acc[0][1][l] += a * s;
+                acc[0][2][l] += qadz * c;
+                if derivatives {
+                    let ak_c = ak * c;
+                    let qak_s = qak * s;
+                    acc[1][0][l] -= qak_s * dxf * dxf;
+                    acc[1][1][l] += ak_c * dxf;
+                    acc[1][2][l] -= qak_s * dxf * dzf;
+                    acc[2][0][l] -= qak_s * dxf * dzf;
+                    acc[2][1][l] += ak_c * dzf;
+                    acc[2][2][l] -= qak_s * dzf * dzf;
+                }
+            }
+        }
+        for c in 0..3 {
+            for l in 0..B {
+                out.disp[c][l] += f64::from(acc[0][c][l]);
+                out.d_dx[c][l] += f64::from(acc[1][c][l]);
+                out.d_dz[c][l] += f64::from(acc[2][c][l]);
+            }
+        }
     }
 }
 
@@ -312,6 +537,56 @@ mod tests {
                 (a.displacement - b.displacement).length() < 1e-6,
                 "{x} {z} {t}"
             );
+        }
+    }
+
+    fn bits(s: &SurfaceSample) -> [u64; 9] {
+        let v = [s.displacement, s.d_dx, s.d_dz];
+        std::array::from_fn(|i| v[i / 3][i % 3].to_bits())
+    }
+
+    /// The block kernel must give the scalar path's bits in every lane, at any block size.
+    #[test]
+    fn block_kernel_is_bit_identical_to_scalar_path() {
+        let d = Dispersion::default();
+        let mut rng = crate::math::SwellRng::new(3, 1);
+        let waves: Vec<Wave> = (0..23)
+            .map(|i| {
+                let ang = TAU * rng.uniform();
+                Wave::build(
+                    "w",
+                    0.05 + rng.uniform(),
+                    2.0 + 80.0 * rng.uniform(),
+                    [ang.cos(), ang.sin()],
+                    TAU * rng.uniform(),
+                    None,
+                    if i % 3 == 0 { 0.0 } else { rng.uniform() },
+                    &d,
+                )
+                .unwrap()
+            })
+            .collect();
+        let soa = WaveSoA::new(&waves);
+        for &t in &[0.0, 17.25, 1e9 + 0.5] {
+            let mut x = [0.0; BLOCK];
+            let mut z = [0.0; BLOCK];
+            for l in 0..BLOCK {
+                let scale = [1.0, 100.0, 1e7][l % 3];
+                x[l] = (2.0 * rng.uniform() - 1.0) * scale;
+                z[l] = (2.0 * rng.uniform() - 1.0) * scale;
+            }
+            for derivs in [false, true] {
+                let mut lanes = Lanes::<BLOCK>::default();
+                soa.accumulate_lanes(&x, &z, t, derivs, &mut lanes);
+                for l in 0..BLOCK {
+                    let mut one = SurfaceSample::default();
+                    accumulate_all(&waves, DVec2::new(x[l], z[l]), t, derivs, &mut one);
+                    let mut single = Lanes::<1>::default();
+                    soa.accumulate_lanes(&[x[l]], &[z[l]], t, derivs, &mut single);
+                    assert_eq!(bits(&lanes.get(l)), bits(&one), "lane {l} t {t}");
+                    assert_eq!(bits(&single.get(0)), bits(&one), "lane {l} t {t}");
+                }
+            }
         }
     }
 

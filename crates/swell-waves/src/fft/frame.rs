@@ -66,46 +66,66 @@ impl FftLayer {
     /// The result depends only on the layer, `t_r` and `fields`; with the portable backend it is
     /// the same to the bit on every platform.
     pub fn frame(&self, t: f64, fields: FftFields) -> FftFrame {
+        let mut frame = FftFrame {
+            t,
+            fields: FftFields::NONE,
+            n: self.n,
+            tile_size: self.tile_size,
+            grids: Default::default(),
+            transforms: 0,
+        };
+        self.frame_into(t, fields, &mut frame);
+        frame
+    }
+
+    /// [`FftLayer::frame`] into an existing frame, reusing its grid buffers (a frame of this
+    /// layer, or of any layer of the same resolution): the same bits as `frame(t, fields)`, since
+    /// every value of every grid asked is overwritten, but no allocation and no fresh pages from
+    /// the OS once the buffers exist. A tick loop that keeps the previous tick's frame recycles
+    /// it here; grids not in `fields` are dropped.
+    pub fn frame_into(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
         let mut grids: [Option<Vec<f64>>; 8] = Default::default();
+        let mut old = std::mem::take(&mut frame.grids);
         let mut transforms = 0;
-        let wanted: Vec<FftGrid> = FftGrid::ALL
-            .into_iter()
-            .filter(|&g| fields.has(g))
-            .collect();
-        if !wanted.is_empty() {
+        if fields.grid_count() > 0 {
+            // Buffers come from the layer's pool: a frame allocates only the grids it returns.
+            let mut scratch = self.transform.take_scratch();
+            let mut htilde = std::mem::take(&mut scratch.htilde);
+            let mut buf = std::mem::take(&mut scratch.spectrum);
             let zero = Complex::new(0.0, 0.0);
-            let htilde: Vec<Complex<f64>> = self
-                .half
-                .iter()
-                .map(|mode| {
-                    if mode.is_empty() {
-                        return zero;
-                    }
+            for (h, mode) in htilde.iter_mut().zip(&self.half) {
+                *h = if mode.is_empty() {
+                    zero
+                } else {
                     let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
                     mode.evolve(s, c)
-                })
-                .collect();
-            let mut buf = vec![zero; htilde.len()];
-            let mut scratch = self.transform.scratch();
-            for grid in wanted {
+                };
+            }
+            for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
                 for ((b, h), mode) in buf.iter_mut().zip(&htilde).zip(&self.half) {
                     *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *h);
                 }
-                let mut out = vec![0.0; n * n];
+                let mut out = old[grid.index()]
+                    .take()
+                    .filter(|g| g.len() == n * n)
+                    .unwrap_or_else(|| vec![0.0; n * n]);
                 self.transform.process(&mut buf, &mut scratch, &mut out);
                 grids[grid.index()] = Some(out);
                 transforms += 1;
             }
+            scratch.htilde = htilde;
+            scratch.spectrum = buf;
+            self.transform.give_back(scratch);
         }
-        FftFrame {
+        *frame = FftFrame {
             t,
             fields,
             n,
             tile_size: self.tile_size,
             grids,
             transforms,
-        }
+        };
     }
 }

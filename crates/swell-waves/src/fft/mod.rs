@@ -53,7 +53,7 @@ mod velocity;
 pub use fields::{FftFields, FftGrid};
 pub use frame::FftFrame;
 pub use layer::{FftLayer, MAX_CHOPPINESS, MAX_RESOLUTION, MIN_RESOLUTION};
-pub use sample::{FftSample, SampleFilter};
+pub use sample::{FftSample, SampleFilter, sample_between};
 pub use velocity::FftVelocityFrame;
 
 use crate::spectrum::{SpectrumSpec, SpreadingSpec};

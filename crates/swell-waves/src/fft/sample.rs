@@ -116,6 +116,39 @@ impl FftFrame {
     }
 }
 
+/// Reads the sea at time `t` between two frames of the same layer by linear interpolation in
+/// time: `a.sample + w·(b.sample − a.sample)` per field, `w = (t − a.t)/(b.t − a.t)` clamped to
+/// [0, 1] (`w = 0` when the frames share a time).
+///
+/// The cheap middle setting of the "time between FFT ticks" knob: a server that computes frames
+/// at a fixed tick rate can answer queries at any time in between without a new frame. Its error
+/// grows with the tick period squared (a wave of frequency ω is off by up to `A·(ωΔt)²/8`), and
+/// it also shrinks amplitudes slightly between ticks; `docs/accuracy.md` measures it against the
+/// exact frame and against reading the nearest tick.
+///
+/// Deterministic (plain `*`/`+`); not part of the golden vectors, which use exact frames. Both
+/// frames should have the same fields; a field missing from either reads as 0 there.
+pub fn sample_between(
+    a: &FftFrame,
+    b: &FftFrame,
+    t: f64,
+    p0: DVec2,
+    filter: SampleFilter,
+) -> FftSample {
+    let span = b.t() - a.t();
+    let w = if span != 0.0 {
+        ((t - a.t()) / span).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (sa, sb) = (a.sample(p0, filter), b.sample(p0, filter));
+    FftSample {
+        displacement: sa.displacement + (sb.displacement - sa.displacement) * w,
+        slope: sa.slope + (sb.slope - sa.slope) * w,
+        jacobian: sa.jacobian + (sb.jacobian - sa.jacobian) * w,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,18 +20,32 @@
 //! We do not use the `realfft` crate: it only plans through RustFFT's SIMD `FftPlanner`, so the
 //! portable backend (the scalar planner, identical bits on every CPU) could not use it.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner, FftPlannerScalar};
 
 use super::FftBackend;
 
-/// Plans and scratch sizes for inverse real 2-D transforms of one size.
-#[derive(Clone)]
+/// Plans and scratch sizes for inverse real 2-D transforms of one size, and a pool of working
+/// memory so that a frame allocates only the grids it returns.
 pub(crate) struct InverseRealFft2 {
     n: usize,
     fft: Arc<dyn Fft<f64>>,
+    /// Scratch returned by finished frames. Frames on several threads each take their own (the
+    /// pool grows to the number of concurrent frames and no further); the buffers' contents
+    /// never reach a result, so reuse cannot change one.
+    pool: Mutex<Vec<Scratch>>,
+}
+
+impl Clone for InverseRealFft2 {
+    fn clone(&self) -> Self {
+        Self {
+            n: self.n,
+            fft: Arc::clone(&self.fft),
+            pool: Mutex::new(Vec::new()),
+        }
+    }
 }
 
 impl std::fmt::Debug for InverseRealFft2 {
@@ -42,10 +56,15 @@ impl std::fmt::Debug for InverseRealFft2 {
     }
 }
 
-/// Working memory for [`InverseRealFft2::process`]; reusable across calls and fields.
+/// Working memory for [`InverseRealFft2::process`] and for a frame's spectra; reusable across
+/// calls and fields.
 pub(crate) struct Scratch {
     rows: Vec<Complex<f64>>,
     fft: Vec<Complex<f64>>,
+    /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
+    pub(crate) htilde: Vec<Complex<f64>>,
+    /// One field's half spectrum (N/2·N), overwritten by the column pass.
+    pub(crate) spectrum: Vec<Complex<f64>>,
 }
 
 impl InverseRealFft2 {
@@ -55,15 +74,36 @@ impl InverseRealFft2 {
             FftBackend::Portable => FftPlannerScalar::new().plan_fft_inverse(n),
             FftBackend::Native => FftPlanner::new().plan_fft_inverse(n),
         };
-        Self { n, fft }
+        Self {
+            n,
+            fft,
+            pool: Mutex::new(Vec::new()),
+        }
     }
 
     /// Fresh working memory sized for this transform.
     pub(crate) fn scratch(&self) -> Scratch {
         let zero = Complex::new(0.0, 0.0);
+        let half = self.n / 2 * self.n;
         Scratch {
-            rows: vec![zero; self.n / 2 * self.n],
+            rows: vec![zero; half],
             fft: vec![zero; self.fft.get_inplace_scratch_len()],
+            htilde: vec![zero; half],
+            spectrum: vec![zero; half],
+        }
+    }
+
+    /// Working memory from the pool, or fresh if the pool is empty (or its lock poisoned: a
+    /// panic elsewhere must not stop frames).
+    pub(crate) fn take_scratch(&self) -> Scratch {
+        let pooled = self.pool.lock().ok().and_then(|mut p| p.pop());
+        pooled.unwrap_or_else(|| self.scratch())
+    }
+
+    /// Returns working memory to the pool.
+    pub(crate) fn give_back(&self, scratch: Scratch) {
+        if let Ok(mut p) = self.pool.lock() {
+            p.push(scratch);
         }
     }
 

@@ -5,7 +5,7 @@
 //! and `__kernel_cos` (error below 1 ulp on the reduced interval). Every step is plain `*` and
 //! `+`, so the bits are the same on every CPU; the platform's `sin` is not.
 
-use super::phase::reduce_phase;
+use super::phase::{reduce_phase, round_ties_away};
 
 // π/2 = PIO2_1 + PIO2_2 (+ 3.5e-27); PIO2_1 has 33 significant bits, so q·PIO2_1 is exact for
 // the quadrant numbers |q| ≤ 2 we use.
@@ -60,20 +60,74 @@ fn kernel_cos(y: f64) -> f64 {
 ///
 /// Accuracy: within 2 ulp of the exact value for |x| ≤ π, and within 2 ulp of the exact value of
 /// the reduced phase up to |x| ≈ 2.7·10¹⁰ (see [`reduce_phase`]).
-#[inline]
+///
+/// Branch-free, so that a loop over points or waves vectorises: the quadrant number q ∈ {−2, …, 2}
+/// (rounded by [`round_ties_away`], the same bits as `f64::round`) picks `(s, c)`, `(c, −s)`,
+/// `(−s, −c)` or `(−c, s)` for `q mod 4 = 0, 1, 2, 3` with selects and sign flips, which are exact:
+/// the result is the same to the bit as the branching version this replaced.
+#[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
     let r = reduce_phase(x);
-    let q = (r * TWO_OVER_PI).round();
+    let q = round_ties_away(r * TWO_OVER_PI);
     let y = (r - q * PIO2_1) - q * PIO2_2;
     let s = kernel_sin(y);
     let c = kernel_cos(y);
-    // q ∈ {−2, …, 2}; quadrant index modulo 4.
-    match (q as i64) & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+    // q ∈ {−2, …, 2}: odd quadrants swap sine and cosine; q mod 4 ∈ {2, 3} (q = 2, −1, −2)
+    // negates the sine, q mod 4 ∈ {1, 2} (q = 1, ±2) the cosine.
+    let odd = q.abs() == 1.0;
+    let a = if odd { c } else { s };
+    let b = if odd { s } else { c };
+    let neg_sin = q == 2.0 || q < -0.5;
+    let neg_cos = q > 0.5 || q == -2.0;
+    (flip(a, neg_sin), flip(b, neg_cos))
+}
+
+/// `-v` if `neg`, else `v`, as a sign-bit flip (exactly what negation does) without a branch.
+#[inline(always)]
+fn flip(v: f64, neg: bool) -> f64 {
+    f64::from_bits(v.to_bits() ^ (u64::from(neg) << 63))
+}
+
+// Single-precision minimax polynomials for sin and cos on [−π/4, π/4] (Cephes `sinf`/`cosf`),
+// relative error about 1 ulp of f32 there.
+#[allow(clippy::excessive_precision)]
+const SF1: f32 = -1.666_665_461_1e-1;
+#[allow(clippy::excessive_precision)]
+const SF2: f32 = 8.332_160_873_6e-3;
+#[allow(clippy::excessive_precision)]
+const SF3: f32 = -1.951_529_589_1e-4;
+#[allow(clippy::excessive_precision)]
+const CF1: f32 = 4.166_664_568_298_827e-2;
+#[allow(clippy::excessive_precision)]
+const CF2: f32 = -1.388_731_625_493_765e-3;
+#[allow(clippy::excessive_precision)]
+const CF3: f32 = 2.443_315_711_809_948e-5;
+
+/// `(sin r, cos r)` in single precision for a phase `r` already reduced to [−π, π] in f64 (by
+/// [`reduce_phase`]): the quadrant step is done in f64 (so the reduced argument is exact to f64),
+/// then the argument is rounded to f32 and the polynomials run in f32.
+///
+/// An approximation knob, not the model's default: the error is a few f32 ulp (≈ 2·10⁻⁷ absolute),
+/// against ≈ 2·10⁻¹⁶ for [`sin_cos`]. Deterministic to the bit like everything here (plain `*`
+/// and `+`, no fused operations, branch-free).
+#[inline(always)]
+pub fn sin_cos_f32(r: f64) -> (f32, f32) {
+    let q = round_ties_away(r * TWO_OVER_PI);
+    let y = ((r - q * PIO2_1) - q * PIO2_2) as f32;
+    let z = y * y;
+    let s = ((SF3 * z + SF2) * z + SF1) * z * y + y;
+    let c = ((CF3 * z + CF2) * z + CF1) * z * z - 0.5 * z + 1.0;
+    let odd = q.abs() == 1.0;
+    let a = if odd { c } else { s };
+    let b = if odd { s } else { c };
+    let neg_sin = q == 2.0 || q < -0.5;
+    let neg_cos = q > 0.5 || q == -2.0;
+    (flip32(a, neg_sin), flip32(b, neg_cos))
+}
+
+#[inline(always)]
+fn flip32(v: f32, neg: bool) -> f32 {
+    f32::from_bits(v.to_bits() ^ (u32::from(neg) << 31))
 }
 
 /// `sin x`, deterministic (see [`sin_cos`]).
@@ -109,6 +163,58 @@ mod tests {
                 "cos({x}) = {c} vs {}",
                 x.cos()
             );
+        }
+    }
+
+    /// The branching quadrant selection this kernel used until the batch paths needed it
+    /// branch-free; the two must agree to the bit.
+    fn sin_cos_branching(x: f64) -> (f64, f64) {
+        let r = reduce_phase(x);
+        let q = (r * TWO_OVER_PI).round();
+        let y = (r - q * PIO2_1) - q * PIO2_2;
+        let s = kernel_sin(y);
+        let c = kernel_cos(y);
+        match (q as i64) & 3 {
+            0 => (s, c),
+            1 => (c, -s),
+            2 => (-s, -c),
+            _ => (-c, s),
+        }
+    }
+
+    #[test]
+    fn branch_free_quadrants_keep_the_bits() {
+        let mut rng = crate::math::SwellRng::new(11, 3);
+        let mut xs: Vec<f64> = vec![0.0, -0.0, 1e-300, -1e-300];
+        for q in -8..=8 {
+            let b = q as f64 * std::f64::consts::FRAC_PI_4;
+            for d in [-1e-12, -1e-16, 0.0, 1e-16, 1e-12] {
+                xs.push(b + d);
+            }
+        }
+        for _ in 0..300_000 {
+            let scale = 10f64.powi((rng.uniform() * 12.0) as i32 - 2);
+            xs.push((2.0 * rng.uniform() - 1.0) * scale);
+        }
+        for x in xs {
+            let (a, b) = sin_cos(x);
+            let (c, d) = sin_cos_branching(x);
+            assert_eq!(
+                (a.to_bits(), b.to_bits()),
+                (c.to_bits(), d.to_bits()),
+                "{x:e}"
+            );
+        }
+    }
+
+    #[test]
+    fn single_precision_kernel_is_within_a_few_f32_ulp() {
+        let n = 100_000;
+        for i in 0..=n {
+            let x = -std::f64::consts::PI + std::f64::consts::TAU * (i as f64) / (n as f64);
+            let (s, c) = sin_cos_f32(reduce_phase(x));
+            assert!((f64::from(s) - x.sin()).abs() < 3e-7, "sin {x}");
+            assert!((f64::from(c) - x.cos()).abs() < 3e-7, "cos {x}");
         }
     }
 
