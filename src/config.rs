@@ -64,6 +64,9 @@ pub struct Limits {
     pub max_points: usize,
     /// Most bodies in one orientation request.
     pub max_bodies: usize,
+    /// Most floating bodies a scene may simulate; beyond it a spawn gets 409. 1,000 bodies
+    /// at 30 Hz take a fraction of a core (docs/bodies.md).
+    pub max_scene_bodies: usize,
     /// Largest request body, bytes; beyond it: 413. 8 MiB holds 65,536 points written with
     /// full f64 precision (about 45 bytes each) with room to spare.
     pub max_body_bytes: usize,
@@ -84,6 +87,7 @@ impl Default for Limits {
         Self {
             max_points: 65_536,
             max_bodies: 1024,
+            max_scene_bodies: 1000,
             max_body_bytes: 8 * 1024 * 1024,
             max_in_flight: 512,
             request_timeout_ms: 30_000,

@@ -28,6 +28,7 @@
 //! FFT frames are shared but computed from `(layer, t)` alone, so caching never changes bits.
 
 pub mod api;
+pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod frames;
@@ -171,6 +172,8 @@ impl Server {
                 upkeep_handle.run_upkeep();
             }
         });
+        // Bodies restored from the data dir resume stepping.
+        state.bodies.start_all(&state);
         state.set_ready(true);
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
@@ -183,6 +186,11 @@ impl Server {
             })
             .await;
         upkeep.abort();
+        // Stop the body loops and save the bodies' last states (restored at the next start).
+        let saving = state.clone();
+        if let Err(e) = tokio::task::spawn_blocking(move || saving.persist_bodies()).await {
+            tracing::error!(error = %e, "saving bodies panicked");
+        }
         tracing::info!("stopped");
         result
     }

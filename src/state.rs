@@ -35,6 +35,8 @@ pub struct Inner {
     pub frames: FrameCache,
     /// The Prometheus handle that renders `/metrics`.
     pub metrics: PrometheusHandle,
+    /// Every scene's floating bodies.
+    pub bodies: crate::bodies::runner::BodyRegistry,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     store: Option<Store>,
     admin_token: String,
@@ -71,6 +73,7 @@ impl AppState {
             frames: FrameCache::new(limits.frame_cache_entries),
             limits,
             metrics,
+            bodies: Default::default(),
             scenes: RwLock::new(BTreeMap::new()),
             store,
             admin_token,
@@ -206,6 +209,7 @@ impl AppState {
                 .map_err(ApiError::internal)?;
         }
         self.write_scenes().remove(id);
+        self.bodies.remove_scene(id);
         Ok(())
     }
 
@@ -314,8 +318,48 @@ impl AppState {
                 Ok(None) => {}
                 Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable clock file"),
             }
+            // Bodies saved at the last graceful shutdown, anchored at their tick (the loop
+            // re-anchors them at the clock's tick on its first step).
+            match store.load_bodies(id) {
+                Ok(Some(v)) => {
+                    let (hz, g) = (entry.scene.spec.tick_hz, entry.scene.spec.surface.gravity);
+                    match serde_json::from_value::<crate::bodies::BodiesRecord>(v)
+                        .map_err(|e| e.to_string())
+                        .and_then(|r| {
+                            crate::bodies::SceneBodies::from_record(&r, hz, g)
+                                .map_err(|e| e.message)
+                        }) {
+                        Ok(b) => self.bodies.insert(id, b),
+                        Err(why) => {
+                            tracing::error!(scene = %id, %why, "skipping unreadable bodies file")
+                        }
+                    }
+                }
+                Ok(None) => {}
+                Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable bodies file"),
+            }
         }
         Ok(())
+    }
+}
+
+impl AppState {
+    /// Stops the body loops and writes every scene's bodies to the data dir (graceful shutdown).
+    /// Blocking file I/O: call from `spawn_blocking`.
+    pub fn persist_bodies(&self) {
+        self.bodies.stop();
+        let Some(store) = &self.store else {
+            return;
+        };
+        for (id, rec) in self.bodies.records() {
+            let result = serde_json::to_value(&rec)
+                .map_err(std::io::Error::other)
+                .and_then(|v| store.put_bodies(&id, &v));
+            match result {
+                Ok(()) => tracing::info!(scene = %id, bodies = rec.bodies.len(), "bodies saved"),
+                Err(e) => tracing::error!(scene = %id, error = %e, "saving bodies failed"),
+            }
+        }
     }
 }
 

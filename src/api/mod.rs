@@ -11,6 +11,7 @@
 //! in-flight limit (503 beyond it, never an unbounded queue) and timeout (503); body-size limit.
 
 pub mod admin;
+pub mod bodies;
 pub mod json;
 pub mod ops;
 pub mod query;
@@ -53,6 +54,18 @@ pub fn router(state: AppState) -> Router {
         .route(
             "/v1/scenes/{id}/orientation",
             axum::routing::post(query::orientation),
+        )
+        .route(
+            "/v1/scenes/{id}/bodies",
+            get(bodies::list).post(bodies::create),
+        )
+        .route(
+            "/v1/scenes/{id}/bodies/{bid}",
+            get(bodies::get_one).delete(bodies::delete),
+        )
+        .route(
+            "/v1/scenes/{id}/bodies/{bid}/input",
+            axum::routing::post(bodies::input),
         )
         .route("/healthz", get(ops::healthz))
         .route("/readyz", get(ops::readyz))

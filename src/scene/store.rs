@@ -99,6 +99,34 @@ impl Store {
         self.root.join("scenes").join(format!("{id}.json"))
     }
 
+    fn bodies_path(&self, id: &str) -> PathBuf {
+        self.root.join("bodies").join(format!("{id}.json"))
+    }
+
+    /// Persists a scene's bodies (written at graceful shutdown).
+    ///
+    /// # Errors
+    /// I/O.
+    pub fn put_bodies(&self, id: &str, record: &Value) -> std::io::Result<()> {
+        fs::create_dir_all(self.root.join("bodies"))?;
+        let bytes = serde_json::to_vec_pretty(record).map_err(std::io::Error::other)?;
+        write_atomic(&self.bodies_path(id), &bytes)
+    }
+
+    /// A scene's persisted bodies, if any.
+    ///
+    /// # Errors
+    /// An unreadable or malformed file, as a message.
+    pub fn load_bodies(&self, id: &str) -> Result<Option<Value>, String> {
+        match fs::read(self.bodies_path(id)) {
+            Ok(bytes) => serde_json::from_slice(&bytes)
+                .map(Some)
+                .map_err(|e| e.to_string()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+
     fn clock_path(&self, id: &str) -> PathBuf {
         self.root.join("clocks").join(format!("{id}.json"))
     }

@@ -1,0 +1,149 @@
+//! Floating-body endpoints: spawn, list, read, delete, input. The simulation itself is in
+//! [`crate::bodies`]; its loop starts when a scene gets its first body.
+
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+
+use crate::api::admin::require_admin;
+use crate::api::json::{RawBody, from_slice};
+use crate::bodies::runner::ensure_running;
+use crate::bodies::{BodyStateOut, InputRequest, SpawnRequest, body_not_found};
+use crate::error::ApiError;
+use crate::state::AppState;
+
+/// `GET /v1/scenes/{id}/bodies` answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct BodiesResponse {
+    /// Scene tick of the states.
+    pub tick: i64,
+    /// Scene time of the states, s.
+    pub t: f64,
+    /// States in id order.
+    pub bodies: Vec<BodyStateOut>,
+}
+
+fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
+    raw.parse::<u64>().map_err(|_| {
+        ApiError::invalid(
+            "body",
+            format!("body id {raw:?} is not an unsigned integer"),
+        )
+    })
+}
+
+/// `POST /v1/scenes/{id}/bodies` (admin): spawns a body at rest; 201 with its state.
+pub async fn create(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    RawBody(body): RawBody,
+) -> Result<Response, ApiError> {
+    require_admin(&headers, state.admin_token())?;
+    let req: SpawnRequest = from_slice(&body)?;
+    let entry = state.scene(&id)?;
+    let reading = state.read_clock(&entry);
+    let cell = state.bodies.get_or_create(
+        &id,
+        reading.tick,
+        entry.scene.spec.tick_hz,
+        entry.scene.spec.surface.gravity,
+    )?;
+    let out = {
+        let mut b = cell.lock();
+        let max = state.limits.max_scene_bodies;
+        if b.len() >= max {
+            return Err(ApiError::new(
+                StatusCode::CONFLICT,
+                "too_many_bodies",
+                format!("scene {id} already has {max} bodies, the limit"),
+            ));
+        }
+        let bid = b.spawn(&req)?;
+        b.state(bid)?
+    };
+    ensure_running(&state, &id, &cell);
+    tracing::info!(scene = %id, body = out.id, "body spawned");
+    Ok((StatusCode::CREATED, axum::Json(out)).into_response())
+}
+
+/// `GET /v1/scenes/{id}/bodies`.
+pub async fn list(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<axum::Json<BodiesResponse>, ApiError> {
+    let entry = state.scene(&id)?;
+    Ok(axum::Json(match state.bodies.get(&id) {
+        Some(cell) => {
+            let b = cell.lock();
+            BodiesResponse {
+                tick: b.tick(),
+                t: b.t(),
+                bodies: b.states(None),
+            }
+        }
+        None => {
+            let r = state.read_clock(&entry);
+            BodiesResponse {
+                tick: r.tick,
+                t: r.t,
+                bodies: Vec::new(),
+            }
+        }
+    }))
+}
+
+/// `GET /v1/scenes/{id}/bodies/{bid}`.
+pub async fn get_one(
+    State(state): State<AppState>,
+    Path((id, bid)): Path<(String, String)>,
+) -> Result<axum::Json<BodyStateOut>, ApiError> {
+    state.scene(&id)?;
+    let bid = parse_body_id(&bid)?;
+    let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
+    let st = cell.lock().state(bid)?;
+    Ok(axum::Json(st))
+}
+
+/// `DELETE /v1/scenes/{id}/bodies/{bid}` (admin): 204.
+pub async fn delete(
+    State(state): State<AppState>,
+    Path((id, bid)): Path<(String, String)>,
+    headers: HeaderMap,
+) -> Result<StatusCode, ApiError> {
+    require_admin(&headers, state.admin_token())?;
+    state.scene(&id)?;
+    let bid = parse_body_id(&bid)?;
+    let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
+    if cell.lock().remove(bid) {
+        tracing::info!(scene = %id, body = bid, "body removed");
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(body_not_found(bid))
+    }
+}
+
+/// `POST /v1/scenes/{id}/bodies/{bid}/input` (admin): 202 with the tick the bodies are at.
+pub async fn input(
+    State(state): State<AppState>,
+    Path((id, bid)): Path<(String, String)>,
+    headers: HeaderMap,
+    RawBody(body): RawBody,
+) -> Result<Response, ApiError> {
+    require_admin(&headers, state.admin_token())?;
+    state.scene(&id)?;
+    let bid = parse_body_id(&bid)?;
+    let req: InputRequest = from_slice(&body)?;
+    let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
+    let tick = {
+        let mut b = cell.lock();
+        b.input(bid, &req)?;
+        b.tick()
+    };
+    Ok((
+        StatusCode::ACCEPTED,
+        axum::Json(serde_json::json!({"tick": tick})),
+    )
+        .into_response())
+}

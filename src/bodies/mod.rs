@@ -1,0 +1,566 @@
+//! Server-authoritative floating bodies: one [`swell_waves::body::World`] per scene, stepped at
+//! the scene's tick rate by a loop ([`runner`]) while the scene has bodies.
+//!
+//! Time. A scene's body world is *anchored* at a scene tick: world tick 0 is that scene tick,
+//! and the world's time is `anchor/tick_hz + n/tick_hz`. Each loop iteration advances the world
+//! to the scene clock's current tick, one fixed step at a time, so the trajectory does not depend
+//! on when the loop runs: the state at a tick is a pure function of the scene, the initial
+//! states and the input log. Bodies only move forward in time. When the clock jumps (seek,
+//! reverse, a pause followed by a seek, or a gap longer than [`MAX_CATCH_UP_TICKS`] because the
+//! server was overloaded), the world is re-anchored at the new tick with every body's current
+//! state and the rest of its inputs: the bodies carry on from where they were.
+
+pub mod runner;
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use swell_waves::body::{BodyInput, BodySpec, BodyState, HullSpec, World, WorldSettings};
+use swell_waves::{QueryOptions, Surface};
+
+use crate::error::ApiError;
+
+/// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
+/// is re-anchored instead. Two seconds at 30 Hz: catching up more would stall the loop further.
+pub const MAX_CATCH_UP_TICKS: i64 = 60;
+
+/// Sea water density, kg/m³.
+pub const WATER_DENSITY: f64 = 1025.0;
+
+/// Damping ratio of the server's default drag: about 30% of critical in heave, so a spawned boat
+/// settles within a few oscillations, as players expect, instead of bobbing forever.
+pub const DEFAULT_DAMPING_RATIO: f64 = 0.3;
+
+/// Inversion settings for body probes: 0.1 mm is far below what a hull cell resolves, and a looser
+/// tolerance than the query default saves Newton steps on every cell of every body every tick.
+fn step_options() -> QueryOptions {
+    let mut o = QueryOptions::default();
+    o.inversion.tolerance = 1e-4;
+    o
+}
+
+/// `POST /v1/scenes/{id}/bodies` body.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpawnRequest {
+    /// Mass, kg.
+    pub mass: f64,
+    /// Hull: `{"kind":"box","length","beam","height","cells"?:[nx,nz]}` or
+    /// `{"kind":"cells","cells":[{"position":[x,y,z],"volume","height"}]}`.
+    pub hull: HullSpec,
+    /// World position of the body origin `[x, y, z]`, m.
+    pub position: [f64; 3],
+    /// Yaw, rad (about +y).
+    #[serde(default)]
+    pub yaw: f64,
+    /// Centre of mass in the body frame, m. Default the hull centre.
+    #[serde(default)]
+    pub center_of_mass: [f64; 3],
+    /// Linear drag, N·s/m. Default: [`DEFAULT_DAMPING_RATIO`] of critical heave damping.
+    #[serde(default)]
+    pub linear_drag: Option<f64>,
+    /// Quadratic drag, N·s²/m². Default 0.
+    #[serde(default)]
+    pub quadratic_drag: f64,
+    /// Angular damping, N·m·s/rad. Default: the linear default times the hull's
+    /// `(L² + B²)/12` (the same damping ratio in pitch and roll, roughly).
+    #[serde(default)]
+    pub angular_damping: Option<f64>,
+    /// Waves shorter than this factor times the hull length do not move the body (analytic
+    /// layers only). Default 0.
+    #[serde(default)]
+    pub min_wavelength_factor: f64,
+}
+
+impl SpawnRequest {
+    /// The model spec, with the server's default damping filled in.
+    pub fn body_spec(&self, gravity: f64) -> BodySpec {
+        let (area, length, beam, volume) = match &self.hull {
+            HullSpec::Box {
+                length,
+                beam,
+                height,
+                ..
+            } => (length * beam, *length, *beam, length * beam * height),
+            HullSpec::Cells { cells } => {
+                let v: f64 = cells.iter().map(|c| c.volume).sum();
+                let a: f64 = cells
+                    .iter()
+                    .map(|c| {
+                        if c.height > 0.0 {
+                            c.volume / c.height
+                        } else {
+                            0.0
+                        }
+                    })
+                    .sum();
+                let side = a.max(0.0).sqrt();
+                (a, side, side, v)
+            }
+        };
+        // Heave stiffness ρ·g·A and critical damping 2·sqrt(k·m); drag acts on the submerged
+        // fraction f = m/(ρ·V) at rest, so divide by it to get that damping at the waterline.
+        let k = WATER_DENSITY * gravity * area;
+        let f = (self.mass / (WATER_DENSITY * volume)).clamp(0.05, 1.0);
+        let c = 2.0 * DEFAULT_DAMPING_RATIO * (k * self.mass).max(0.0).sqrt() / f;
+        let c = if c.is_finite() { c } else { 0.0 };
+        BodySpec {
+            mass: self.mass,
+            hull: self.hull.clone(),
+            center_of_mass: self.center_of_mass,
+            linear_drag: self.linear_drag.unwrap_or(c),
+            quadratic_drag: self.quadratic_drag,
+            angular_damping: self
+                .angular_damping
+                .unwrap_or(c * (length * length + beam * beam) / 12.0),
+            min_wavelength_factor: self.min_wavelength_factor,
+        }
+    }
+}
+
+/// `POST /v1/scenes/{id}/bodies/{bid}/input` body: force and torque in the body frame.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputRequest {
+    /// Force `[x, y, z]` in the body frame, N (x forward: thrust).
+    #[serde(default)]
+    pub force: [f64; 3],
+    /// Torque `[x, y, z]` in the body frame, N·m (y: rudder/yaw).
+    #[serde(default)]
+    pub torque: [f64; 3],
+    /// First scene tick it acts on; default the next tick. Must not be in the past.
+    #[serde(default)]
+    pub from_tick: Option<i64>,
+    /// Number of ticks it acts for (1..=10⁷). Default 1.
+    #[serde(default)]
+    pub ticks: Option<u64>,
+}
+
+/// A body's state on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BodyStateOut {
+    /// Id (unique in the scene, never reused).
+    pub id: u64,
+    /// World position of the body origin, m.
+    pub position: [f64; 3],
+    /// Orientation quaternion `[x, y, z, w]`.
+    pub rotation: [f64; 4],
+    /// Linear velocity, m/s.
+    pub velocity: [f64; 3],
+    /// Angular velocity (world frame), rad/s.
+    pub angular_velocity: [f64; 3],
+    /// Submerged fraction of the hull volume during the last step, 0..1 (0 until the body's
+    /// first step after a spawn, a restore or a clock jump).
+    pub submerged: f64,
+    /// The last step went non-finite and was rolled back (the state is the last good one).
+    pub quarantined: bool,
+}
+
+/// What [`SceneBodies::advance_to`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Advance {
+    /// Fixed steps taken.
+    pub steps: u32,
+    /// The world was re-anchored (a clock jump).
+    pub reanchored: bool,
+}
+
+/// The bodies of one scene.
+#[derive(Debug)]
+pub struct SceneBodies {
+    world: World,
+    specs: BTreeMap<u64, BodySpec>,
+    /// Scene tick of world tick 0.
+    anchor: i64,
+    tick_hz: f64,
+    gravity: f64,
+}
+
+/// One body as persisted.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BodyRecord {
+    /// Id.
+    pub id: u64,
+    /// Spec (defaults filled in).
+    pub spec: BodySpec,
+    /// Last state.
+    pub state: BodyState,
+}
+
+/// A scene's bodies as persisted on graceful shutdown.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BodiesRecord {
+    /// Scene tick of the states.
+    pub tick: i64,
+    /// Bodies in id order.
+    pub bodies: Vec<BodyRecord>,
+}
+
+fn model_error(e: &swell_waves::SpecError) -> ApiError {
+    ApiError::invalid_spec(e)
+}
+
+impl SceneBodies {
+    /// An empty body world anchored at scene tick `anchor`.
+    ///
+    /// # Errors
+    /// 422 if `tick_hz` or `gravity` is out of the model's range.
+    pub fn new(anchor: i64, tick_hz: f64, gravity: f64) -> Result<SceneBodies, ApiError> {
+        let world = World::new(settings(anchor, tick_hz, gravity)).map_err(|e| model_error(&e))?;
+        Ok(SceneBodies {
+            world,
+            specs: BTreeMap::new(),
+            anchor,
+            tick_hz,
+            gravity,
+        })
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.world.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.world.is_empty()
+    }
+
+    /// The scene tick the states are at.
+    pub fn tick(&self) -> i64 {
+        self.anchor + self.world.tick() as i64
+    }
+
+    /// The scene time the states are at, s.
+    pub fn t(&self) -> f64 {
+        self.world.time()
+    }
+
+    /// Adds a body; returns its id.
+    ///
+    /// # Errors
+    /// 422 with the model's message for an invalid spec or state.
+    pub fn spawn(&mut self, req: &SpawnRequest) -> Result<u64, ApiError> {
+        let spec = req.body_spec(self.gravity);
+        for (i, v) in req.position.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(ApiError::invalid(
+                    format!("position[{i}]"),
+                    format!("position[{i}] = {v} must be finite"),
+                ));
+            }
+        }
+        if !req.yaw.is_finite() {
+            return Err(ApiError::invalid("yaw", "yaw must be finite"));
+        }
+        let state = BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
+        let id = self.world.add(&spec, state).map_err(|e| model_error(&e))?;
+        self.specs.insert(id, spec);
+        Ok(id)
+    }
+
+    /// Removes a body; whether it existed.
+    pub fn remove(&mut self, id: u64) -> bool {
+        self.specs.remove(&id);
+        self.world.remove(id)
+    }
+
+    /// Queues an input for body `id`.
+    ///
+    /// # Errors
+    /// 404 unknown body; 400 for a tick in the past, a bad span or a non-finite component.
+    pub fn input(&mut self, id: u64, req: &InputRequest) -> Result<(), ApiError> {
+        if self.world.body(id).is_none() {
+            return Err(body_not_found(id));
+        }
+        let now = self.tick();
+        let from = req.from_tick.unwrap_or(now);
+        if from < now {
+            return Err(ApiError::invalid(
+                "from_tick",
+                format!("from_tick = {from} is in the past: the bodies are at tick {now}"),
+            ));
+        }
+        let ticks = req.ticks.unwrap_or(1);
+        if !(1..=10_000_000).contains(&ticks) {
+            return Err(ApiError::invalid(
+                "ticks",
+                format!("ticks = {ticks} is out of range: 1..=10000000"),
+            ));
+        }
+        self.world
+            .input(BodyInput {
+                body: id,
+                force: req.force,
+                torque: req.torque,
+                from_tick: (from - self.anchor) as u64,
+                ticks,
+            })
+            .map_err(|e| {
+                let field = e.field().trim_start_matches("input.").to_owned();
+                ApiError::invalid(field, e.to_string())
+            })
+    }
+
+    /// Steps the bodies forward to scene tick `target` on `surface` (see the module docs for
+    /// jumps). `tick_hz`/`gravity` are the scene's now: if they changed, the world is re-anchored
+    /// with them.
+    pub fn advance_to(
+        &mut self,
+        target: i64,
+        surface: &Surface,
+        tick_hz: f64,
+        gravity: f64,
+    ) -> Advance {
+        let now = self.tick();
+        let settings_changed = tick_hz != self.tick_hz || gravity != self.gravity;
+        if target < now || target - now > MAX_CATCH_UP_TICKS || settings_changed {
+            if target != now || settings_changed {
+                self.reanchor(target, tick_hz, gravity);
+                return Advance {
+                    steps: 0,
+                    reanchored: true,
+                };
+            }
+            return Advance::default();
+        }
+        let options = step_options();
+        let mut steps = 0;
+        while self.tick() < target {
+            // Options are valid, so stepping cannot fail.
+            if self.world.step_surface(surface, &options).is_err() {
+                break;
+            }
+            steps += 1;
+        }
+        self.world.prune_inputs();
+        Advance {
+            steps,
+            reanchored: false,
+        }
+    }
+
+    /// Starts a new world at scene tick `tick` with every body's current state and the inputs
+    /// that are not over yet (shifted to the new anchor).
+    fn reanchor(&mut self, tick: i64, tick_hz: f64, gravity: f64) {
+        let Ok(mut world) = World::new(settings(tick, tick_hz, gravity)) else {
+            return; // Scene settings the model rejects: keep the old world.
+        };
+        for (id, body) in self.world.bodies() {
+            if let Some(spec) = self.specs.get(&id) {
+                // The spec and state were valid when added; insert cannot fail on them.
+                let _ = world.insert(id, spec, *body.state());
+            }
+        }
+        let old_now = self.tick();
+        for i in self.world.inputs() {
+            let start = self.anchor + i.from_tick as i64;
+            let end = start + i.ticks as i64; // exclusive, scene ticks
+            let remaining_start = start.max(old_now);
+            if end > remaining_start {
+                let _ = world.input(BodyInput {
+                    from_tick: 0,
+                    ticks: (end - remaining_start) as u64,
+                    ..*i
+                });
+            }
+        }
+        self.world = world;
+        self.anchor = tick;
+        self.tick_hz = tick_hz;
+        self.gravity = gravity;
+    }
+
+    /// States in id order; `only` restricts to those ids.
+    pub fn states(&self, only: Option<&[u64]>) -> Vec<BodyStateOut> {
+        self.world
+            .bodies()
+            .filter(|(id, _)| only.is_none_or(|o| o.contains(id)))
+            .map(|(id, b)| out(id, b))
+            .collect()
+    }
+
+    /// One body's state.
+    ///
+    /// # Errors
+    /// 404 if there is no such body.
+    pub fn state(&self, id: u64) -> Result<BodyStateOut, ApiError> {
+        self.world
+            .body(id)
+            .map(|b| out(id, b))
+            .ok_or_else(|| body_not_found(id))
+    }
+
+    /// The persisted form.
+    pub fn record(&self) -> BodiesRecord {
+        BodiesRecord {
+            tick: self.tick(),
+            bodies: self
+                .world
+                .bodies()
+                .filter_map(|(id, b)| {
+                    Some(BodyRecord {
+                        id,
+                        spec: self.specs.get(&id)?.clone(),
+                        state: *b.state(),
+                    })
+                })
+                .collect(),
+        }
+    }
+
+    /// Rebuilds from a persisted record, anchored at the record's tick. Bodies that no longer
+    /// validate are skipped (and logged).
+    pub fn from_record(
+        rec: &BodiesRecord,
+        tick_hz: f64,
+        gravity: f64,
+    ) -> Result<SceneBodies, ApiError> {
+        let mut b = SceneBodies::new(rec.tick, tick_hz, gravity)?;
+        for r in &rec.bodies {
+            match b.world.insert(r.id, &r.spec, r.state) {
+                Ok(()) => {
+                    b.specs.insert(r.id, r.spec.clone());
+                }
+                Err(e) => tracing::error!(body = r.id, error = %e, "skipping persisted body"),
+            }
+        }
+        Ok(b)
+    }
+}
+
+fn settings(anchor: i64, tick_hz: f64, gravity: f64) -> WorldSettings {
+    WorldSettings {
+        tick_hz,
+        water_density: WATER_DENSITY,
+        gravity,
+        start_time: anchor as f64 / tick_hz,
+    }
+}
+
+fn out(id: u64, b: &swell_waves::body::Body) -> BodyStateOut {
+    let s = b.state();
+    BodyStateOut {
+        id,
+        position: s.position.to_array(),
+        rotation: s.rotation.to_array(),
+        velocity: s.velocity.to_array(),
+        angular_velocity: s.angular_velocity.to_array(),
+        submerged: b.status().submerged,
+        quarantined: b.status().quarantined,
+    }
+}
+
+/// 404 for an unknown body.
+pub fn body_not_found(id: u64) -> ApiError {
+    ApiError::new(
+        axum::http::StatusCode::NOT_FOUND,
+        "body_not_found",
+        format!("no body with id {id} in this scene"),
+    )
+    .with_field("body")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn calm() -> Surface {
+        let spec: swell_waves::SurfaceSpec = serde_json::from_value(json!({"layers": [
+            {"kind": "sine", "waves": [{"amplitude": 0.1, "wavelength": 20.0, "direction": [1.0, 0.0]}]}
+        ]}))
+        .unwrap();
+        Surface::new(&spec).unwrap()
+    }
+
+    fn boat() -> SpawnRequest {
+        serde_json::from_value(json!({"mass": 2000.0,
+            "hull": {"kind": "box", "length": 6.0, "beam": 2.5, "height": 1.2},
+            "position": [0.0, 0.5, 0.0]}))
+        .unwrap()
+    }
+
+    #[test]
+    fn advancing_is_independent_of_how_the_ticks_are_grouped() {
+        let s = calm();
+        let mut a = SceneBodies::new(100, 30.0, 9.81).unwrap();
+        let mut b = SceneBodies::new(100, 30.0, 9.81).unwrap();
+        a.spawn(&boat()).unwrap();
+        b.spawn(&boat()).unwrap();
+        for t in 101..=160 {
+            a.advance_to(t, &s, 30.0, 9.81);
+        }
+        for t in [110, 133, 160] {
+            b.advance_to(t, &s, 30.0, 9.81);
+        }
+        assert_eq!(a.tick(), 160);
+        assert_eq!(a.states(None), b.states(None));
+    }
+
+    #[test]
+    fn a_clock_jump_reanchors_and_keeps_the_state() {
+        let s = calm();
+        let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        a.spawn(&boat()).unwrap();
+        a.advance_to(30, &s, 30.0, 9.81);
+        let before = a.states(None);
+        let adv = a.advance_to(10_000, &s, 30.0, 9.81);
+        assert!(adv.reanchored);
+        assert_eq!(a.tick(), 10_000);
+        let after = a.states(None);
+        let kinematics =
+            |s: &BodyStateOut| (s.position, s.rotation, s.velocity, s.angular_velocity);
+        assert_eq!(kinematics(&after[0]), kinematics(&before[0]));
+        let adv = a.advance_to(5, &s, 30.0, 9.81);
+        assert!(adv.reanchored && a.tick() == 5);
+    }
+
+    #[test]
+    fn inputs_in_the_past_or_for_unknown_bodies_are_rejected() {
+        let s = calm();
+        let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        let id = a.spawn(&boat()).unwrap();
+        a.advance_to(10, &s, 30.0, 9.81);
+        let req = InputRequest {
+            force: [1.0, 0.0, 0.0],
+            torque: [0.0; 3],
+            from_tick: Some(3),
+            ticks: None,
+        };
+        assert_eq!(a.input(id, &req).unwrap_err().status, 400);
+        assert_eq!(a.input(99, &req).unwrap_err().status, 404);
+        let bad = InputRequest {
+            force: [f64::NAN, 0.0, 0.0],
+            from_tick: None,
+            ..req
+        };
+        assert_eq!(
+            a.input(id, &bad).unwrap_err().field.as_deref(),
+            Some("force[0]")
+        );
+    }
+
+    #[test]
+    fn default_damping_lets_a_dropped_boat_settle() {
+        let s = calm();
+        let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        let mut req = boat();
+        req.position = [0.0, 2.0, 0.0];
+        let id = a.spawn(&req).unwrap();
+        // One simulated minute, in chunks under the catch-up cap (as the loop would).
+        for k in 1..=30 {
+            a.advance_to(k * 60, &s, 30.0, 9.81);
+        }
+        let st = a.state(id).unwrap();
+        let v: f64 = st.velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
+        // In a 0.1 m swell the boat rides the waves (orbital speed ~0.18 m/s), nothing more.
+        assert!(v < 0.5, "speed {v}");
+        // Draft m/(ρ·L·B) = 2000/(1025·15) ≈ 0.13 m: the box centre floats 0.6 − 0.13 above.
+        assert!(
+            (st.position[1] - (0.6 - 0.13)).abs() < 0.15,
+            "y {}",
+            st.position[1]
+        );
+    }
+}

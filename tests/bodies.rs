@@ -1,0 +1,189 @@
+//! Floating bodies end to end: spawn a boat in `calm`, watch it settle, push it, see it move;
+//! errors; persistence across a graceful restart.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{TOKEN, TestServer, config, config_with_dir};
+use reqwest::Method;
+use serde_json::{Value, json};
+
+fn boat(y: f64) -> Value {
+    json!({"mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+           "position": [5.0, y, -3.0], "yaw": 0.0})
+}
+
+async fn spawn(s: &TestServer, scene: &str, body: &Value) -> (u16, Value) {
+    s.admin(
+        Method::POST,
+        &format!("/v1/scenes/{scene}/bodies"),
+        Some(body),
+        Some(TOKEN),
+    )
+    .await
+}
+
+/// Polls until `f` holds for the body's state, or gives up after `secs` seconds.
+async fn wait_for(s: &TestServer, path: &str, secs: f64, f: impl Fn(&Value) -> bool) -> Value {
+    let start = std::time::Instant::now();
+    loop {
+        let (st, v) = s.get_json(path).await;
+        assert_eq!(st, 200, "{v}");
+        if f(&v) || start.elapsed().as_secs_f64() > secs {
+            return v;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+#[tokio::test]
+async fn a_boat_settles_in_calm_and_moves_under_thrust() {
+    let s = TestServer::start(config()).await;
+    // Fast-forward the scene so a minute of sea passes in a few seconds of test.
+    s.put_clock("calm", &json!({"rate": 20.0})).await;
+    let (st, b) = spawn(&s, "calm", &boat(1.0)).await;
+    assert_eq!(st, 201, "{b}");
+    let id = b["id"].as_u64().unwrap();
+    assert_eq!(b["position"], json!([5.0, 1.0, -3.0]));
+    let path = format!("/v1/scenes/calm/bodies/{id}");
+    // Draft m/(ρ·L·B) = 3000/(1025·24) = 0.122 m: the box centre rests 0.75 − 0.122 = 0.63 m up
+    // (calm's swell moves it by about ±0.15 m around that).
+    let settled = wait_for(&s, &path, 20.0, |v| {
+        let y = v["position"][1].as_f64().unwrap();
+        let vy = v["velocity"][1].as_f64().unwrap();
+        (y - 0.63).abs() < 0.2 && vy.abs() < 0.3
+    })
+    .await;
+    let y = settled["position"][1].as_f64().unwrap();
+    assert!((y - 0.63).abs() < 0.2, "did not settle: {settled}");
+    assert!(settled["submerged"].as_f64().unwrap() > 0.0);
+    assert_eq!(settled["quarantined"], false);
+    // Thrust along the bow (+x) for 10 scene seconds.
+    let x0 = settled["position"][0].as_f64().unwrap();
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            &format!("{path}/input"),
+            Some(&json!({"force": [20000.0, 0.0, 0.0], "ticks": 300})),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 202, "{v}");
+    let moved = wait_for(&s, &path, 20.0, |v| {
+        v["position"][0].as_f64().unwrap() > x0 + 2.0
+    })
+    .await;
+    assert!(
+        moved["position"][0].as_f64().unwrap() > x0 + 2.0,
+        "did not move: {moved}"
+    );
+    // The list carries it too, with the tick and time of the states.
+    let (st, list) = s.get_json("/v1/scenes/calm/bodies").await;
+    assert_eq!(st, 200);
+    assert_eq!(list["bodies"].as_array().unwrap().len(), 1);
+    assert!(list["tick"].as_i64().unwrap() > 0 && list["t"].as_f64().unwrap() > 0.0);
+    // Delete it.
+    let (st, _) = s.admin(Method::DELETE, &path, None, Some(TOKEN)).await;
+    assert_eq!(st, 204);
+    let (st, e) = s.get_json(&path).await;
+    assert_eq!(
+        (st, e["error"]["code"].as_str()),
+        (404, Some("body_not_found"))
+    );
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn body_errors_are_4xx_and_change_nothing() {
+    let s = TestServer::start(config()).await;
+    let url = "/v1/scenes/calm/bodies";
+    // Admin only.
+    let (st, _) = s.admin(Method::POST, url, Some(&boat(0.5)), None).await;
+    assert_eq!(st, 401);
+    let (st, _) = s
+        .admin(Method::POST, url, Some(&boat(0.5)), Some("wrong"))
+        .await;
+    assert_eq!(st, 403);
+    // Unknown scene, unknown field, invalid spec (the model's message and field).
+    let (st, _) = spawn(&s, "nope", &boat(0.5)).await;
+    assert_eq!(st, 404);
+    let mut b = boat(0.5);
+    b["mas"] = json!(1.0);
+    let (st, e) = spawn(&s, "calm", &b).await;
+    assert_eq!(st, 400, "{e}");
+    let mut b = boat(0.5);
+    b["mass"] = json!(-1.0);
+    let (st, e) = spawn(&s, "calm", &b).await;
+    assert_eq!(st, 422, "{e}");
+    assert!(
+        e["error"]["field"].as_str().unwrap().contains("mass"),
+        "{e}"
+    );
+    let mut b = boat(0.5);
+    b["hull"]["length"] = json!(0.0);
+    let (st, e) = spawn(&s, "calm", &b).await;
+    assert_eq!(st, 422, "{e}");
+    // Nothing was added.
+    let (_, list) = s.get_json(url).await;
+    assert_eq!(list["bodies"], json!([]));
+    // Bad ids and inputs.
+    let (st, _) = s.get_json("/v1/scenes/calm/bodies/abc").await;
+    assert_eq!(st, 400);
+    let (_, b) = spawn(&s, "calm", &boat(0.5)).await;
+    let id = b["id"].as_u64().unwrap();
+    let input = format!("{url}/{id}/input");
+    let (st, e) = s
+        .admin(
+            Method::POST,
+            &input,
+            Some(&json!({"force": [1.0, 0.0, 0.0], "from_tick": -5})),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(
+        (st, e["error"]["field"].as_str()),
+        (400, Some("from_tick")),
+        "{e}"
+    );
+    let (st, _) = s
+        .admin(
+            Method::POST,
+            &input,
+            Some(&json!({"force": [1.0, 0.0, 0.0], "ticks": 0})),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 400);
+    let (st, _) = s
+        .admin(
+            Method::POST,
+            &format!("{url}/999/input"),
+            Some(&json!({"force": [1.0, 0.0, 0.0]})),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 404);
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn bodies_survive_a_graceful_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+    s.put_clock("lake", &json!({"paused": true})).await;
+    let (st, b) = spawn(&s, "lake", &boat(0.4)).await;
+    assert_eq!(st, 201);
+    let id = b["id"].as_u64().unwrap();
+    let (st, b2) = spawn(&s, "lake", &boat(0.6)).await;
+    assert_eq!(st, 201);
+    let before = s.get_json("/v1/scenes/lake/bodies").await.1;
+    s.stop().await;
+    let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+    let after = s.get_json("/v1/scenes/lake/bodies").await.1;
+    assert_eq!(after["bodies"], before["bodies"], "states restored exactly");
+    // Ids are never reused after a restart.
+    let (_, b3) = spawn(&s, "lake", &boat(0.5)).await;
+    assert!(b3["id"].as_u64().unwrap() > b2["id"].as_u64().unwrap().max(id));
+    s.stop().await;
+}
