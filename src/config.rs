@@ -80,6 +80,13 @@ pub struct Limits {
     pub max_coordinate: f64,
     /// Largest |t|, s, for the same reason.
     pub max_time: f64,
+    /// Largest WebSocket message (and frame) a client may send, bytes; beyond it the socket is
+    /// closed (1009). 1 MiB holds a 20,000-point sample request; tungstenite's 64 MiB default
+    /// would let one client make the server buffer 64 MiB.
+    pub ws_max_message_bytes: usize,
+    /// Messages queued for one WebSocket client; when full the client is not reading and is
+    /// disconnected. 256 is about 8 s of 30 Hz ticks, far more than a healthy client lags.
+    pub ws_send_queue: usize,
 }
 
 impl Default for Limits {
@@ -94,6 +101,8 @@ impl Default for Limits {
             frame_cache_entries: 32,
             max_coordinate: 1e9,
             max_time: 1e10,
+            ws_max_message_bytes: 1024 * 1024,
+            ws_send_queue: 256,
         }
     }
 }

@@ -150,6 +150,8 @@ impl IntoResponse for ApiError {
             header::CONTENT_TYPE,
             HeaderValue::from_static("application/json"),
         );
+        // Kept for `api::wire::protobuf_errors`, which re-encodes it for protobuf clients.
+        resp.extensions_mut().insert(self.clone());
         if self.status == StatusCode::UNAUTHORIZED {
             resp.headers_mut()
                 .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));

@@ -17,7 +17,9 @@
 //! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
 //! - [`state`] — the registry and admin operations (validate → persist → swap).
 //! - [`frames`] — the shared, bounded FFT frame cache.
-//! - [`api`] — routes, middleware, request/response types, handlers.
+//! - [`api`] — routes, middleware, request/response types, handlers, JSON/protobuf negotiation.
+//! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
+//! - [`wire`] — protobuf types generated from `proto/` and their conversions.
 //! - [`error`] — [`ApiError`], the one error type of every endpoint.
 //!
 //! # Determinism
@@ -34,12 +36,15 @@ pub mod error;
 pub mod frames;
 pub mod scene;
 pub mod state;
+pub mod stream;
+pub mod wire;
 
 use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::OnceLock;
 use std::time::Duration;
 
+use axum::serve::ListenerExt;
 use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
 use tokio::net::TcpListener;
 
@@ -178,10 +183,19 @@ impl Server {
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
         let draining = state.clone();
-        let result = axum::serve(self.listener, app)
+        // TCP_NODELAY: stream frames and small answers go out at once instead of waiting
+        // (Nagle) for more bytes to batch.
+        let listener = self.listener.tap_io(|tcp| {
+            if let Err(e) = tcp.set_nodelay(true) {
+                tracing::debug!(error = %e, "could not set TCP_NODELAY");
+            }
+        });
+        let result = axum::serve(listener, app)
             .with_graceful_shutdown(async move {
                 shutdown.await;
                 draining.set_ready(false);
+                // WebSocket sessions send Close and end; tick loops stop.
+                draining.shutdown.cancel();
                 tracing::info!("shutting down: draining in-flight requests");
             })
             .await;

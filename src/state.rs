@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use metrics_exporter_prometheus::PrometheusHandle;
 use serde_json::Value;
+use tokio_util::sync::CancellationToken;
 
 use crate::api::types::ClockUpdate;
 use crate::config::Limits;
@@ -21,6 +22,7 @@ use crate::frames::FrameCache;
 use crate::scene::clock::ClockReading;
 use crate::scene::store::{ClockRecord, SceneRecord, Store, unix_now};
 use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
+use crate::stream::ticks::Tickers;
 
 /// Cheap to clone: one `Arc`.
 #[derive(Debug, Clone)]
@@ -37,6 +39,11 @@ pub struct Inner {
     pub metrics: PrometheusHandle,
     /// Every scene's floating bodies.
     pub bodies: crate::bodies::runner::BodyRegistry,
+    /// Running tick loops, by scene.
+    pub tickers: Tickers,
+    /// Fired when the server starts shutting down: WebSocket sessions send Close and end, tick
+    /// loops stop (axum's graceful shutdown does neither for upgraded connections).
+    pub shutdown: CancellationToken,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     store: Option<Store>,
     admin_token: String,
@@ -74,6 +81,8 @@ impl AppState {
             limits,
             metrics,
             bodies: Default::default(),
+            tickers: Tickers::default(),
+            shutdown: CancellationToken::new(),
             scenes: RwLock::new(BTreeMap::new()),
             store,
             admin_token,

@@ -187,3 +187,79 @@ async fn bodies_survive_a_graceful_restart() {
     assert!(b3["id"].as_u64().unwrap() > b2["id"].as_u64().unwrap().max(id));
     s.stop().await;
 }
+
+/// Body states ride the WebSocket tick frames; `subscribe.bodies` restricts them to some ids.
+#[tokio::test]
+async fn tick_frames_carry_body_states_and_the_filter_applies() {
+    use futures_util::SinkExt;
+    use tokio_tungstenite::tungstenite::Message;
+
+    let s = TestServer::start(config()).await;
+    let (_, a) = spawn(&s, "calm", &boat(0.6)).await;
+    let (_, b) = spawn(&s, "calm", &boat(0.7)).await;
+    let (a, b) = (a["id"].as_u64().unwrap(), b["id"].as_u64().unwrap());
+    let mut ws = common::ws_connect(s.addr, "calm", None).await;
+    ws.send(Message::Text(
+        json!({"type": "subscribe", "ticks": true})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    let f = next_tick(&mut ws).await;
+    let ids: Vec<u64> = f["bodies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, [a, b], "{f}");
+    // The states are the bodies' at that tick: the same as GET /bodies reports for that tick.
+    for body in f["bodies"].as_array().unwrap() {
+        assert_eq!(body["position"].as_array().unwrap().len(), 3);
+        assert_eq!(body["quarantined"], false);
+    }
+    ws.send(Message::Text(
+        json!({"type": "subscribe", "ticks": true, "bodies": [b]})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    // Frames already queued may still carry both; within a few frames only `b` remains.
+    let mut only_b = false;
+    for _ in 0..30 {
+        let f = next_tick(&mut ws).await;
+        let ids: Vec<u64> = f["bodies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x["id"].as_u64().unwrap())
+            .collect();
+        if ids == [b] {
+            only_b = true;
+            break;
+        }
+    }
+    assert!(only_b, "the bodies filter was not applied");
+    s.stop().await;
+}
+
+/// The next `tick` frame on the socket.
+async fn next_tick(ws: &mut common::Ws) -> Value {
+    use futures_util::StreamExt;
+    use tokio_tungstenite::tungstenite::Message;
+    loop {
+        let m = tokio::time::timeout(Duration::from_secs(10), ws.next())
+            .await
+            .expect("a frame within 10 s")
+            .expect("open")
+            .expect("frame");
+        if let Message::Text(t) = m {
+            let v: Value = serde_json::from_str(t.as_str()).unwrap();
+            if v["type"] == "tick" {
+                return v;
+            }
+        }
+    }
+}

@@ -301,11 +301,13 @@ async fn wrong_method_is_405_json() {
 }
 
 #[tokio::test]
-async fn protobuf_bodies_are_refused_until_supported() {
+async fn protobuf_admin_bodies_are_refused() {
+    // Query bodies may be protobuf (tests/protobuf.rs); scene specs are JSON only.
     let s = TestServer::start(config()).await;
     let r = s
         .client
-        .post(s.url("/v1/scenes/calm/sample"))
+        .put(s.url("/v1/scenes/calm"))
+        .bearer_auth(common::TOKEN)
         .header("content-type", "application/x-protobuf")
         .body(vec![1u8, 2, 3])
         .send()

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::api::admin::require_admin;
 use crate::api::json::{RawBody, from_slice};
 use crate::bodies::runner::ensure_running;
-use crate::bodies::{BodyStateOut, InputRequest, SpawnRequest, body_not_found};
+use crate::bodies::{BodyState, InputRequest, SpawnRequest, body_not_found};
 use crate::error::ApiError;
 use crate::state::AppState;
 
@@ -21,7 +21,7 @@ pub struct BodiesResponse {
     /// Scene time of the states, s.
     pub t: f64,
     /// States in id order.
-    pub bodies: Vec<BodyStateOut>,
+    pub bodies: Vec<BodyState>,
 }
 
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
@@ -98,7 +98,7 @@ pub async fn list(
 pub async fn get_one(
     State(state): State<AppState>,
     Path((id, bid)): Path<(String, String)>,
-) -> Result<axum::Json<BodyStateOut>, ApiError> {
+) -> Result<axum::Json<BodyState>, ApiError> {
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;

@@ -1,8 +1,8 @@
 //! JSON bodies: parsing with the path of the offending field, and the extractor every JSON
 //! endpoint uses, so malformed input always comes back as an [`ApiError`].
 //!
-//! Protobuf bodies (`application/x-protobuf`) will decode to the same request types here; until
-//! then they are refused with 415.
+//! Query bodies may also be protobuf: see [`crate::api::wire`], which decodes them into the same
+//! request types. Admin bodies (scene specs, clock updates) are JSON only; protobuf gets 415.
 
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Request};
@@ -72,18 +72,26 @@ impl<S: Send + Sync> FromRequest<S> for RawBody {
             return Err(ApiError::new(
                 StatusCode::UNSUPPORTED_MEDIA_TYPE,
                 "unsupported_media_type",
-                "protobuf bodies are not supported yet; send JSON",
+                "this endpoint takes JSON only (protobuf is for query bodies)",
             ));
         }
-        match Bytes::from_request(req, state).await {
-            Ok(b) => Ok(RawBody(b)),
-            Err(r) if r.status() == StatusCode::PAYLOAD_TOO_LARGE => Err(ApiError::new(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                "body_too_large",
-                "request body is larger than the server's limit (max_body_bytes)",
-            )),
-            Err(r) => Err(ApiError::bad_json(r.body_text())),
-        }
+        read_bytes(req, state).await.map(RawBody)
+    }
+}
+
+/// Reads a whole body within the size limit.
+///
+/// # Errors
+/// 413 `body_too_large` beyond `max_body_bytes`; 400 if the body cannot be read.
+pub async fn read_bytes<S: Send + Sync>(req: Request, state: &S) -> Result<Bytes, ApiError> {
+    match Bytes::from_request(req, state).await {
+        Ok(b) => Ok(b),
+        Err(r) if r.status() == StatusCode::PAYLOAD_TOO_LARGE => Err(ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "body_too_large",
+            "request body is larger than the server's limit (max_body_bytes)",
+        )),
+        Err(r) => Err(ApiError::bad_json(r.body_text())),
     }
 }
 

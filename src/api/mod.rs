@@ -6,8 +6,10 @@
 //! - [`query`] — height, sample, orientation (`run_*` functions callable from any transport).
 //! - [`admin`] — bearer-token check.
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
+//! - [`wire`] — JSON/protobuf content negotiation for query bodies and answers.
 //!
 //! Middleware, outermost first: panic → 500 JSON; trace span; metrics by route and status;
+//! errors re-encoded as protobuf for clients that accept it;
 //! in-flight limit (503 beyond it, never an unbounded queue) and timeout (503); body-size limit.
 
 pub mod admin;
@@ -17,6 +19,7 @@ pub mod ops;
 pub mod query;
 pub mod scenes;
 pub mod types;
+pub mod wire;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -67,6 +70,7 @@ pub fn router(state: AppState) -> Router {
             "/v1/scenes/{id}/bodies/{bid}/input",
             axum::routing::post(bodies::input),
         )
+        .route("/v1/scenes/{id}/stream", get(crate::stream::stream))
         .route("/healthz", get(ops::healthz))
         .route("/readyz", get(ops::readyz))
         .route("/metrics", get(ops::metrics))
@@ -79,6 +83,7 @@ pub fn router(state: AppState) -> Router {
             (in_flight, timeout),
             limit_and_timeout,
         ))
+        .layer(middleware::from_fn(wire::protobuf_errors))
         .layer(middleware::from_fn(track_metrics))
         .layer(TraceLayer::new_for_http())
         .layer(CatchPanicLayer::custom(|_panic| {

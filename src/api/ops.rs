@@ -88,6 +88,32 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
         "/v1/scenes/{id}/orientation",
         "Orientation of floating bodies",
     ),
+    (
+        "get",
+        "/v1/scenes/{id}/bodies",
+        "Floating bodies: tick, t and every body's state",
+    ),
+    (
+        "post",
+        "/v1/scenes/{id}/bodies",
+        "Spawn a floating body (admin): {mass, hull, position, yaw?, drag?...} → 201 state",
+    ),
+    ("get", "/v1/scenes/{id}/bodies/{bid}", "One body's state"),
+    (
+        "delete",
+        "/v1/scenes/{id}/bodies/{bid}",
+        "Remove a body (admin)",
+    ),
+    (
+        "post",
+        "/v1/scenes/{id}/bodies/{bid}/input",
+        "Force/torque in the body frame from a tick for some ticks (admin): {force, torque, from_tick?, ticks?}",
+    ),
+    (
+        "get",
+        "/v1/scenes/{id}/stream",
+        "WebSocket (subprotocols swell.v1.json, swell.v1.protobuf): ping/pong, sample, orientation, subscribe → tick frames",
+    ),
     ("get", "/healthz", "Liveness"),
     ("get", "/readyz", "Readiness"),
     ("get", "/metrics", "Prometheus metrics"),
@@ -95,8 +121,18 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     ("get", "/docs", "Human-readable API page"),
 ];
 
+/// The protobuf media type and where its schema lives, for the document.
+const PROTOBUF_NOTE: &str = "swell.v1 message from proto/swell/v1/*.proto (the wire schema)";
+
+fn protobuf_content(message: &str) -> Value {
+    json!({"schema": {"type": "string", "contentMediaType": "application/x-protobuf",
+        "description": format!("{PROTOBUF_NOTE}: swell.v1.{message}")}})
+}
+
 fn error_ref() -> Value {
-    json!({"description": "error", "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Error"}}}})
+    json!({"description": "error (protobuf `ErrorResponse` when the request accepts application/x-protobuf)",
+        "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Error"}},
+                    "application/x-protobuf": protobuf_content("ErrorResponse")}})
 }
 
 /// The OpenAPI 3.1 document.
@@ -130,8 +166,35 @@ pub fn openapi_document() -> Value {
             _ => None,
         };
         if let Some(s) = schema {
-            op["requestBody"] = json!({"required": true, "content": {"application/json":
-                {"schema": {"$ref": format!("#/components/schemas/{s}")}}}});
+            let mut content = json!({"application/json":
+                {"schema": {"$ref": format!("#/components/schemas/{s}")}}});
+            if *method == "post" {
+                content["application/x-protobuf"] = protobuf_content(s);
+            }
+            op["requestBody"] = json!({"required": true, "content": content});
+        }
+        let answer = match *path {
+            "/v1/scenes/{id}/sample" => Some("SampleResponse"),
+            "/v1/scenes/{id}/orientation" => Some("OrientationResponse"),
+            "/v1/scenes/{id}/height" => Some("HeightResponse"),
+            _ => None,
+        };
+        if let Some(a) = answer {
+            op["responses"]["200"] = json!({"description": "ok (JSON, or protobuf with Accept: application/x-protobuf)",
+                "content": {"application/json": {}, "application/x-protobuf": protobuf_content(a)}});
+        }
+        if *path == "/v1/scenes/{id}/stream" {
+            op["description"] = json!(
+                "Upgrade to a WebSocket. Subprotocol swell.v1.json (default): text frames \
+                tagged by \"type\" (client: ping {id, client_time}, sample {id, ...as POST sample}, \
+                orientation {id, ...}, subscribe {ticks, bodies?}; server: pong, sample_result, \
+                orientation_result, tick {tick, t, bodies}, error {id?, code, message, field?}). \
+                swell.v1.protobuf: binary frames of swell.v1.ClientMessage / ServerMessage \
+                (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \
+                upgrade or with an unknown subprotocol, before the upgrade."
+            );
+            op["responses"] = json!({"101": {"description": "switching protocols"},
+                "4XX": error_ref(), "5XX": error_ref()});
         }
         entry[*method] = op;
     }

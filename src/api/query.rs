@@ -12,11 +12,11 @@ use axum::extract::{Path, Query, State};
 use glam::DVec2;
 use swell_waves::{Inversion, QueryFields, QueryOptions};
 
-use crate::api::json::Json;
 use crate::api::types::{
     Accuracy, BodyOrientation, FIELD_NAMES, HeightQuery, HeightResponse, OrientationRequest,
     OrientationResponse, SampleRequest, SampleResponse,
 };
+use crate::api::wire::{Accept, Body, Reply};
 use crate::config::Limits;
 use crate::error::ApiError;
 use crate::frames::FrameCache;
@@ -321,8 +321,9 @@ async fn blocking<T: Send + 'static>(
 pub async fn height(
     State(state): State<AppState>,
     Path(id): Path<String>,
+    Accept(format): Accept,
     query: Result<Query<HeightQuery>, QueryRejection>,
-) -> Result<axum::Json<HeightResponse>, ApiError> {
+) -> Result<Reply<HeightResponse>, ApiError> {
     let entry = state.scene(&id)?;
     let Query(q) = query.map_err(|r| ApiError::invalid("", r.body_text()))?;
     let t = resolve_time(&state, &entry, q.t)?;
@@ -330,35 +331,37 @@ pub async fn height(
     let st = state.clone();
     blocking(move || run_height(&st.frames, &st.limits, &scene, t, q.x, q.z))
         .await
-        .map(axum::Json)
+        .map(|r| Reply(format, r))
 }
 
 /// `POST /v1/scenes/{id}/sample`.
 pub async fn sample(
     State(state): State<AppState>,
     Path(id): Path<String>,
-    Json(req): Json<SampleRequest>,
-) -> Result<axum::Json<SampleResponse>, ApiError> {
+    Accept(format): Accept,
+    Body(req): Body<SampleRequest>,
+) -> Result<Reply<SampleResponse>, ApiError> {
     let entry = state.scene(&id)?;
     let t = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
     blocking(move || run_sample(&st.frames, &st.limits, &scene, t, &req))
         .await
-        .map(axum::Json)
+        .map(|r| Reply(format, r))
 }
 
 /// `POST /v1/scenes/{id}/orientation`.
 pub async fn orientation(
     State(state): State<AppState>,
     Path(id): Path<String>,
-    Json(req): Json<OrientationRequest>,
-) -> Result<axum::Json<OrientationResponse>, ApiError> {
+    Accept(format): Accept,
+    Body(req): Body<OrientationRequest>,
+) -> Result<Reply<OrientationResponse>, ApiError> {
     let entry = state.scene(&id)?;
     let t = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
     blocking(move || run_orientation(&st.frames, &st.limits, &scene, t, &req))
         .await
-        .map(axum::Json)
+        .map(|r| Reply(format, r))
 }

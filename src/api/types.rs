@@ -238,3 +238,38 @@ pub struct BodyOrientation {
     /// Roll, rad.
     pub roll: f64,
 }
+
+/// A floating body's state in a tick frame (server-authoritative simulation). Mirrors
+/// `swell.v1.BodyState`. Tick frames carry these once scenes have bodies; until then the list
+/// is empty.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct BodyState {
+    /// Body id (unique within the scene).
+    pub id: u64,
+    /// World position of the body origin (the hull's centre) `[x, y, z]`, m.
+    pub position: [f64; 3],
+    /// World rotation quaternion `[x, y, z, w]`.
+    pub rotation: [f64; 4],
+    /// Linear velocity, m/s.
+    pub velocity: [f64; 3],
+    /// Angular velocity (world frame), rad/s.
+    pub angular_velocity: [f64; 3],
+    /// Submerged fraction of the hull volume during the last step, 0..1 (0 until the body's
+    /// first step after a spawn, a restore or a clock jump).
+    pub submerged: f64,
+    /// The last step went non-finite and was rolled back: the state is the last good one.
+    #[serde(default)]
+    pub quarantined: bool,
+}
+
+/// A tick frame of the WebSocket stream: the scene's tick number, its time, and the body states
+/// at that tick (empty until scenes have floating bodies). Mirrors `swell.v1.Tick`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Tick {
+    /// `floor(t·tick_hz)` of the scene clock.
+    pub tick: i64,
+    /// The tick's start time `tick / tick_hz`, s.
+    pub t: f64,
+    /// Body states at this tick.
+    pub bodies: Vec<BodyState>,
+}

@@ -15,9 +15,10 @@ pub mod runner;
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
-use swell_waves::body::{BodyInput, BodySpec, BodyState, HullSpec, World, WorldSettings};
+use swell_waves::body::{BodyInput, BodySpec, HullSpec, World, WorldSettings};
 use swell_waves::{QueryOptions, Surface};
 
+pub use crate::api::types::BodyState;
 use crate::error::ApiError;
 
 /// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
@@ -136,26 +137,6 @@ pub struct InputRequest {
     pub ticks: Option<u64>,
 }
 
-/// A body's state on the wire.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct BodyStateOut {
-    /// Id (unique in the scene, never reused).
-    pub id: u64,
-    /// World position of the body origin, m.
-    pub position: [f64; 3],
-    /// Orientation quaternion `[x, y, z, w]`.
-    pub rotation: [f64; 4],
-    /// Linear velocity, m/s.
-    pub velocity: [f64; 3],
-    /// Angular velocity (world frame), rad/s.
-    pub angular_velocity: [f64; 3],
-    /// Submerged fraction of the hull volume during the last step, 0..1 (0 until the body's
-    /// first step after a spawn, a restore or a clock jump).
-    pub submerged: f64,
-    /// The last step went non-finite and was rolled back (the state is the last good one).
-    pub quarantined: bool,
-}
-
 /// What [`SceneBodies::advance_to`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Advance {
@@ -184,7 +165,7 @@ pub struct BodyRecord {
     /// Spec (defaults filled in).
     pub spec: BodySpec,
     /// Last state.
-    pub state: BodyState,
+    pub state: swell_waves::body::BodyState,
 }
 
 /// A scene's bodies as persisted on graceful shutdown.
@@ -253,7 +234,8 @@ impl SceneBodies {
         if !req.yaw.is_finite() {
             return Err(ApiError::invalid("yaw", "yaw must be finite"));
         }
-        let state = BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
+        let state =
+            swell_waves::body::BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
         let id = self.world.add(&spec, state).map_err(|e| model_error(&e))?;
         self.specs.insert(id, spec);
         Ok(id)
@@ -340,6 +322,28 @@ impl SceneBodies {
         }
     }
 
+    /// Steps forward to `target` only if it is ahead by at most [`MAX_CATCH_UP_TICKS`] and the
+    /// scene settings are unchanged; never re-anchors. For readers that run beside the body loop
+    /// (the WebSocket tick hook): they may read the clock a moment before the loop did, and a
+    /// tick behind the world is then lag, not a clock jump. Jumps are the body loop's to handle.
+    pub fn catch_up_to(
+        &mut self,
+        target: i64,
+        surface: &Surface,
+        tick_hz: f64,
+        gravity: f64,
+    ) -> u32 {
+        let now = self.tick();
+        if target <= now
+            || target - now > MAX_CATCH_UP_TICKS
+            || tick_hz != self.tick_hz
+            || gravity != self.gravity
+        {
+            return 0;
+        }
+        self.advance_to(target, surface, tick_hz, gravity).steps
+    }
+
     /// Starts a new world at scene tick `tick` with every body's current state and the inputs
     /// that are not over yet (shifted to the new anchor).
     fn reanchor(&mut self, tick: i64, tick_hz: f64, gravity: f64) {
@@ -372,7 +376,7 @@ impl SceneBodies {
     }
 
     /// States in id order; `only` restricts to those ids.
-    pub fn states(&self, only: Option<&[u64]>) -> Vec<BodyStateOut> {
+    pub fn states(&self, only: Option<&[u64]>) -> Vec<BodyState> {
         self.world
             .bodies()
             .filter(|(id, _)| only.is_none_or(|o| o.contains(id)))
@@ -384,7 +388,7 @@ impl SceneBodies {
     ///
     /// # Errors
     /// 404 if there is no such body.
-    pub fn state(&self, id: u64) -> Result<BodyStateOut, ApiError> {
+    pub fn state(&self, id: u64) -> Result<BodyState, ApiError> {
         self.world
             .body(id)
             .map(|b| out(id, b))
@@ -438,9 +442,9 @@ fn settings(anchor: i64, tick_hz: f64, gravity: f64) -> WorldSettings {
     }
 }
 
-fn out(id: u64, b: &swell_waves::body::Body) -> BodyStateOut {
+fn out(id: u64, b: &swell_waves::body::Body) -> BodyState {
     let s = b.state();
-    BodyStateOut {
+    BodyState {
         id,
         position: s.position.to_array(),
         rotation: s.rotation.to_array(),
@@ -509,8 +513,7 @@ mod tests {
         assert!(adv.reanchored);
         assert_eq!(a.tick(), 10_000);
         let after = a.states(None);
-        let kinematics =
-            |s: &BodyStateOut| (s.position, s.rotation, s.velocity, s.angular_velocity);
+        let kinematics = |s: &BodyState| (s.position, s.rotation, s.velocity, s.angular_velocity);
         assert_eq!(kinematics(&after[0]), kinematics(&before[0]));
         let adv = a.advance_to(5, &s, 30.0, 9.81);
         assert!(adv.reanchored && a.tick() == 5);

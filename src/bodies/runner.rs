@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::watch;
 
-use super::{BodiesRecord, BodyStateOut, SceneBodies};
+use super::{BodiesRecord, BodyState, SceneBodies};
 use crate::error::ApiError;
 use crate::state::AppState;
 
@@ -27,7 +27,7 @@ pub struct BodyFrame {
     /// Scene time of the states, s.
     pub t: f64,
     /// States in id order.
-    pub bodies: Vec<BodyStateOut>,
+    pub bodies: Vec<BodyState>,
 }
 
 /// One scene's bodies, their loop flag and their frame channel.
@@ -47,7 +47,8 @@ impl SceneBodiesCell {
         self.bodies.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn publish(&self, b: &SceneBodies) {
+    /// Replaces the latest frame with `b`'s states.
+    pub fn publish(&self, b: &SceneBodies) {
         self.frames.send_replace(Arc::new(BodyFrame {
             tick: b.tick(),
             t: b.t(),
@@ -247,4 +248,54 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
     }
     cell.running.store(false, Ordering::SeqCst);
     tracing::debug!(scene = %id, "body loop stopped");
+}
+
+/// The tick loop's body hook ([`crate::stream::ticks::TickHook`]): before each WebSocket tick
+/// frame, catch the scene's bodies (if any) up to the frame's tick and put their states in it.
+/// Advancing is idempotent, so this and the body loop never step a tick twice; whichever comes
+/// first steps and the other reads. Only the body loop handles clock jumps (seek, reverse):
+/// during one, frames carry the bodies' latest states. The body loop keeps simulating without subscribers, so this
+/// hook does not keep the tick loop alive.
+#[derive(Debug)]
+pub struct BodiesHook {
+    state: AppState,
+    scene: String,
+}
+
+impl BodiesHook {
+    /// The hook for scene `scene`.
+    pub fn new(state: AppState, scene: &str) -> BodiesHook {
+        BodiesHook {
+            state,
+            scene: scene.to_owned(),
+        }
+    }
+}
+
+impl crate::stream::ticks::TickHook for BodiesHook {
+    fn on_tick(
+        &mut self,
+        scene: &crate::scene::Scene,
+        _previous: Option<i64>,
+        tick: i64,
+        _t: f64,
+    ) -> Vec<super::BodyState> {
+        let Some(cell) = self.state.bodies.get(&self.scene) else {
+            return Vec::new();
+        };
+        let mut b = cell.lock();
+        if b.is_empty() {
+            return Vec::new();
+        }
+        let stepped = b.catch_up_to(
+            tick,
+            &scene.surface,
+            scene.spec.tick_hz,
+            scene.spec.surface.gravity,
+        );
+        if stepped > 0 {
+            cell.publish(&b);
+        }
+        b.states(None)
+    }
 }

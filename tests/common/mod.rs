@@ -1,5 +1,5 @@
 //! Test harness: a real server on 127.0.0.1 with an ephemeral port, in this process.
-#![allow(dead_code)]
+#![allow(dead_code, unreachable_pub)]
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -30,6 +30,7 @@ pub fn config_with_dir(dir: PathBuf) -> swell::Config {
 pub struct TestServer {
     pub addr: SocketAddr,
     pub client: Client,
+    pub state: swell::AppState,
     stop: Option<oneshot::Sender<()>>,
     task: Option<JoinHandle<std::io::Result<()>>>,
 }
@@ -38,6 +39,7 @@ impl TestServer {
     pub async fn start(config: swell::Config) -> TestServer {
         let server = swell::Server::bind(config).await.expect("server starts");
         let addr = server.local_addr();
+        let state = server.state().clone();
         let (tx, rx) = oneshot::channel::<()>();
         let task = tokio::spawn(server.run(async move {
             let _ = rx.await;
@@ -46,9 +48,15 @@ impl TestServer {
         TestServer {
             addr,
             client,
+            state,
             stop: Some(tx),
             task: Some(task),
         }
+    }
+
+    /// Running tick loops.
+    pub fn state_tickers(&self) -> usize {
+        self.state.tickers.running()
     }
 
     pub fn url(&self, path: &str) -> String {
@@ -197,4 +205,33 @@ pub fn fft_spec() -> Value {
             {"kind": "sine", "waves": [{"amplitude": 0.05, "wavelength": 5, "direction": [0, 1]}]}
         ]
     })
+}
+
+pub type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+/// Opens `/v1/scenes/{scene}/stream`, offering `protocol` if given. Panics if the upgrade fails.
+pub async fn ws_connect(addr: SocketAddr, scene: &str, protocol: Option<&str>) -> Ws {
+    ws_try_connect(addr, scene, protocol)
+        .await
+        .unwrap_or_else(|e| panic!("upgrade failed: {e}"))
+}
+
+/// As [`ws_connect`], returning the handshake error.
+pub async fn ws_try_connect(
+    addr: SocketAddr,
+    scene: &str,
+    protocol: Option<&str>,
+) -> Result<Ws, tokio_tungstenite::tungstenite::Error> {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let mut req = format!("ws://{addr}/v1/scenes/{scene}/stream")
+        .into_client_request()
+        .expect("request");
+    if let Some(p) = protocol {
+        req.headers_mut()
+            .insert("sec-websocket-protocol", p.parse().expect("header"));
+    }
+    tokio_tungstenite::connect_async(req)
+        .await
+        .map(|(ws, _)| ws)
 }

@@ -1,0 +1,332 @@
+//! The stream's messages, decoded from and encoded to both subprotocols.
+//!
+//! Both codecs decode into [`Incoming`] and encode from [`Outgoing`], whose payloads are the
+//! HTTP API's own structs: a `sample` message is a [`SampleRequest`] exactly as `POST …/sample`
+//! decodes it, and its answer the same [`SampleResponse`].
+//!
+//! - `swell.v1.json`: text frames, an object tagged by `"type"` with the payload's fields inline
+//!   and an optional `"id"` (echoed in the answer).
+//! - `swell.v1.protobuf`: binary frames, `swell.v1.ClientMessage` / `swell.v1.ServerMessage`.
+
+use std::sync::Arc;
+
+use axum::http::StatusCode;
+use prost::Message as _;
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+use crate::api::json;
+use crate::api::types::{
+    OrientationRequest, OrientationResponse, SampleRequest, SampleResponse, Tick,
+};
+use crate::error::ApiError;
+use crate::wire::v1;
+use crate::wire::v1::{client_message, server_message};
+
+/// The JSON subprotocol (the default when a client asks for none).
+pub const JSON_PROTOCOL: &str = "swell.v1.json";
+/// The protobuf subprotocol.
+pub const PROTOBUF_PROTOCOL: &str = "swell.v1.protobuf";
+
+/// A subprotocol's codec.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Codec {
+    /// `swell.v1.json`: text frames.
+    Json,
+    /// `swell.v1.protobuf`: binary frames.
+    Protobuf,
+}
+
+/// What a client asked.
+#[derive(Debug, Clone)]
+pub enum Request {
+    /// Clock sync.
+    Ping {
+        /// The client's clock, echoed.
+        client_time: f64,
+    },
+    /// A sample query, as `POST …/sample`.
+    Sample(SampleRequest),
+    /// An orientation query, as `POST …/orientation`.
+    Orientation(OrientationRequest),
+    /// Start or stop tick frames.
+    Subscribe {
+        /// Whether to receive tick frames.
+        ticks: bool,
+        /// Body ids to carry in tick frames (empty: all).
+        bodies: Vec<u64>,
+    },
+}
+
+/// A decoded client message.
+#[derive(Debug, Clone)]
+pub struct Incoming {
+    /// The client's id, echoed in the answer.
+    pub id: Option<u64>,
+    /// The request.
+    pub request: Request,
+}
+
+/// What the server sends.
+#[derive(Debug, Clone)]
+pub enum Event {
+    /// Answer to a ping.
+    Pong {
+        /// The client's time, echoed.
+        client_time: f64,
+        /// The scene clock now, s.
+        scene_time: f64,
+        /// `floor(scene_time·tick_hz)`.
+        tick: i64,
+    },
+    /// Answer to `sample`.
+    SampleResult(SampleResponse),
+    /// Answer to `orientation`.
+    OrientationResult(OrientationResponse),
+    /// A tick frame (shared by every subscriber of the scene).
+    Tick(Arc<Tick>),
+    /// A request that failed; the socket stays open.
+    Error(ApiError),
+}
+
+/// A server message.
+#[derive(Debug, Clone)]
+pub struct Outgoing {
+    /// The id of the client message this answers, if it had one.
+    pub id: Option<u64>,
+    /// The payload.
+    pub event: Event,
+}
+
+/// A malformed message: the id when it could still be read, and the error.
+#[derive(Debug)]
+pub struct DecodeError {
+    /// The id, if the message had a readable one.
+    pub id: Option<u64>,
+    /// What was wrong (400).
+    pub error: ApiError,
+}
+
+impl DecodeError {
+    fn new(id: Option<u64>, error: ApiError) -> Self {
+        Self { id, error }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PingBody {
+    client_time: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SubscribeBody {
+    ticks: bool,
+    #[serde(default)]
+    bodies: Option<Vec<u64>>,
+}
+
+/// Decodes a JSON text frame.
+///
+/// # Errors
+/// `bad_json` for text that is not an object, a missing or unknown `type`, a bad `id`, or a
+/// payload that does not decode (with the field's path); the id is kept when it was readable.
+pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
+    let value: Value = json::from_slice(text.as_bytes()).map_err(|e| DecodeError::new(None, e))?;
+    let Value::Object(mut map) = value else {
+        return Err(DecodeError::new(
+            None,
+            ApiError::bad_json("a message must be a JSON object with a \"type\""),
+        ));
+    };
+    let id = match map.remove("id") {
+        None | Some(Value::Null) => None,
+        Some(v) => match v.as_u64() {
+            Some(id) => Some(id),
+            None => {
+                return Err(DecodeError::new(
+                    None,
+                    ApiError::bad_json(format!("id = {v} is not an unsigned integer"))
+                        .with_field("id"),
+                ));
+            }
+        },
+    };
+    let ty = match map.remove("type") {
+        Some(Value::String(s)) => s,
+        _ => {
+            return Err(DecodeError::new(
+                id,
+                ApiError::bad_json(
+                    "a message needs a string \"type\": ping, sample, orientation or subscribe",
+                )
+                .with_field("type"),
+            ));
+        }
+    };
+    let rest = Value::Object(map);
+    let request = match ty.as_str() {
+        "ping" => json::from_value::<PingBody>(rest).map(|p| Request::Ping {
+            client_time: p.client_time,
+        }),
+        "sample" => json::from_value(rest).map(Request::Sample),
+        "orientation" => json::from_value(rest).map(Request::Orientation),
+        "subscribe" => json::from_value::<SubscribeBody>(rest).map(|s| Request::Subscribe {
+            ticks: s.ticks,
+            bodies: s.bodies.unwrap_or_default(),
+        }),
+        other => Err(ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "unknown_type",
+            format!(
+                "type = {other:?} is not a message type; expected ping, sample, orientation or subscribe"
+            ),
+        )
+        .with_field("type")),
+    }
+    .map_err(|e| DecodeError::new(id, e))?;
+    Ok(Incoming { id, request })
+}
+
+/// Decodes a protobuf binary frame (`swell.v1.ClientMessage`).
+///
+/// # Errors
+/// `bad_protobuf` for bytes that are not a `ClientMessage` or one without `msg`; the payload's
+/// conversion errors (bad enum values, missing positions) with the field named.
+pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
+    let m = v1::ClientMessage::decode(bytes).map_err(|e| {
+        DecodeError::new(
+            None,
+            ApiError::new(
+                StatusCode::BAD_REQUEST,
+                "bad_protobuf",
+                format!("malformed ClientMessage: {e}"),
+            ),
+        )
+    })?;
+    let id = m.id;
+    let request = match m.msg {
+        Some(client_message::Msg::Ping(p)) => Ok(Request::Ping {
+            client_time: p.client_time,
+        }),
+        Some(client_message::Msg::Sample(s)) => s.try_into().map(Request::Sample),
+        Some(client_message::Msg::Orientation(o)) => o.try_into().map(Request::Orientation),
+        Some(client_message::Msg::Subscribe(s)) => Ok(Request::Subscribe {
+            ticks: s.ticks,
+            bodies: s.bodies,
+        }),
+        None => Err(ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "bad_protobuf",
+            "ClientMessage has no msg (ping, sample, orientation or subscribe)",
+        )
+        .with_field("msg")),
+    }
+    .map_err(|e| DecodeError::new(id, e))?;
+    Ok(Incoming { id, request })
+}
+
+/// Serialising the payload structs (numbers, strings, arrays) cannot fail; `Null` is a fallback.
+fn to<T: serde::Serialize>(v: &T) -> Value {
+    serde_json::to_value(v).unwrap_or(Value::Null)
+}
+
+fn tagged(ty: &str, id: Option<u64>, payload: Value) -> Value {
+    let mut map = match payload {
+        Value::Object(m) => m,
+        _ => Map::new(),
+    };
+    map.insert("type".into(), Value::String(ty.into()));
+    if let Some(id) = id {
+        map.insert("id".into(), Value::from(id));
+    }
+    Value::Object(map)
+}
+
+/// Encodes a server message as JSON text.
+pub fn encode_json(out: &Outgoing) -> String {
+    let v = match &out.event {
+        Event::Pong {
+            client_time,
+            scene_time,
+            tick,
+        } => tagged(
+            "pong",
+            out.id,
+            serde_json::json!({"client_time": client_time, "scene_time": scene_time, "tick": tick}),
+        ),
+        Event::SampleResult(r) => tagged("sample_result", out.id, to(r)),
+        Event::OrientationResult(r) => tagged("orientation_result", out.id, to(r)),
+        Event::Tick(t) => tagged("tick", out.id, to(t.as_ref())),
+        Event::Error(e) => {
+            let mut v = serde_json::json!({"code": e.code, "message": e.message});
+            if let Some(f) = &e.field {
+                v["field"] = Value::String(f.clone());
+            }
+            tagged("error", out.id, v)
+        }
+    };
+    v.to_string()
+}
+
+/// Encodes a server message as protobuf (`swell.v1.ServerMessage`).
+pub fn encode_protobuf(out: Outgoing) -> Vec<u8> {
+    let msg = match out.event {
+        Event::Pong {
+            client_time,
+            scene_time,
+            tick,
+        } => server_message::Msg::Pong(v1::Pong {
+            client_time,
+            scene_time,
+            tick,
+        }),
+        Event::SampleResult(r) => server_message::Msg::SampleResult(r.into()),
+        Event::OrientationResult(r) => server_message::Msg::OrientationResult(r.into()),
+        Event::Tick(t) => server_message::Msg::Tick(t.as_ref().into()),
+        Event::Error(e) => server_message::Msg::Error((&e).into()),
+    };
+    v1::ServerMessage {
+        id: out.id,
+        msg: Some(msg),
+    }
+    .encode_to_vec()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_ping_round_trips_id_and_time() {
+        let m = decode_json(r#"{"type":"ping","id":7,"client_time":1.25}"#).unwrap();
+        assert_eq!(m.id, Some(7));
+        assert!(matches!(m.request, Request::Ping { client_time } if client_time == 1.25));
+    }
+
+    #[test]
+    fn json_unknown_type_keeps_the_id() {
+        let e = decode_json(r#"{"type":"dance","id":3}"#).unwrap_err();
+        assert_eq!((e.id, e.error.code), (Some(3), "unknown_type"));
+    }
+
+    #[test]
+    fn json_sample_rejects_unknown_fields_by_path() {
+        let e = decode_json(r#"{"type":"sample","id":1,"points":[],"colour":1}"#).unwrap_err();
+        assert_eq!(e.error.field.as_deref(), Some("colour"));
+    }
+
+    #[test]
+    fn json_error_frame_has_type_id_code_field() {
+        let out = Outgoing {
+            id: Some(4),
+            event: Event::Error(ApiError::invalid("t", "bad t")),
+        };
+        let v: Value = serde_json::from_str(&encode_json(&out)).unwrap();
+        assert_eq!(v["type"], "error");
+        assert_eq!(v["id"], 4);
+        assert_eq!(v["code"], "invalid_value");
+        assert_eq!(v["field"], "t");
+    }
+}

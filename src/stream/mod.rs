@@ -1,0 +1,423 @@
+//! The WebSocket stream `GET /v1/scenes/{id}/stream`: queries on a socket, clock sync and tick
+//! frames.
+//!
+//! - [`messages`] — the messages and their two codecs (`swell.v1.json`, `swell.v1.protobuf`).
+//! - [`ticks`] — the per-scene tick loop (and the seam where floating bodies will step).
+//!
+//! # A session
+//! One task reads the socket and owns the session's state (subscription, filter); a writer task
+//! owns the socket's sending half and drains a bounded queue ([`crate::Limits::ws_send_queue`]
+//! messages). Everything sent — answers, tick frames, errors — goes through that queue with
+//! `try_send`, so nothing in the server ever waits on a client's socket: when the queue is full
+//! the client is not reading fast enough and is disconnected, without delaying anyone else's
+//! ticks (the tick loop broadcasts and never waits either).
+//!
+//! Queries run as in HTTP ([`crate::api::query::run_sample`] etc., on a blocking thread), a few
+//! at a time per socket, each answering into the queue when done (answers carry the request's
+//! `id`, and may come back in a different order than asked).
+//!
+//! # Shutdown
+//! Each session watches the server's shutdown token ([`crate::AppState::shutdown`]): when it
+//! fires, the session queues a Close frame (1001, going away), lets the writer flush it (up to
+//! [`CLOSE_GRACE`]) and ends. axum's graceful shutdown does not close upgraded connections on its
+//! own.
+
+pub mod messages;
+pub mod ticks;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::ws::rejection::WebSocketUpgradeRejection;
+use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::Response;
+use futures_util::{Sink, SinkExt, Stream, StreamExt};
+use tokio::sync::{Semaphore, broadcast, mpsc};
+use tokio_util::sync::CancellationToken;
+
+use crate::api::query::{resolve_time, run_orientation, run_sample};
+use crate::api::types::Tick;
+use crate::error::ApiError;
+use crate::state::AppState;
+use messages::{
+    Codec, DecodeError, Event, Incoming, JSON_PROTOCOL, Outgoing, PROTOBUF_PROTOCOL, Request,
+};
+
+/// Queries one socket may have running at once; more are answered with an `overloaded` error
+/// at once. Bounds the CPU one client can hold, like `max_in_flight` does for HTTP.
+const QUERIES_PER_SESSION: usize = 8;
+
+/// How long a closing session waits for its writer to flush the Close frame (a client that does
+/// not read may never let it through).
+pub const CLOSE_GRACE: Duration = Duration::from_secs(2);
+
+/// Picks the subprotocol: the first the client offers that we speak, JSON when it offers none.
+///
+/// # Errors
+/// 400 `unsupported_subprotocol` when the client offers only protocols we do not speak.
+fn negotiate(headers: &HeaderMap) -> Result<Option<Codec>, ApiError> {
+    let offered: Vec<String> = headers
+        .get_all(header::SEC_WEBSOCKET_PROTOCOL)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .map(|p| p.trim().to_owned())
+        .filter(|p| !p.is_empty())
+        .collect();
+    if offered.is_empty() {
+        return Ok(None);
+    }
+    for p in &offered {
+        match p.as_str() {
+            JSON_PROTOCOL => return Ok(Some(Codec::Json)),
+            PROTOBUF_PROTOCOL => return Ok(Some(Codec::Protobuf)),
+            _ => {}
+        }
+    }
+    Err(ApiError::new(
+        StatusCode::BAD_REQUEST,
+        "unsupported_subprotocol",
+        format!(
+            "none of the offered subprotocols ({}) is spoken here; use {JSON_PROTOCOL} or {PROTOBUF_PROTOCOL}",
+            offered.join(", ")
+        ),
+    ))
+}
+
+/// `GET /v1/scenes/{id}/stream`: 404 for an unknown scene and 400 for a plain GET or an unknown
+/// subprotocol, all before the upgrade.
+pub async fn stream(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    ws: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
+) -> Result<Response, ApiError> {
+    state.scene(&id)?;
+    let ws = ws.map_err(|r| {
+        ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "websocket_required",
+            format!(
+                "this endpoint is a WebSocket (subprotocols {JSON_PROTOCOL}, {PROTOBUF_PROTOCOL}): {}",
+                r.body_text()
+            ),
+        )
+    })?;
+    let offered = negotiate(&headers)?;
+    let codec = offered.unwrap_or(Codec::Json);
+    let limit = state.limits.ws_max_message_bytes;
+    let mut ws = ws
+        .max_message_size(limit)
+        .max_frame_size(limit)
+        // Write each message out at once: a game stream wants latency, not batching.
+        .write_buffer_size(0);
+    if let Some(c) = offered {
+        // Echo exactly the protocol chosen (the client must see it to accept the upgrade).
+        ws = ws.protocols([match c {
+            Codec::Json => JSON_PROTOCOL,
+            Codec::Protobuf => PROTOBUF_PROTOCOL,
+        }]);
+    }
+    Ok(ws.on_upgrade(move |socket: WebSocket| async move {
+        let (sink, stream) = socket.split();
+        session(state, id, codec, sink, stream).await;
+    }))
+}
+
+/// Why a session ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum End {
+    /// The client closed or the connection dropped.
+    Client,
+    /// The send queue overflowed: the client stopped reading.
+    SlowConsumer,
+    /// The server is shutting down.
+    Shutdown,
+}
+
+/// The sending side of a session: encodes and queues, never waits.
+#[derive(Clone)]
+struct Queue {
+    tx: mpsc::Sender<Message>,
+    codec: Codec,
+    /// Fired when the queue overflows; the session then drops the client.
+    slow: CancellationToken,
+}
+
+impl Queue {
+    fn push(&self, out: Outgoing) {
+        let msg = match self.codec {
+            Codec::Json => Message::Text(messages::encode_json(&out).into()),
+            Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
+        };
+        if let Err(mpsc::error::TrySendError::Full(_)) = self.tx.try_send(msg) {
+            self.slow.cancel();
+        }
+    }
+
+    fn error(&self, id: Option<u64>, e: ApiError) {
+        self.push(Outgoing {
+            id,
+            event: Event::Error(e),
+        });
+    }
+}
+
+/// Sends queued messages until the queue closes (then closes the socket) or a send fails.
+async fn write_loop<W>(mut sink: W, mut rx: mpsc::Receiver<Message>)
+where
+    W: Sink<Message> + Unpin,
+{
+    while let Some(msg) = rx.recv().await {
+        let is_close = matches!(msg, Message::Close(_));
+        if sink.send(msg).await.is_err() || is_close {
+            return;
+        }
+    }
+    let _ = sink.close().await;
+}
+
+/// The scene's tick frames, filtered to the subscriber's bodies.
+struct Subscription {
+    rx: broadcast::Receiver<Arc<Tick>>,
+    bodies: Vec<u64>,
+}
+
+/// The next frame of the subscription; pending forever without one. `None` when the loop ended
+/// (the scene was deleted, or the server is stopping).
+async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<Tick>> {
+    let Some(s) = sub else {
+        return std::future::pending().await;
+    };
+    loop {
+        match s.rx.recv().await {
+            Ok(t) if s.bodies.is_empty() => return Some(t),
+            Ok(t) => {
+                let bodies = t
+                    .bodies
+                    .iter()
+                    .filter(|b| s.bodies.contains(&b.id))
+                    .copied()
+                    .collect();
+                return Some(Arc::new(Tick {
+                    tick: t.tick,
+                    t: t.t,
+                    bodies,
+                }));
+            }
+            // Starved of CPU for a while: skip to the newest frames rather than replay old ones.
+            Err(broadcast::error::RecvError::Lagged(n)) => {
+                tracing::debug!(skipped = n, "tick subscriber lagged");
+            }
+            Err(broadcast::error::RecvError::Closed) => return None,
+        }
+    }
+}
+
+/// Runs one session over any message sink and stream (a real socket, or channels in tests).
+pub async fn session<W, R>(state: AppState, scene_id: String, codec: Codec, sink: W, mut stream: R)
+where
+    W: Sink<Message> + Unpin + Send + 'static,
+    R: Stream<Item = Result<Message, axum::Error>> + Unpin,
+{
+    metrics::gauge!("swell_ws_sessions").increment(1.0);
+    metrics::counter!("swell_ws_sessions_total").increment(1);
+    let (tx, rx) = mpsc::channel(state.limits.ws_send_queue.max(1));
+    let mut writer = tokio::spawn(write_loop(sink, rx));
+    let queue = Queue {
+        tx,
+        codec,
+        slow: CancellationToken::new(),
+    };
+    let permits = Arc::new(Semaphore::new(QUERIES_PER_SESSION));
+    let mut sub: Option<Subscription> = None;
+    let shutdown = state.shutdown.clone();
+    let slow = queue.slow.clone();
+    let end = loop {
+        // Biased: shutdown and overflow win over more work; client messages before ticks so a
+        // flood of ticks cannot starve requests.
+        tokio::select! {
+            biased;
+            () = shutdown.cancelled() => break End::Shutdown,
+            () = slow.cancelled() => break End::SlowConsumer,
+            msg = stream.next() => {
+                let decoded = match msg {
+                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break End::Client,
+                    // Control frames: tungstenite answers pings itself.
+                    Some(Ok(Message::Ping(_) | Message::Pong(_))) => continue,
+                    Some(Ok(Message::Text(t))) => match codec {
+                        Codec::Json => messages::decode_json(t.as_str()),
+                        Codec::Protobuf => Err(wrong_frame("text", PROTOBUF_PROTOCOL, "binary")),
+                    },
+                    Some(Ok(Message::Binary(b))) => match codec {
+                        Codec::Protobuf => messages::decode_protobuf(&b),
+                        Codec::Json => Err(wrong_frame("binary", JSON_PROTOCOL, "text")),
+                    },
+                };
+                match decoded {
+                    Ok(m) => handle(&state, &scene_id, &queue, &permits, &mut sub, m),
+                    Err(DecodeError { id, error }) => queue.error(id, error),
+                }
+            }
+            frame = next_tick(&mut sub) => match frame {
+                Some(t) => queue.push(Outgoing { id: None, event: Event::Tick(t) }),
+                None => {
+                    sub = None;
+                    if !shutdown.is_cancelled() {
+                        queue.error(None, ApiError::scene_not_found(&scene_id));
+                    }
+                }
+            },
+        }
+    };
+    // Unsubscribe first, so the tick loop can stop if this was its last subscriber.
+    drop(sub);
+    match end {
+        End::SlowConsumer => {
+            // The socket is not draining: no Close frame would get through. Drop it.
+            metrics::counter!("swell_ws_slow_consumer_disconnects_total").increment(1);
+            tracing::info!(scene = %scene_id, "disconnecting a WebSocket client that stopped reading");
+            writer.abort();
+        }
+        End::Shutdown | End::Client => {
+            if end == End::Shutdown {
+                let _ = queue.tx.try_send(Message::Close(Some(CloseFrame {
+                    code: close_code::AWAY,
+                    reason: "server shutting down".into(),
+                })));
+            }
+            // Queries still running hold clones of the queue; the writer ends once they finish
+            // or the grace period runs out.
+            drop(queue);
+            if tokio::time::timeout(CLOSE_GRACE, &mut writer)
+                .await
+                .is_err()
+            {
+                writer.abort();
+            }
+        }
+    }
+    metrics::gauge!("swell_ws_sessions").decrement(1.0);
+}
+
+fn wrong_frame(got: &str, protocol: &str, want: &str) -> DecodeError {
+    DecodeError {
+        id: None,
+        error: ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "wrong_frame_type",
+            format!("a {got} frame on {protocol}; this subprotocol uses {want} frames"),
+        ),
+    }
+}
+
+/// Acts on one client message.
+fn handle(
+    state: &AppState,
+    scene_id: &str,
+    queue: &Queue,
+    permits: &Arc<Semaphore>,
+    sub: &mut Option<Subscription>,
+    m: Incoming,
+) {
+    let id = m.id;
+    match m.request {
+        Request::Ping { client_time } => match state.scene(scene_id) {
+            Ok(entry) => {
+                let r = state.read_clock(&entry);
+                queue.push(Outgoing {
+                    id,
+                    event: Event::Pong {
+                        client_time,
+                        scene_time: r.t,
+                        tick: r.tick,
+                    },
+                });
+            }
+            Err(e) => queue.error(id, e),
+        },
+        Request::Subscribe { ticks, bodies } => {
+            if !ticks {
+                *sub = None;
+            } else if let Some(s) = sub {
+                s.bodies = bodies;
+            } else if let Err(e) = state.scene(scene_id) {
+                queue.error(id, e);
+            } else {
+                *sub = Some(Subscription {
+                    rx: state.tickers.subscribe(state, scene_id),
+                    bodies,
+                });
+            }
+        }
+        Request::Sample(req) => query(
+            state,
+            scene_id,
+            queue,
+            permits,
+            id,
+            req.t,
+            move |st, scene, t| {
+                run_sample(&st.frames, &st.limits, scene, t, &req).map(Event::SampleResult)
+            },
+        ),
+        Request::Orientation(req) => {
+            query(
+                state,
+                scene_id,
+                queue,
+                permits,
+                id,
+                req.t,
+                move |st, scene, t| {
+                    run_orientation(&st.frames, &st.limits, scene, t, &req)
+                        .map(Event::OrientationResult)
+                },
+            );
+        }
+    }
+}
+
+/// Runs a query as HTTP does (scene lookup, time resolution, the same `run_*` function on a
+/// blocking thread) and queues its answer.
+fn query(
+    state: &AppState,
+    scene_id: &str,
+    queue: &Queue,
+    permits: &Arc<Semaphore>,
+    id: Option<u64>,
+    t: Option<f64>,
+    run: impl FnOnce(&AppState, &crate::scene::Scene, f64) -> Result<Event, ApiError> + Send + 'static,
+) {
+    let Ok(permit) = Arc::clone(permits).try_acquire_owned() else {
+        queue.error(
+            id,
+            ApiError::overloaded(format!(
+                "{QUERIES_PER_SESSION} queries are already running on this socket; wait for an answer"
+            )),
+        );
+        return;
+    };
+    let resolved = state
+        .scene(scene_id)
+        .and_then(|entry| Ok((resolve_time(state, &entry, t)?, Arc::clone(&entry.scene))));
+    let (t, scene) = match resolved {
+        Ok(v) => v,
+        Err(e) => return queue.error(id, e),
+    };
+    let st = state.clone();
+    let queue = queue.clone();
+    tokio::spawn(async move {
+        let result = tokio::task::spawn_blocking(move || run(&st, &scene, t))
+            .await
+            .map_err(ApiError::internal)
+            .and_then(|r| r);
+        drop(permit);
+        match result {
+            Ok(event) => queue.push(Outgoing { id, event }),
+            Err(e) => queue.error(id, e),
+        }
+    });
+}

@@ -1,0 +1,207 @@
+//! The per-scene tick loop: one task per scene, running only while something needs it.
+//!
+//! A subscriber gets a [`broadcast::Receiver`] of shared frames ([`Tickers::subscribe`]). The first
+//! subscriber of a scene starts its loop; the loop ends (and leaves the registry) when the last
+//! receiver is gone, when the scene is deleted (dropping the sender tells subscribers) or at
+//! shutdown. A scene with no subscribers costs nothing.
+//!
+//! Tick numbering follows the scene clock: `tick = floor(t·tick_hz)`, and a frame's `t` is the
+//! tick's start `tick / tick_hz`. A frame is sent whenever the clock's tick differs from the last
+//! one sent: ticks go up while the clock runs forward, down while it runs backwards, stop while it
+//! is paused (a tick is never repeated), and skip when the clock outruns the loop (fast-forward
+//! beyond ~1000 ticks per real second, or a seek).
+//!
+//! # The seam for floating bodies
+//! The loop owns an `Option<Box<dyn TickHook>>` slot. A body world plugs in there: the loop calls
+//! [`TickHook::on_tick`] off the reactor before each frame is broadcast and puts the body states it
+//! returns in the frame, and [`TickHook::keeps_alive`] keeps the loop running with no subscriber
+//! (a simulation must not stop because nobody watches). Every loop gets
+//! [`crate::bodies::runner::BodiesHook`], which advances the scene's bodies to the frame's tick
+//! and returns their states; bodies keep stepping without subscribers in their own loop
+//! ([`crate::bodies::runner`]).
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use tokio::sync::broadcast;
+
+use crate::api::types::{BodyState, Tick};
+use crate::scene::Scene;
+use crate::scene::clock::tick_of;
+use crate::state::AppState;
+
+/// Frames buffered per subscriber in the broadcast channel. A subscriber task only moves frames
+/// from here to its own bounded send queue, so it lags only if starved of CPU; 64 frames are two
+/// seconds at 30 Hz. A lagging receiver skips the oldest frames (the loop never waits for it).
+const TICK_CHANNEL: usize = 64;
+
+/// Longest real time between two looks at the clock, so an admin clock change (resume, seek,
+/// rate) shows within this delay even when the next tick is far away or the clock is paused.
+const MAX_SLEEP: Duration = Duration::from_millis(50);
+/// Shortest sleep: bounds the loop's wake-ups at 1 kHz (the highest tick rate a scene may ask
+/// for) even when the clock is fast-forwarded.
+const MIN_SLEEP: Duration = Duration::from_millis(1);
+
+/// Work done inside a scene's tick loop before each frame is broadcast: the seam for floating
+/// bodies (see the module docs).
+pub trait TickHook: Send + 'static {
+    /// Advances to `tick` (at scene time `t`) from `previous` (the last tick seen, if any) and
+    /// returns the body states to put in the frame. Runs on a blocking thread.
+    fn on_tick(
+        &mut self,
+        scene: &Scene,
+        previous: Option<i64>,
+        tick: i64,
+        t: f64,
+    ) -> Vec<BodyState>;
+
+    /// Whether the loop must keep running with no subscriber.
+    fn keeps_alive(&self) -> bool {
+        false
+    }
+}
+
+/// The registry of running tick loops, by scene id.
+#[derive(Debug, Default)]
+pub struct Tickers {
+    loops: Mutex<BTreeMap<String, broadcast::Sender<Arc<Tick>>>>,
+}
+
+impl Tickers {
+    fn lock(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, broadcast::Sender<Arc<Tick>>>> {
+        // Entries are inserted and removed whole: a poisoned map is still consistent.
+        self.loops.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Subscribes to scene `id`'s tick frames, starting its loop if none runs.
+    ///
+    /// The receiver is created under the registry lock, and the loop decides to stop under the
+    /// same lock, so a new subscriber never attaches to a loop that is about to end.
+    pub fn subscribe(&self, state: &AppState, id: &str) -> broadcast::Receiver<Arc<Tick>> {
+        let mut loops = self.lock();
+        if let Some(tx) = loops.get(id) {
+            return tx.subscribe();
+        }
+        let (tx, rx) = broadcast::channel(TICK_CHANNEL);
+        loops.insert(id.to_owned(), tx.clone());
+        metrics::gauge!("swell_tick_loops").increment(1.0);
+        // Every loop carries the scene's bodies (none is cheap: one map lookup per tick).
+        let hook = crate::bodies::runner::BodiesHook::new(state.clone(), id);
+        tokio::spawn(run(state.clone(), id.to_owned(), tx, Some(Box::new(hook))));
+        rx
+    }
+
+    /// Number of running loops.
+    pub fn running(&self) -> usize {
+        self.lock().len()
+    }
+}
+
+/// Real time until the clock crosses the next tick boundary in its direction, clamped to
+/// [`MIN_SLEEP`, `MAX_SLEEP`].
+fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> Duration {
+    if paused || rate == 0.0 {
+        return MAX_SLEEP;
+    }
+    let boundary = if rate > 0.0 {
+        (tick + 1) as f64 / tick_hz
+    } else {
+        tick as f64 / tick_hz
+    };
+    let secs = (boundary - t) / rate;
+    // Sleep a hair past the boundary so the reading after waking is in the new tick.
+    Duration::try_from_secs_f64(secs + 1e-4)
+        .unwrap_or(MIN_SLEEP)
+        .clamp(MIN_SLEEP, MAX_SLEEP)
+}
+
+async fn run(
+    state: AppState,
+    id: String,
+    tx: broadcast::Sender<Arc<Tick>>,
+    mut hook: Option<Box<dyn TickHook>>,
+) {
+    let mut last: Option<i64> = None;
+    loop {
+        let keep = hook.as_ref().is_some_and(|h| h.keeps_alive());
+        let entry = {
+            let mut loops = state.tickers.lock();
+            let entry = state.scene(&id).ok();
+            let stop = (tx.receiver_count() == 0 && !keep)
+                || entry.is_none()
+                || state.shutdown.is_cancelled();
+            if stop {
+                loops.remove(&id);
+                metrics::gauge!("swell_tick_loops").decrement(1.0);
+                // Dropping `tx` here closes every receiver still attached.
+                return;
+            }
+            entry
+        };
+        let Some(entry) = entry else { return };
+        let reading = state.read_clock(&entry);
+        let tick = tick_of(reading.t, reading.tick_hz);
+        if last != Some(tick) {
+            let t = tick as f64 / reading.tick_hz;
+            let bodies = match hook.take() {
+                Some(mut h) => {
+                    let scene = Arc::clone(&entry.scene);
+                    let previous = last;
+                    // Body simulation is CPU work: off the reactor, like queries.
+                    match tokio::task::spawn_blocking(move || {
+                        let b = h.on_tick(&scene, previous, tick, t);
+                        (h, b)
+                    })
+                    .await
+                    {
+                        Ok((h, b)) => {
+                            hook = Some(h);
+                            b
+                        }
+                        Err(e) => {
+                            tracing::error!(scene = %id, error = %e, "tick hook panicked; bodies dropped");
+                            Vec::new()
+                        }
+                    }
+                }
+                None => Vec::new(),
+            };
+            // An error only means no receiver right now; the next turn decides whether to stop.
+            let _ = tx.send(Arc::new(Tick { tick, t, bodies }));
+            metrics::counter!("swell_ticks_total").increment(1);
+            last = Some(tick);
+        }
+        let wait = until_next_tick(
+            reading.t,
+            tick,
+            reading.tick_hz,
+            reading.rate,
+            reading.paused,
+        );
+        tokio::select! {
+            () = tokio::time::sleep(wait) => {}
+            () = state.shutdown.cancelled() => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sleeps_until_the_next_boundary_in_the_clock_direction() {
+        // 30 Hz, t just past tick 30's start: the next boundary is 1/30 s later at rate 1.
+        let d = until_next_tick(1.0, 30, 30.0, 1.0, false).as_secs_f64();
+        assert!((d - (1.0 / 30.0 + 1e-4)).abs() < 1e-9, "{d}");
+        // Rate 2: half the real time.
+        let d2 = until_next_tick(1.0, 30, 30.0, 2.0, false).as_secs_f64();
+        assert!((d2 - (1.0 / 60.0 + 1e-4)).abs() < 1e-9, "{d2}");
+        // Backwards from the middle of tick 30: cross its start.
+        let back = until_next_tick(1.0 + 0.5 / 30.0, 30, 30.0, -1.0, false).as_secs_f64();
+        assert!((back - (0.5 / 30.0 + 1e-4)).abs() < 1e-9, "{back}");
+        assert_eq!(until_next_tick(1.0, 30, 30.0, 1.0, true), MAX_SLEEP);
+        assert_eq!(until_next_tick(1.0, 30, 1.0, 1.0, false), MAX_SLEEP);
+    }
+}
