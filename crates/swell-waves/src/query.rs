@@ -249,19 +249,7 @@ impl SurfaceAt<'_> {
                     active[l] = false;
                     continue;
                 }
-                let step = if newton {
-                    // J = ∂F/∂p0 = [[1 + ∂Dx/∂x, ∂Dx/∂z], [∂Dz/∂x, 1 + ∂Dz/∂z]].
-                    let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
-                    let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
-                    let det = a * d - b * c;
-                    if det > 1e-9 {
-                        DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
-                    } else {
-                        f
-                    }
-                } else {
-                    f
-                };
+                let step = inversion_step(&s, f, newton);
                 p[l] -= step;
             }
             it += 1;
@@ -400,5 +388,25 @@ impl SurfaceAt<'_> {
             }
         });
         out
+    }
+}
+
+/// One update of the inversion of `p0 + D(p0) = target`, given the sample `s` at the current
+/// iterate and its residual `f = p0 + D(p0) − target`: the Newton step `J⁻¹·f` with
+/// `J = ∂F/∂p0 = [[1 + ∂Dx/∂x, ∂Dx/∂z], [∂Dz/∂x, 1 + ∂Dz/∂z]]`, or the fixed-point step `f`
+/// (also Newton's fallback where `det J ≤ 1e-9`, i.e. at or near a fold). The iterate moves to
+/// `p0 − step`.
+#[inline]
+pub(crate) fn inversion_step(s: &SurfaceSample, f: DVec2, newton: bool) -> DVec2 {
+    if !newton {
+        return f;
+    }
+    let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
+    let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
+    let det = a * d - b * c;
+    if det > 1e-9 {
+        DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
+    } else {
+        f
     }
 }

@@ -9,12 +9,12 @@ use std::sync::Arc;
 use glam::{DVec2, DVec3};
 
 use crate::error::{SpecError, finite, positive};
-use crate::fft::{FftFields, FftFrame, FftLayer, FftSpec};
+use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec};
 use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
 use crate::math::splitmix64;
 use crate::query::{QueryFields, QueryOptions};
 use crate::sine::{SineLayer, SineLayerSpec};
-use crate::spectrum::{Dispersion, STANDARD_GRAVITY};
+use crate::spectrum::Dispersion;
 use crate::wave::{Lanes, SurfaceSample, Wave, WaveSoA};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
@@ -43,7 +43,7 @@ pub struct SurfaceSpec {
 
 #[cfg(feature = "serde")]
 fn default_gravity() -> f64 {
-    STANDARD_GRAVITY
+    crate::spectrum::STANDARD_GRAVITY
 }
 
 /// One layer of a surface spec, tagged by `kind` on the wire.
@@ -355,6 +355,16 @@ impl SurfaceAt<'_> {
         self.sample_lanes(&[p0], derivatives).get(0)
     }
 
+    /// One FFT layer at `p0`: from its frame with the snapshot's filter, or by direct summation
+    /// when the snapshot is a reference one (or has no frame for the layer).
+    #[inline]
+    fn fft_sample(&self, layer: &FftLayer, frame: &Option<Arc<FftFrame>>, p0: DVec2) -> FftSample {
+        match frame {
+            Some(frame) if !self.options.reference => frame.sample(p0, self.options.filter),
+            _ => layer.sample_reference(p0, self.t),
+        }
+    }
+
     /// [`SurfaceAt::sample`] for a block of `B` points at once (the analytic layers go through
     /// the vectorised [`WaveSoA`] kernel). Lane `l` is bit-identical to `sample(points[l])`.
     #[inline]
@@ -372,13 +382,7 @@ impl SurfaceAt<'_> {
             match (layer, soa) {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
-                        let s = match frame {
-                            Some(frame) if !self.options.reference => {
-                                frame.sample(p0, self.options.filter)
-                            }
-                            _ => f.sample_reference(p0, self.t),
-                        };
-                        add_fft(&mut out, l, &s, derivatives);
+                        add_fft(&mut out, l, &self.fft_sample(f, frame, p0), derivatives);
                     }
                 }
                 (_, Some(soa)) => soa.accumulate_lanes(&x, &z, self.t, derivatives, &mut out),
@@ -427,13 +431,7 @@ impl SurfaceAt<'_> {
                 match (layer, soa) {
                     (Layer::Fft(f), _) => {
                         for (l, &p0) in block.iter().enumerate() {
-                            let s = match frame {
-                                Some(frame) if !self.options.reference => {
-                                    frame.sample(p0, self.options.filter)
-                                }
-                                _ => f.sample_reference(p0, self.t),
-                            };
-                            add_fft(&mut lanes, l, &s, derivatives);
+                            add_fft(&mut lanes, l, &self.fft_sample(f, frame, p0), derivatives);
                         }
                     }
                     (_, Some(soa)) => {

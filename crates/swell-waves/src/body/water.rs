@@ -91,18 +91,7 @@ impl SurfaceAt<'_> {
             if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {
                 break;
             }
-            let step = if newton {
-                let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
-                let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
-                let det = a * d - b * c;
-                if det > 1e-9 {
-                    DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
-                } else {
-                    f
-                }
-            } else {
-                f
-            };
+            let step = crate::query::inversion_step(&s, f, newton);
             p -= step;
             it += 1;
         }
