@@ -95,17 +95,25 @@ impl FftLayer {
             let mut htilde = std::mem::take(&mut scratch.htilde);
             let mut buf = std::mem::take(&mut scratch.spectrum);
             let zero = Complex::new(0.0, 0.0);
+            // Two passes over the half plane. The first computes every entry's (sin, cos) from a
+            // contiguous ω array with no branch (empty entries too: it is cheaper to compute and
+            // drop them than to branch), so the branch-free kernel vectorises; the pair is parked
+            // in `htilde` as (re, im) = (sin, cos). The second evolves h̃ from it. The arithmetic
+            // per entry is exactly the one-pass form's, so the bits are unchanged.
+            for (h, &w) in htilde.iter_mut().zip(&self.omegas) {
+                let (s, c) = sin_cos(reduce_phase(w * t_r));
+                *h = Complex::new(s, c);
+            }
             for (h, mode) in htilde.iter_mut().zip(&self.half) {
                 *h = if mode.is_empty() {
                     zero
                 } else {
-                    let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
-                    mode.evolve(s, c)
+                    mode.evolve(h.re, h.im)
                 };
             }
             for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
-                for ((b, h), mode) in buf.iter_mut().zip(&htilde).zip(&self.half) {
-                    *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *h);
+                for ((b, h), k) in buf.iter_mut().zip(&htilde).zip(&self.wavevectors) {
+                    *b = grid.apply(k[0], k[1], k[2], self.choppiness, *h);
                 }
                 let mut out = old[grid.index()]
                     .take()

@@ -69,6 +69,12 @@ pub struct FftLayer {
     pub(crate) backend: FftBackend,
     /// Half plane, column-major: entry (m, n) at `m·N + (n mod N)` for m = 0 … N/2 − 1.
     pub(crate) half: Vec<Mode>,
+    /// `half[i].omega_q`, contiguous: the frame's phase pass streams through it (see
+    /// `FftLayer::frame_into`) instead of striding through 112-byte modes.
+    pub(crate) omegas: Vec<f64>,
+    /// `[kx, kz, 1/|k|]` of `half[i]`, contiguous: each grid's multiplier pass streams through
+    /// these 24 bytes per entry rather than the whole mode.
+    pub(crate) wavevectors: Vec<[f64; 3]>,
     pub(crate) modes: usize,
     pub(crate) variance: f64,
     pub(crate) transform: InverseRealFft2,
@@ -233,6 +239,8 @@ impl FftLayer {
             }
         }
 
+        let omegas = half.iter().map(|m| m.omega_q).collect();
+        let wavevectors = half.iter().map(|m| [m.kx, m.kz, m.inv_k]).collect();
         Ok(FftLayer {
             n,
             tile_size,
@@ -240,6 +248,8 @@ impl FftLayer {
             repeat_period,
             backend: spec.backend,
             half,
+            omegas,
+            wavevectors,
             modes,
             variance,
             transform: InverseRealFft2::new(n, spec.backend),
