@@ -369,6 +369,19 @@ impl SurfaceAt<'_> {
     /// the vectorised [`WaveSoA`] kernel). Lane `l` is bit-identical to `sample(points[l])`.
     #[inline]
     pub fn sample_lanes<const B: usize>(&self, points: &[DVec2; B], derivatives: bool) -> Lanes<B> {
+        self.lanes_with(points, derivatives, false)
+    }
+
+    /// The layer loop behind [`SurfaceAt::sample_lanes`] and [`SurfaceAt::sample_batch_f32`]:
+    /// FFT layers from their frames, analytic layers through the f64 kernel or, if `single`, the
+    /// f32 approximation kernel.
+    #[inline]
+    fn lanes_with<const B: usize>(
+        &self,
+        points: &[DVec2; B],
+        derivatives: bool,
+        single: bool,
+    ) -> Lanes<B> {
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = Lanes::<B>::default();
@@ -384,6 +397,9 @@ impl SurfaceAt<'_> {
                     for (l, &p0) in points.iter().enumerate() {
                         add_fft(&mut out, l, &self.fft_sample(f, frame, p0), derivatives);
                     }
+                }
+                (_, Some(soa)) if single => {
+                    soa.accumulate_lanes_f32(&x, &z, self.t, derivatives, &mut out)
                 }
                 (_, Some(soa)) => soa.accumulate_lanes(&x, &z, self.t, derivatives, &mut out),
                 (_, None) => {}
@@ -418,28 +434,7 @@ impl SurfaceAt<'_> {
     pub fn sample_batch_f32(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
         assert_eq!(points.len(), out.len(), "one output per point");
         for_blocks(points, out, |block, dst| {
-            let x: [f64; crate::wave::BLOCK] = std::array::from_fn(|l| block[l].x);
-            let z: [f64; crate::wave::BLOCK] = std::array::from_fn(|l| block[l].y);
-            let mut lanes = Lanes::default();
-            for ((layer, frame), soa) in self
-                .surface
-                .layers
-                .iter()
-                .zip(&self.frames)
-                .zip(&self.surface.soa)
-            {
-                match (layer, soa) {
-                    (Layer::Fft(f), _) => {
-                        for (l, &p0) in block.iter().enumerate() {
-                            add_fft(&mut lanes, l, &self.fft_sample(f, frame, p0), derivatives);
-                        }
-                    }
-                    (_, Some(soa)) => {
-                        soa.accumulate_lanes_f32(&x, &z, self.t, derivatives, &mut lanes)
-                    }
-                    (_, None) => {}
-                }
-            }
+            let lanes = self.lanes_with(block, derivatives, true);
             for (l, o) in dst.iter_mut().enumerate() {
                 *o = lanes.get(l);
             }
