@@ -165,6 +165,13 @@ fn targets(c: &mut Criterion) {
         })
     });
 
+    // The same outputs from the single-precision fast path (`Precision::F32`): f64 phase
+    // reduction, f32 sin/cos, sums and normals.
+    let mut fast = vec![swell_waves::SurfacePointF32::default(); POINTS];
+    g.bench_function("gerstner16_disp_normal/batch_f32", |b| {
+        b.iter(|| sea.displacement_normal_f32(black_box(&pts), &mut fast))
+    });
+
     // 2. Height with inversion to ≤ 1 mm at S = 0.9 vs one displacement evaluation. Newton
     // with a 1 mm residual tolerance (the accuracy report shows the default settings reach
     // 0.003 mm and Newton × 3 0.0003 mm at S = 0.9).

@@ -92,8 +92,8 @@ pub mod velocity;
 pub mod wave;
 
 pub use error::SpecError;
-pub use query::{Inversion, InversionMethod, PointResult, QueryFields, QueryOptions};
-pub use surface::{Layer, LayerSpec, Surface, SurfaceAt, SurfaceSpec};
+pub use query::{Inversion, InversionMethod, PointResult, Precision, QueryFields, QueryOptions};
+pub use surface::{Layer, LayerSpec, Surface, SurfaceAt, SurfacePointF32, SurfaceSpec};
 
 /// Version of the model's numbers. Bumped whenever the golden vectors in `proto/vectors/` have to
 /// be re-minted: clients compare it to know they render the same sea as the server.

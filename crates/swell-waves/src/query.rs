@@ -100,6 +100,27 @@ pub struct QueryOptions {
     /// Evaluate FFT layers by direct f64 Fourier summation at the exact point instead of the
     /// grid (slow; the reference for tests and the accuracy report).
     pub reference: bool,
+    /// Arithmetic of the surface evaluation behind every query. Default [`Precision::F64`], the
+    /// model's bits (the golden vectors pin it).
+    pub precision: Precision,
+}
+
+/// Arithmetic precision of a surface evaluation.
+///
+/// Both are deterministic: the same inputs give the same bits on every CPU and at every
+/// x86-64 level, single point or batch. They are different models, though: an `F32` answer is
+/// close to, not equal to, the `F64` one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Precision {
+    /// f64 throughout: the model's reference results (about 10⁻¹⁵ relative).
+    #[default]
+    F64,
+    /// The single-precision fast path: each analytic wave's phase is formed and reduced in f64,
+    /// then sin/cos, products and sums run in f32 lanes
+    /// ([`crate::wave::WaveSoA::accumulate_lanes_f32`]); FFT layers are read from their f64
+    /// grids and join the f32 sum. Errors of about 10⁻⁶ of the wave amplitudes (measured in
+    /// `docs/accuracy.md`), for several times less work.
+    F32,
 }
 
 impl Default for QueryOptions {
@@ -108,6 +129,7 @@ impl Default for QueryOptions {
             inversion: Inversion::default(),
             filter: SampleFilter::Bicubic,
             reference: false,
+            precision: Precision::F64,
         }
     }
 }
@@ -199,6 +221,7 @@ impl SurfaceAt<'_> {
     /// step count and stopping test); every round evaluates the whole block with
     /// [`SurfaceAt::sample_lanes`] and lanes that have stopped ignore the result. Lane `l` is
     /// bit-identical to `invert(targets[l])`.
+    #[inline(always)]
     pub fn invert_lanes<const B: usize>(
         &self,
         targets: &[DVec2; B],
@@ -314,6 +337,7 @@ impl SurfaceAt<'_> {
 
     /// Answers `fields` at `B` world points at once; lane `l` is bit-identical to
     /// `query(worlds[l])`.
+    #[inline(always)]
     pub fn query_lanes<const B: usize>(
         &self,
         worlds: &[DVec2; B],
@@ -362,10 +386,15 @@ impl SurfaceAt<'_> {
     /// If `out.len() != points.len()`.
     pub fn query_batch_into(&self, points: &[DVec2], fields: QueryFields, out: &mut [PointResult]) {
         assert_eq!(points.len(), out.len(), "one output per point");
-        crate::surface::for_blocks(points, out, |block, dst| {
-            let r = self.query_lanes(block, fields);
-            dst.copy_from_slice(&r[..dst.len()]);
-        });
+        crate::surface::for_blocks(
+            points,
+            out,
+            #[inline(always)]
+            |block, dst| {
+                let r = self.query_lanes(block, fields);
+                dst.copy_from_slice(&r[..dst.len()]);
+            },
+        );
     }
 
     /// Like [`SurfaceAt::query_batch`], split over `threads` OS threads (scoped). Each point is

@@ -6,16 +6,16 @@
 
 use std::sync::Arc;
 
-use glam::{DVec2, DVec3};
+use glam::{DVec2, DVec3, Vec3};
 
 use crate::error::{SpecError, finite, positive};
 use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec};
 use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
 use crate::math::splitmix64;
-use crate::query::{QueryFields, QueryOptions};
+use crate::query::{Precision, QueryFields, QueryOptions};
 use crate::sine::{SineLayer, SineLayerSpec};
 use crate::spectrum::Dispersion;
-use crate::wave::{Lanes, SurfaceSample, Wave, WaveSoA};
+use crate::wave::{Lanes, LanesF32, SurfaceSample, Wave, WaveSoA};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -274,6 +274,7 @@ impl Surface {
             frames,
             options: *options,
             velocities: Vec::new(),
+            offsets: self.phase_offsets(t),
         })
     }
 
@@ -309,8 +310,26 @@ impl Surface {
             frames,
             options: *options,
             velocities: Vec::new(),
+            offsets: self.phase_offsets(t),
         })
     }
+
+    /// Every analytic layer's f32 phase offsets at `t` (one small reduction per wave).
+    fn phase_offsets(&self, t: f64) -> Vec<Vec<f64>> {
+        self.soa
+            .iter()
+            .map(|soa| soa.as_ref().map_or_else(Vec::new, |s| s.phase_offsets(t)))
+            .collect()
+    }
+}
+
+/// One point of [`SurfaceAt::displacement_normal_f32`], in single precision.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SurfacePointF32 {
+    /// `(Dx, y, Dz)` of the undisplaced point, m.
+    pub displacement: Vec3,
+    /// Unit normal of the displaced surface there (y up).
+    pub normal: Vec3,
 }
 
 /// A surface frozen at time `t`: cheap to query from many threads at once.
@@ -323,6 +342,9 @@ pub struct SurfaceAt<'s> {
     /// Orbital velocity grids per layer (`Some` for FFT layers once computed; empty until
     /// [`SurfaceAt::with_velocity`] or [`SurfaceAt::with_velocity_frames`]).
     pub(crate) velocities: Vec<Option<Arc<crate::fft::FftVelocityFrame>>>,
+    /// Per analytic layer, the f32 fast path's phase offsets at `t` (turns, see
+    /// [`WaveSoA::phase_offsets`]); empty for FFT layers.
+    pub(crate) offsets: Vec<Vec<f64>>,
 }
 
 impl SurfaceAt<'_> {
@@ -367,21 +389,11 @@ impl SurfaceAt<'_> {
 
     /// [`SurfaceAt::sample`] for a block of `B` points at once (the analytic layers go through
     /// the vectorised [`WaveSoA`] kernel). Lane `l` is bit-identical to `sample(points[l])`.
-    #[inline]
+    #[inline(always)]
     pub fn sample_lanes<const B: usize>(&self, points: &[DVec2; B], derivatives: bool) -> Lanes<B> {
-        self.lanes_with(points, derivatives, false)
-    }
-
-    /// The layer loop behind [`SurfaceAt::sample_lanes`] and [`SurfaceAt::sample_batch_f32`]:
-    /// FFT layers from their frames, analytic layers through the f64 kernel or, if `single`, the
-    /// f32 approximation kernel.
-    #[inline]
-    fn lanes_with<const B: usize>(
-        &self,
-        points: &[DVec2; B],
-        derivatives: bool,
-        single: bool,
-    ) -> Lanes<B> {
+        if self.options.precision == Precision::F32 {
+            return self.lanes_f32(points, derivatives).widen();
+        }
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = Lanes::<B>::default();
@@ -398,10 +410,39 @@ impl SurfaceAt<'_> {
                         add_fft(&mut out, l, &self.fft_sample(f, frame, p0), derivatives);
                     }
                 }
-                (_, Some(soa)) if single => {
-                    soa.accumulate_lanes_f32(&x, &z, self.t, derivatives, &mut out)
-                }
                 (_, Some(soa)) => soa.accumulate_lanes(&x, &z, self.t, derivatives, &mut out),
+                (_, None) => {}
+            }
+        }
+        out
+    }
+
+    /// The single-precision fast path for a block of `B` points (whatever the snapshot's
+    /// [`Precision`]): analytic layers through [`WaveSoA::accumulate_lanes_f32`], FFT layers read
+    /// from their frames in f64 and added to the f32 sums, layers in order. Lane `l` depends
+    /// only on `points[l]`.
+    #[inline(always)]
+    pub fn lanes_f32<const B: usize>(&self, points: &[DVec2; B], derivatives: bool) -> LanesF32<B> {
+        let x: [f64; B] = std::array::from_fn(|l| points[l].x);
+        let z: [f64; B] = std::array::from_fn(|l| points[l].y);
+        let mut out = LanesF32::<B>::default();
+        for (((layer, frame), soa), offsets) in self
+            .surface
+            .layers
+            .iter()
+            .zip(&self.frames)
+            .zip(&self.surface.soa)
+            .zip(&self.offsets)
+        {
+            match (layer, soa) {
+                (Layer::Fft(f), _) => {
+                    for (l, &p0) in points.iter().enumerate() {
+                        let mut one = Lanes::<1>::default();
+                        add_fft(&mut one, 0, &self.fft_sample(f, frame, p0), derivatives);
+                        out.add(l, &one.get(0));
+                    }
+                }
+                (_, Some(soa)) => soa.accumulate_lanes_f32(&x, &z, offsets, derivatives, &mut out),
                 (_, None) => {}
             }
         }
@@ -415,12 +456,17 @@ impl SurfaceAt<'_> {
     /// If `out.len() != points.len()`.
     pub fn sample_batch(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
         assert_eq!(points.len(), out.len(), "one output per point");
-        for_blocks(points, out, |block, dst| {
-            let lanes = self.sample_lanes(block, derivatives);
-            for (l, o) in dst.iter_mut().enumerate() {
-                *o = lanes.get(l);
-            }
-        });
+        for_blocks(
+            points,
+            out,
+            #[inline(always)]
+            |block, dst| {
+                let lanes = self.sample_lanes(block, derivatives);
+                for (l, o) in dst.iter_mut().enumerate() {
+                    *o = lanes.get(l);
+                }
+            },
+        );
     }
 
     /// Single-precision variant of [`SurfaceAt::sample_batch`] — an approximation knob, not the
@@ -433,12 +479,48 @@ impl SurfaceAt<'_> {
     /// If `out.len() != points.len()`.
     pub fn sample_batch_f32(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
         assert_eq!(points.len(), out.len(), "one output per point");
-        for_blocks(points, out, |block, dst| {
-            let lanes = self.lanes_with(block, derivatives, true);
-            for (l, o) in dst.iter_mut().enumerate() {
-                *o = lanes.get(l);
-            }
-        });
+        for_blocks(
+            points,
+            out,
+            #[inline(always)]
+            |block, dst| {
+                let lanes = self.lanes_f32(block, derivatives);
+                for (l, o) in dst.iter_mut().enumerate() {
+                    *o = lanes.get(l);
+                }
+            },
+        );
+    }
+
+    /// The fast path for rendering and physics probes: displacement `(Dx, y, Dz)` and unit
+    /// normal of every point of `points` (undisplaced points, as in [`SurfaceAt::sample`]), in
+    /// single precision ([`Precision::F32`]: f64 phase reduction, f32 sin/cos and sums; the
+    /// normal from [`LanesF32::normals`]). Deterministic and independent of the batch: point `i`
+    /// gets the same bits alone or among others.
+    ///
+    /// # Panics
+    /// If `out.len() != points.len()`.
+    pub fn displacement_normal_f32(&self, points: &[DVec2], out: &mut [SurfacePointF32]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        for_blocks_of::<{ crate::wave::FAST_BLOCK }, _>(
+            points,
+            out,
+            #[inline(always)]
+            |block, dst| {
+                let lanes = self.lanes_f32(block, true);
+                let n = lanes.normals();
+                for (l, o) in dst.iter_mut().enumerate() {
+                    *o = SurfacePointF32 {
+                        displacement: Vec3::new(
+                            lanes.disp[0][l],
+                            lanes.disp[1][l],
+                            lanes.disp[2][l],
+                        ),
+                        normal: Vec3::new(n[0][l], n[1][l], n[2][l]),
+                    };
+                }
+            },
+        );
     }
 
     /// Slow reference for [`SurfaceAt::sample`]: analytic waves with unreduced phases and the
@@ -495,11 +577,69 @@ fn add_fft<const B: usize>(
 pub(crate) fn for_blocks<T>(
     points: &[DVec2],
     out: &mut [T],
-    mut f: impl FnMut(&[DVec2; crate::wave::BLOCK], &mut [T]),
+    f: impl FnMut(&[DVec2; crate::wave::BLOCK], &mut [T]),
 ) {
-    const B: usize = crate::wave::BLOCK;
+    for_blocks_of::<{ crate::wave::BLOCK }, T>(points, out, f);
+}
+
+/// [`for_blocks`] with blocks of `B` points.
+///
+/// On x86-64 CPUs with AVX2 the loop (and everything `f` inlines) is compiled for AVX2 and chosen
+/// at run time, whatever level the crate was built for: twice the lanes per instruction, the same
+/// bits. The kernels are plain `*`, `+`, `−`, `/` and `sqrt` in a fixed order (no fused
+/// multiply-add: only `avx2` is enabled, never `fma`, and Rust never contracts `a * b + c`), so
+/// each operation rounds exactly as in the baseline build; tests compare the two paths bit for
+/// bit.
+#[inline]
+pub(crate) fn for_blocks_of<const B: usize, T>(
+    points: &[DVec2],
+    out: &mut [T],
+    f: impl FnMut(&[DVec2; B], &mut [T]),
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, checked on the line above.
+        unsafe { blocks_avx2::<B, T>(points, out, f) };
+        return;
+    }
+    blocks::<B, T>(points, out, f);
+}
+
+#[inline(always)]
+fn blocks<const B: usize, T>(
+    points: &[DVec2],
+    out: &mut [T],
+    mut f: impl FnMut(&[DVec2; B], &mut [T]),
+) {
     for (src, dst) in points.chunks(B).zip(out.chunks_mut(B)) {
         let block: [DVec2; B] = std::array::from_fn(|l| src[l.min(src.len() - 1)]);
         f(&block, dst);
     }
+}
+
+/// [`blocks`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn blocks_avx2<const B: usize, T>(
+    points: &[DVec2],
+    out: &mut [T],
+    f: impl FnMut(&[DVec2; B], &mut [T]),
+) {
+    blocks::<B, T>(points, out, f);
+}
+
+/// Whether batch loops may take the run-time AVX2 path (on by default; tests turn it off to
+/// compare the two paths bit for bit).
+static SIMD: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
+#[inline]
+fn simd_enabled() -> bool {
+    SIMD.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// Turns the run-time selected AVX2 batch loops on or off (process-wide; on by default). Results
+/// are the same either way; this exists so that tests and benchmarks can compare the two.
+#[doc(hidden)]
+pub fn set_simd_dispatch(on: bool) {
+    SIMD.store(on, std::sync::atomic::Ordering::Relaxed);
 }

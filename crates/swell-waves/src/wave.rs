@@ -3,7 +3,7 @@
 use glam::DVec2;
 
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
-use crate::math::{TAU, reduce_phase, sin_cos};
+use crate::math::{TAU, reduce_phase, reduce_turns, sin_cos, sin_cos_turns_f32};
 use crate::spectrum::Dispersion;
 
 /// A built, validated wave: everything needed to evaluate it, and everything a client needs to
@@ -197,6 +197,10 @@ pub fn accumulate_all(
 /// The block size never changes a result, only speed (every lane is computed on its own).
 pub const BLOCK: usize = 8;
 
+/// Points per block of the single-precision fast path: 16 f32 lanes fill two AVX2 registers
+/// (one AVX-512 register) per quantity. Like [`BLOCK`], it never changes a result.
+pub const FAST_BLOCK: usize = 16;
+
 /// A set of waves stored as a structure of arrays, for evaluating many points at once.
 ///
 /// Per wave it keeps exactly the factors the scalar path forms first (`Q·A·dx`, `A·k`, …, each
@@ -219,6 +223,116 @@ pub struct WaveSoA {
     /// `A·k` and `Q·A·k`: derivative amplitudes.
     ak: Vec<f64>,
     qak: Vec<f64>,
+    /// The single-precision fast path's constants (see [`WaveSoA::accumulate_lanes_f32`]).
+    fast: FastWaves,
+}
+
+/// Per-wave constants of the single-precision fast kernel: the wave vector in turns per metre
+/// (f64, the phase is formed in f64) and the amplitudes of the eight summed terms (f32).
+#[derive(Debug, Clone, Default, PartialEq)]
+struct FastWaves {
+    /// `k·dx/2π`, `k·dz/2π`, turns/m.
+    kx: Vec<f64>,
+    kz: Vec<f64>,
+    /// `A`, `Q·A·dx`, `Q·A·dz`, m.
+    a: Vec<f32>,
+    qadx: Vec<f32>,
+    qadz: Vec<f32>,
+    /// `A·k·dx`, `A·k·dz`; `Q·A·k·dx²`, `Q·A·k·dx·dz`, `Q·A·k·dz²` (dimensionless).
+    akdx: Vec<f32>,
+    akdz: Vec<f32>,
+    qakxx: Vec<f32>,
+    qakxz: Vec<f32>,
+    qakzz: Vec<f32>,
+}
+
+/// Accumulators of one block of the single-precision fast path: `(Dx, y, Dz)` and its
+/// derivatives along x0 and z0, one f32 lane per point (the f32 twin of [`Lanes`]).
+#[derive(Debug, Clone, Copy)]
+pub struct LanesF32<const B: usize> {
+    /// `Dx`, `y`, `Dz` per lane, m.
+    pub disp: [[f32; B]; 3],
+    /// `∂(Dx, y, Dz)/∂x0` per lane.
+    pub d_dx: [[f32; B]; 3],
+    /// `∂(Dx, y, Dz)/∂z0` per lane.
+    pub d_dz: [[f32; B]; 3],
+}
+
+impl<const B: usize> Default for LanesF32<B> {
+    fn default() -> Self {
+        Self {
+            disp: [[0.0; B]; 3],
+            d_dx: [[0.0; B]; 3],
+            d_dz: [[0.0; B]; 3],
+        }
+    }
+}
+
+impl<const B: usize> LanesF32<B> {
+    /// Lane `l` widened to f64, as a [`SurfaceSample`].
+    #[inline]
+    pub fn get(&self, l: usize) -> SurfaceSample {
+        let v = |a: &[[f32; B]; 3]| {
+            glam::DVec3::new(f64::from(a[0][l]), f64::from(a[1][l]), f64::from(a[2][l]))
+        };
+        SurfaceSample {
+            displacement: v(&self.disp),
+            d_dx: v(&self.d_dx),
+            d_dz: v(&self.d_dz),
+        }
+    }
+
+    /// Every lane widened to f64.
+    #[inline]
+    pub fn widen(&self) -> Lanes<B> {
+        let w = |a: &[[f32; B]; 3]| -> [[f64; B]; 3] {
+            std::array::from_fn(|c| std::array::from_fn(|l| f64::from(a[c][l])))
+        };
+        Lanes {
+            disp: w(&self.disp),
+            d_dx: w(&self.d_dx),
+            d_dz: w(&self.d_dz),
+        }
+    }
+
+    /// Adds `s` to lane `l`, rounded to f32 first (how f64 contributions, such as FFT layers
+    /// read from their grids, join the single-precision sum).
+    #[inline]
+    pub fn add(&mut self, l: usize, s: &SurfaceSample) {
+        let put = |a: &mut [[f32; B]; 3], v: glam::DVec3| {
+            a[0][l] += v.x as f32;
+            a[1][l] += v.y as f32;
+            a[2][l] += v.z as f32;
+        };
+        put(&mut self.disp, s.displacement);
+        put(&mut self.d_dx, s.d_dx);
+        put(&mut self.d_dz, s.d_dz);
+    }
+
+    /// Unit normals of the displaced surface, per lane, in f32: `n = (e_z + d_dz) × (e_x + d_dx)`
+    /// normalised by `1/√(n·n)` (IEEE square root and division: correctly rounded, so the same
+    /// on every CPU), or straight up `(0, 1, 0)` where `n·n` is not in (10⁻³⁰, ∞) — the f32 twin
+    /// of [`SurfaceSample::normal`], branch-free so it vectorises.
+    // Indexing several lane arrays by one counter is the shape the vectoriser wants.
+    #[allow(clippy::needless_range_loop)]
+    #[inline]
+    pub fn normals(&self) -> [[f32; B]; 3] {
+        let mut n = [[0.0f32; B]; 3];
+        for l in 0..B {
+            let (ax, ay, az) = (1.0 + self.d_dx[0][l], self.d_dx[1][l], self.d_dx[2][l]);
+            let (bx, by, bz) = (self.d_dz[0][l], self.d_dz[1][l], 1.0 + self.d_dz[2][l]);
+            let cx = by * az - bz * ay;
+            let cy = bz * ax - bx * az;
+            let cz = bx * ay - by * ax;
+            let len2 = cx * cx + cy * cy + cz * cz;
+            let ok = len2 > 1e-30 && len2 < f32::INFINITY;
+            let inv = 1.0 / len2.sqrt();
+            n[0][l] = if ok { cx * inv } else { 0.0 };
+            n[1][l] = if ok { cy * inv } else { 1.0 };
+            n[2][l] = if ok { cz * inv } else { 0.0 };
+        }
+        n
+    }
 }
 
 /// Accumulators of one block: `(Dx, y, Dz)` and the six derivatives, one lane per point.
@@ -291,6 +405,7 @@ impl WaveSoA {
             qadz: col(&|w| w.steepness * w.amplitude * w.direction.y),
             ak: col(&|w| w.amplitude * w.wavenumber),
             qak: col(&|w| w.steepness * w.amplitude * w.wavenumber),
+            fast: FastWaves::new(waves),
         }
     }
 
@@ -365,52 +480,126 @@ impl WaveSoA {
         }
     }
 
-    /// Single-precision evaluation (an approximation knob, not the model's default): each phase
-    /// is formed and reduced in f64 exactly as in [`WaveSoA::accumulate_lanes`], then sin/cos
-    /// ([`crate::math::sin_cos_f32`]), the products and the sums run in f32. Typical error: a few
-    /// f32 ulp of the summed amplitudes (≈ 10⁻⁷ relative; see `docs/accuracy.md`). Results are
-    /// returned widened to f64 in `out` (added to what is there, after the f32 sum).
-    // Indexing several lane arrays by one counter is the shape the vectoriser wants.
-    #[allow(clippy::needless_range_loop)]
+    /// Phase offsets of the single-precision fast path at time `t`, one per wave, in turns:
+    /// `c = reduce_phase(φ − ω·t) / 2π` ∈ [−½, ½]. Computed once per time (a snapshot keeps
+    /// them), so the per-point work carries no time term.
+    pub fn phase_offsets(&self, t: f64) -> Vec<f64> {
+        self.omega
+            .iter()
+            .zip(&self.phase)
+            .map(|(&om, &ph)| reduce_phase(ph - om * t) * INV_TAU)
+            .collect()
+    }
+
+    /// The single-precision fast path (an approximation knob, not the model's default): adds
+    /// every wave at the `B` points `(x[l], z[l])` into `out`, with `offsets` from
+    /// [`WaveSoA::phase_offsets`] at the time wanted.
+    ///
+    /// Per wave and point: the phase in turns is formed and reduced in f64,
+    /// `u = reduce_turns((k·dx/2π)·x + (k·dz/2π)·z + c)` (exact for phases below 2⁵¹ turns,
+    /// clamped to [−½, ½] beyond, so any finite point gives finite results); only u goes to
+    /// f32, where [`crate::math::sin_cos_turns_f32`] gives `(sin 2πu, cos 2πu)` and the eight
+    /// terms are summed in wave order:
+    /// `Dx += Q·A·dx·cos`, `y += A·sin`, `Dz += Q·A·dz·cos`, `∂y/∂x0 += A·k·dx·cos`,
+    /// `∂y/∂z0 += A·k·dz·cos`, `∂Dx/∂x0 −= Q·A·k·dx²·sin`, `∂Dz/∂z0 −= Q·A·k·dz²·sin` and
+    /// `∂Dx/∂z0 = ∂Dz/∂x0 −= Q·A·k·dx·dz·sin` (one sum for both). Error: a few f32 ulp of the
+    /// summed amplitudes (≈ 10⁻⁶ relative; see `docs/accuracy.md`).
+    ///
+    /// Deterministic like the f64 path (plain `*`/`+`, no fused operations, no branch): each lane
+    /// is computed on its own, so any block size, batch or thread split gives the same bits, on
+    /// every x86-64 level.
+    ///
+    /// # Panics
+    /// If `offsets` is shorter than the wave list.
+    #[inline]
     pub fn accumulate_lanes_f32<const B: usize>(
         &self,
         x: &[f64; B],
         z: &[f64; B],
-        t: f64,
+        offsets: &[f64],
         derivatives: bool,
-        out: &mut Lanes<B>,
+        out: &mut LanesF32<B>,
     ) {
-        let mut acc = [[[0.0f32; B]; 3]; 3];
-        for w in 0..self.k.len() {
-            let (kw, wt, phw) = (self.k[w], self.omega[w] * t, self.phase[w]);
-            let (dx, dz) = (self.dx[w], self.dz[w]);
-            let (dxf, dzf) = (dx as f32, dz as f32);
-            let (qadx, qadz, a) = (self.qadx[w] as f32, self.qadz[w] as f32, self.a[w] as f32);
-            let (ak, qak) = (self.ak[w] as f32, self.qak[w] as f32);
+        if derivatives {
+            self.fast_kernel::<B, true>(x, z, offsets, out);
+        } else {
+            self.fast_kernel::<B, false>(x, z, offsets, out);
+        }
+    }
+
+    // Indexing several lane arrays by one counter is the shape the vectoriser wants.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn fast_kernel<const B: usize, const D: bool>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        offsets: &[f64],
+        out: &mut LanesF32<B>,
+    ) {
+        let f = &self.fast;
+        let n = f.kx.len();
+        let (kx, kz, off) = (&f.kx[..n], &f.kz[..n], &offsets[..n]);
+        let (a, qadx, qadz) = (&f.a[..n], &f.qadx[..n], &f.qadz[..n]);
+        let (akdx, akdz) = (&f.akdx[..n], &f.akdz[..n]);
+        let (qxx, qxz, qzz) = (&f.qakxx[..n], &f.qakxz[..n], &f.qakzz[..n]);
+        // Dx, y, Dz, ∂Dx/∂x0, ∂y/∂x0, ∂Dx/∂z0 (= ∂Dz/∂x0), ∂y/∂z0, ∂Dz/∂z0.
+        let mut acc = [[0.0f32; B]; 8];
+        for w in 0..n {
             for l in 0..B {
-                let along = dx * x[l] + dz * z[l];
-                let (s, c) = crate::math::sin_cos_f32(reduce_phase(kw * along - wt + phw));
-                acc[0][0][l] += qadx * c;
-                acc[0][1][l] += a * s;
-                acc[0][2][l] += qadz * c;
-                if derivatives {
-                    let ak_c = ak * c;
-                    let qak_s = qak * s;
-                    acc[1][0][l] -= qak_s * dxf * dxf;
-                    acc[1][1][l] += ak_c * dxf;
-                    acc[1][2][l] -= qak_s * dxf * dzf;
-                    acc[2][0][l] -= qak_s * dxf * dzf;
-                    acc[2][1][l] += ak_c * dzf;
-                    acc[2][2][l] -= qak_s * dzf * dzf;
+                let u = reduce_turns(kx[w] * x[l] + kz[w] * z[l] + off[w]) as f32;
+                // Only phases past 2⁵¹ turns (points ~10¹⁵ m out) leave [−½, ½]; clamp them so
+                // the polynomials stay finite. Written as selects (minps/maxps); NaN passes.
+                let u = if u > 0.5 { 0.5 } else { u };
+                let u = if u < -0.5 { -0.5 } else { u };
+                let (s, c) = sin_cos_turns_f32(u);
+                acc[0][l] += qadx[w] * c;
+                acc[1][l] += a[w] * s;
+                acc[2][l] += qadz[w] * c;
+                if D {
+                    acc[3][l] -= qxx[w] * s;
+                    acc[4][l] += akdx[w] * c;
+                    acc[5][l] -= qxz[w] * s;
+                    acc[6][l] += akdz[w] * c;
+                    acc[7][l] -= qzz[w] * s;
                 }
             }
         }
-        for c in 0..3 {
-            for l in 0..B {
-                out.disp[c][l] += f64::from(acc[0][c][l]);
-                out.d_dx[c][l] += f64::from(acc[1][c][l]);
-                out.d_dz[c][l] += f64::from(acc[2][c][l]);
+        for l in 0..B {
+            out.disp[0][l] += acc[0][l];
+            out.disp[1][l] += acc[1][l];
+            out.disp[2][l] += acc[2][l];
+            if D {
+                out.d_dx[0][l] += acc[3][l];
+                out.d_dx[1][l] += acc[4][l];
+                out.d_dx[2][l] += acc[5][l];
+                out.d_dz[0][l] += acc[5][l];
+                out.d_dz[1][l] += acc[6][l];
+                out.d_dz[2][l] += acc[7][l];
             }
+        }
+    }
+}
+
+/// 1/2π, for phases in turns.
+const INV_TAU: f64 = 1.0 / TAU;
+
+impl FastWaves {
+    fn new(waves: &[Wave]) -> Self {
+        let f64s = |f: &dyn Fn(&Wave) -> f64| waves.iter().map(f).collect::<Vec<f64>>();
+        let f32s = |f: &dyn Fn(&Wave) -> f64| waves.iter().map(|w| f(w) as f32).collect();
+        let qak = |w: &Wave| w.steepness * w.amplitude * w.wavenumber;
+        Self {
+            kx: f64s(&|w| w.wavenumber * INV_TAU * w.direction.x),
+            kz: f64s(&|w| w.wavenumber * INV_TAU * w.direction.y),
+            a: f32s(&|w| w.amplitude),
+            qadx: f32s(&|w| w.steepness * w.amplitude * w.direction.x),
+            qadz: f32s(&|w| w.steepness * w.amplitude * w.direction.y),
+            akdx: f32s(&|w| w.amplitude * w.wavenumber * w.direction.x),
+            akdz: f32s(&|w| w.amplitude * w.wavenumber * w.direction.y),
+            qakxx: f32s(&|w| qak(w) * w.direction.x * w.direction.x),
+            qakxz: f32s(&|w| qak(w) * w.direction.x * w.direction.y),
+            qakzz: f32s(&|w| qak(w) * w.direction.y * w.direction.y),
         }
     }
 }

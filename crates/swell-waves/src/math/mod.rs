@@ -9,9 +9,9 @@ mod phase;
 mod rng;
 mod trig;
 
-pub use phase::{TAU, reduce_phase, round_ties_away};
+pub use phase::{TAU, reduce_phase, reduce_turns, round_ties_away};
 pub use rng::{SwellRng, mode_key, splitmix64};
-pub use trig::{cos, sin, sin_cos, sin_cos_f32};
+pub use trig::{cos, sin, sin_cos, sin_cos_turns_f32};
 
 /// `e^x`, from the pure-Rust `libm` crate (bit-identical on every platform).
 #[inline]
