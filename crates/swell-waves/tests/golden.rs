@@ -1,4 +1,6 @@
-//! Golden vectors: `proto/vectors/surface_v1.json` pins the model's outputs bit for bit.
+//! Golden vectors: `proto/vectors/surface_v1.json` pins the model's outputs bit for bit, and
+//! `proto/vectors/surface_f32_v1.json` those of the single-precision fast path
+//! (`Precision::F32`) on the same cases.
 //!
 //! The file is self-contained so any client (any language) can check itself against it: each case
 //! holds a surface spec (the scene JSON's wave part), times, world points and the expected outputs
@@ -14,10 +16,14 @@ use std::path::PathBuf;
 
 use glam::DVec2;
 use serde_json::{Value, json};
-use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec};
+use swell_waves::{Precision, QueryFields, QueryOptions, Surface, SurfacePointF32, SurfaceSpec};
 
-fn vectors_path() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../proto/vectors/surface_v1.json")
+fn vectors_path(precision: Precision) -> PathBuf {
+    let name = match precision {
+        Precision::F64 => "surface_v1.json",
+        Precision::F32 => "surface_f32_v1.json",
+    };
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../proto/vectors").join(name)
 }
 
 /// One case: name, surface spec JSON, times (s), world points `[x, z]` (m).
@@ -97,14 +103,41 @@ fn hex(x: f64) -> String {
     format!("{:016x}", x.to_bits())
 }
 
-fn outputs(spec: &Value, times: &[f64], pts: &[[f64; 2]]) -> Vec<Value> {
+fn hex32(x: f32) -> String {
+    format!("{:08x}", x.to_bits())
+}
+
+fn outputs(spec: &Value, times: &[f64], pts: &[[f64; 2]], precision: Precision) -> Vec<Value> {
     let spec: SurfaceSpec = serde_json::from_value(spec.clone()).expect("case spec decodes");
     let surface = Surface::new(&spec).expect("case spec is valid");
+    let options = QueryOptions {
+        precision,
+        ..Default::default()
+    };
     let mut out = Vec::new();
     for &t in times {
-        let sea = surface
-            .at(t, QueryFields::ALL, &QueryOptions::default())
-            .unwrap();
+        let sea = surface.at(t, QueryFields::ALL, &options).unwrap();
+        if precision == Precision::F32 {
+            // The f32 batch API (displacement + normal of undisplaced points, f32 bits) and the
+            // height query run with f32 evaluation (f64 bits).
+            let world: Vec<DVec2> = pts.iter().map(|p| DVec2::new(p[0], p[1])).collect();
+            let mut fast = vec![SurfacePointF32::default(); world.len()];
+            sea.displacement_normal_f32(&world, &mut fast);
+            for (p, f) in pts.iter().zip(&fast) {
+                let r = sea.query(DVec2::new(p[0], p[1]), QueryFields::ALL);
+                let (d, n) = (f.displacement, f.normal);
+                out.push(json!({
+                    "t": t, "point": p,
+                    "height_m": r.height,
+                    "bits": {
+                        "height": hex(r.height),
+                        "displacement_f32": [hex32(d.x), hex32(d.y), hex32(d.z)],
+                        "normal_f32": [hex32(n.x), hex32(n.y), hex32(n.z)],
+                    }
+                }));
+            }
+            continue;
+        }
         for p in pts {
             let r = sea.query(DVec2::new(p[0], p[1]), QueryFields::ALL);
             out.push(json!({
@@ -124,26 +157,39 @@ fn outputs(spec: &Value, times: &[f64], pts: &[[f64; 2]]) -> Vec<Value> {
     out
 }
 
-fn mint() -> Value {
+fn mint(precision: Precision) -> Value {
+    let about = match precision {
+        Precision::F64 => "Swell golden vectors: for each case, build the surface from `spec`, query every point at every time with default accuracy (Newton inversion, 8 steps, 1e-5 m; bicubic FFT sampling; portable FFT backend) and compare the IEEE-754 bits. See README.md here.",
+        Precision::F32 => "Swell golden vectors of the single-precision fast path (precision f32): for each case and time, `displacement_f32` and `normal_f32` are the f32 batch outputs at each point taken as undisplaced (binary32 bits), `height` the height query with f32 evaluation (binary64 bits); otherwise as surface_v1.json. See README.md here.",
+    };
     let cases: Vec<Value> = cases()
         .into_iter()
         .map(|(name, spec, times, pts)| {
-            let expected = outputs(&spec, &times, &pts);
+            let expected = outputs(&spec, &times, &pts, precision);
             json!({"name": name, "spec": spec, "times": times, "points": pts, "expected": expected})
         })
         .collect();
     json!({
         "model_version": swell_waves::MODEL_VERSION,
-        "about": "Swell golden vectors: for each case, build the surface from `spec`, query every point at every time with default accuracy (Newton inversion, 8 steps, 1e-5 m; bicubic FFT sampling; portable FFT backend) and compare the IEEE-754 bits. See README.md here.",
+        "about": about,
         "cases": cases,
     })
 }
 
 #[test]
 fn golden_vectors_match_bit_for_bit() {
-    let path = vectors_path();
+    check(Precision::F64);
+}
+
+#[test]
+fn golden_f32_vectors_match_bit_for_bit() {
+    check(Precision::F32);
+}
+
+fn check(precision: Precision) {
+    let path = vectors_path(precision);
     if std::env::var_os("SWELL_MINT_VECTORS").is_some() {
-        let text = serde_json::to_string_pretty(&mint()).unwrap() + "\n";
+        let text = serde_json::to_string_pretty(&mint(precision)).unwrap() + "\n";
         std::fs::write(&path, text).unwrap();
         eprintln!("minted {}", path.display());
         return;
@@ -177,7 +223,7 @@ fn golden_vectors_match_bit_for_bit() {
         let ftimes: Vec<f64> = serde_json::from_value(fc["times"].clone()).unwrap();
         let fpts: Vec<[f64; 2]> = serde_json::from_value(fc["points"].clone()).unwrap();
         assert_eq!((ftimes.clone(), fpts.clone()), (times, pts));
-        let got = outputs(&fc["spec"], &ftimes, &fpts);
+        let got = outputs(&fc["spec"], &ftimes, &fpts, precision);
         let want = fc["expected"].as_array().unwrap();
         assert_eq!(got.len(), want.len());
         for (g, w) in got.iter().zip(want) {
