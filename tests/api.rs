@@ -103,6 +103,32 @@ async fn height_sample_and_orientation_answer() {
     let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
     assert_eq!(keys, ["height", "t"]);
 
+    // precision f32 runs the single-precision fast path: close to the f64 answer, not equal.
+    let ask = |precision: &'static str| {
+        json!({"t": 9.5, "points": [[1, 2], [-33.5, 80.25], [400, -12]], "fields": ["height", "normal"],
+            "accuracy": {"precision": precision}})
+    };
+    let (st64, a) = s.post_json("/v1/scenes/lake/sample", &ask("f64")).await;
+    let (st32, b) = s.post_json("/v1/scenes/lake/sample", &ask("f32")).await;
+    assert_eq!((st64, st32), (200, 200), "{a} {b}");
+    let (_, d) = s
+        .post_json(
+            "/v1/scenes/lake/sample",
+            &json!({"t": 9.5, "points": [[1, 2], [-33.5, 80.25], [400, -12]], "fields": ["height", "normal"]}),
+        )
+        .await;
+    assert_eq!(a, d, "f64 is the default");
+    let mut differs = false;
+    for i in 0..3 {
+        let (h64, h32) = (
+            a["height"][i].as_f64().unwrap(),
+            b["height"][i].as_f64().unwrap(),
+        );
+        assert!((h64 - h32).abs() < 1e-4, "f32 height {h32} vs f64 {h64}");
+        differs |= h64 != h32;
+    }
+    assert!(differs, "precision f32 did not reach the model");
+
     // Accuracy settings are accepted.
     let (st, _) = s
         .post_json(

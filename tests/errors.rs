@@ -124,6 +124,17 @@ async fn unknown_field_name_in_fields_is_400_naming_it() {
         )
         .await;
     assert_eq!((st, code(&v)), (400, "bad_json"));
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/sample",
+            &json!({"points": [[0, 0]], "accuracy": {"precision": "f16"}}),
+        )
+        .await;
+    assert_eq!((st, code(&v)), (400, "bad_json"));
+    assert!(
+        v["error"]["message"].as_str().unwrap().contains("f16"),
+        "{v}"
+    );
     s.stop().await;
 }
 

@@ -111,6 +111,7 @@ async fn sample_protobuf_accuracy_matches_json_accuracy() {
             iterations: Some(3),
             tolerance: Some(0.001),
             filter: v1::Filter::Bilinear as i32,
+            precision: v1::Precision::Unspecified as i32,
         }),
         origin: None,
     };
@@ -118,6 +119,28 @@ async fn sample_protobuf_accuracy_matches_json_accuracy() {
     assert_eq!(st, 200);
     let r = v1::SampleResponse::decode(bytes.as_slice()).unwrap();
     assert_eq!(r.height[0].to_bits(), bits(&j["height"][0]));
+
+    // The f32 fast path, on a scene with analytic layers: JSON and protobuf twins agree.
+    let body = json!({"t": 5, "points": [[3, 4], [-70.5, 12.25]], "fields": ["height", "normal"],
+        "accuracy": {"precision": "f32"}});
+    let (_, j) = s.post_json("/v1/scenes/open-sea/sample", &body).await;
+    let req = v1::SampleRequest {
+        t: Some(5.0),
+        points: vec![p2(3.0, 4.0), p2(-70.5, 12.25)],
+        fields: vec![v1::Field::Height as i32, v1::Field::Normal as i32],
+        accuracy: Some(v1::Accuracy {
+            precision: v1::Precision::F32 as i32,
+            ..Default::default()
+        }),
+        origin: None,
+    };
+    let (st, _, bytes) = post_pb(&s, "/v1/scenes/open-sea/sample", req.encode_to_vec()).await;
+    assert_eq!(st, 200);
+    let r = v1::SampleResponse::decode(bytes.as_slice()).unwrap();
+    for i in 0..2 {
+        assert_eq!(r.height[i].to_bits(), bits(&j["height"][i]));
+        assert_eq!(r.normal[i].y.to_bits(), bits(&j["normal"][i][1]));
+    }
     s.stop().await;
 }
 

@@ -225,7 +225,8 @@ pub fn openapi_document() -> Value {
                     "fields": {"type": "array", "items": {"enum": ["height", "normal", "displacement", "jacobian", "residual"]}},
                     "accuracy": {"type": "object", "properties": {
                         "method": {"enum": ["newton", "fixed_point"]}, "iterations": {"type": "integer"},
-                        "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]}}}}},
+                        "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]},
+                        "precision": {"enum": ["f64", "f32"]}}}}},
                 "OrientationRequest": {"type": "object", "required": ["bodies"], "properties": {
                     "t": num, "bodies": {"type": "array", "items": {"type": "object",
                         "required": ["position", "length", "beam"], "properties": {

@@ -119,6 +119,9 @@ pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
         if let Some(f) = a.filter {
             o.filter = f.into();
         }
+        if let Some(p) = a.precision {
+            o.precision = p.into();
+        }
     }
     o.validate().map_err(|e| ApiError::invalid_query(&e))?;
     Ok(o)

@@ -124,6 +124,29 @@ pub struct Accuracy {
     /// FFT grid filter.
     #[serde(default)]
     pub filter: Option<Filter>,
+    /// Evaluation precision: `f64` (the default, the model's reference bits) or `f32` (the
+    /// single-precision fast path: a few µm off, several times cheaper).
+    #[serde(default)]
+    pub precision: Option<Precision>,
+}
+
+/// Evaluation precision on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// f64 throughout (the default).
+    F64,
+    /// Single-precision fast path (f64 phase reduction, f32 sin/cos and sums).
+    F32,
+}
+
+impl From<Precision> for swell_waves::Precision {
+    fn from(p: Precision) -> swell_waves::Precision {
+        match p {
+            Precision::F64 => swell_waves::Precision::F64,
+            Precision::F32 => swell_waves::Precision::F32,
+        }
+    }
 }
 
 /// FFT grid sampling filter on the wire.

@@ -13,7 +13,7 @@ use swell_waves::InversionMethod;
 
 use crate::api::types::{
     Accuracy, Body, BodyOrientation, BodyState, Filter, HeightResponse, OrientationRequest,
-    OrientationResponse, SampleRequest, SampleResponse, Tick,
+    OrientationResponse, Precision, SampleRequest, SampleResponse, Tick,
 };
 use crate::error::ApiError;
 use crate::wire::v1;
@@ -92,11 +92,24 @@ impl TryFrom<v1::Accuracy> for Accuracy {
                 ));
             }
         };
+        let precision = match v1::Precision::try_from(a.precision) {
+            Ok(v1::Precision::Unspecified) => None,
+            Ok(v1::Precision::F64) => Some(Precision::F64),
+            Ok(v1::Precision::F32) => Some(Precision::F32),
+            Err(_) => {
+                return Err(bad_enum(
+                    "accuracy.precision",
+                    a.precision,
+                    "is not a Precision value",
+                ));
+            }
+        };
         Ok(Accuracy {
             method,
             iterations: a.iterations,
             tolerance: a.tolerance,
             filter,
+            precision,
         })
     }
 }
@@ -275,6 +288,15 @@ mod tests {
         };
         let e = SampleRequest::try_from(r).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("accuracy.filter"));
+        let r = v1::SampleRequest {
+            accuracy: Some(v1::Accuracy {
+                precision: 7,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let e = SampleRequest::try_from(r).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("accuracy.precision"));
     }
 
     #[test]

@@ -23,7 +23,9 @@ fn vectors_path(precision: Precision) -> PathBuf {
         Precision::F64 => "surface_v1.json",
         Precision::F32 => "surface_f32_v1.json",
     };
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../proto/vectors").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../proto/vectors")
+        .join(name)
 }
 
 /// One case: name, surface spec JSON, times (s), world points `[x, z]` (m).
@@ -159,8 +161,12 @@ fn outputs(spec: &Value, times: &[f64], pts: &[[f64; 2]], precision: Precision) 
 
 fn mint(precision: Precision) -> Value {
     let about = match precision {
-        Precision::F64 => "Swell golden vectors: for each case, build the surface from `spec`, query every point at every time with default accuracy (Newton inversion, 8 steps, 1e-5 m; bicubic FFT sampling; portable FFT backend) and compare the IEEE-754 bits. See README.md here.",
-        Precision::F32 => "Swell golden vectors of the single-precision fast path (precision f32): for each case and time, `displacement_f32` and `normal_f32` are the f32 batch outputs at each point taken as undisplaced (binary32 bits), `height` the height query with f32 evaluation (binary64 bits); otherwise as surface_v1.json. See README.md here.",
+        Precision::F64 => {
+            "Swell golden vectors: for each case, build the surface from `spec`, query every point at every time with default accuracy (Newton inversion, 8 steps, 1e-5 m; bicubic FFT sampling; portable FFT backend) and compare the IEEE-754 bits. See README.md here."
+        }
+        Precision::F32 => {
+            "Swell golden vectors of the single-precision fast path (precision f32): for each case and time, `displacement_f32` and `normal_f32` are the f32 batch outputs at each point taken as undisplaced (binary32 bits), `height` the height query with f32 evaluation (binary64 bits); otherwise as surface_v1.json. See README.md here."
+        }
     };
     let cases: Vec<Value> = cases()
         .into_iter()
