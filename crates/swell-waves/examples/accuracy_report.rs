@@ -515,15 +515,20 @@ fn precision(size: Size) -> Knob {
     let want: Vec<SurfaceSample> = pts.iter().map(|&p| sea.sample_reference(p)).collect();
     let mut rows = Vec::new();
     let mut buf = vec![SurfaceSample::default(); pts.len()];
-    for (name, f32) in [
-        ("f64 (default)", false),
-        ("f32 after f64 phase reduction", true),
+    let mut fast = vec![swell_waves::SurfacePointF32::default(); pts.len()];
+    for (name, mode) in [
+        ("f64 (default)", 0),
+        ("f32 fast path, as f64 samples", 1),
+        ("f32 fast path, displacement + normal", 2),
     ] {
-        let run = |buf: &mut [SurfaceSample]| {
-            if f32 {
-                sea.sample_batch_f32(&pts, true, buf)
-            } else {
-                sea.sample_batch(&pts, true, buf)
+        let mut run = |buf: &mut [SurfaceSample]| match mode {
+            0 => sea.sample_batch(&pts, true, buf),
+            1 => sea.sample_batch_f32(&pts, true, buf),
+            _ => {
+                sea.displacement_normal_f32(&pts, &mut fast);
+                for (b, f) in buf.iter_mut().zip(&fast) {
+                    b.displacement = f.displacement.as_dvec3();
+                }
             }
         };
         run(&mut buf);
@@ -535,7 +540,7 @@ fn precision(size: Size) -> Knob {
         let time = best_of(size.reps, || run(&mut buf));
         rows.push(row(
             name,
-            if f32 { "f32" } else { "f64" },
+            if mode == 0 { "f64" } else { "f32" },
             &e,
             time * 1e9 / pts.len() as f64,
         ));
@@ -546,16 +551,14 @@ fn precision(size: Size) -> Knob {
         cost_unit: "ns/point",
         method: "Displacement at points up to 5 km from the origin, t = 3600.5 s, against the f64 \
                  reference with unreduced phases and platform sin/cos. Both paths form and reduce \
-                 the phase in f64; the f32 path then runs sin/cos, products and sums in f32 \
-                 (`SurfaceAt::sample_batch_f32`)."
+                 the phase in f64; the f32 fast path (`precision: f32`) reduces it in turns and \
+                 runs sin/cos (half-angle polynomials), products and sums in f32 lanes: \
+                 `SurfaceAt::sample_batch_f32` widens the result to f64 samples, \
+                 `SurfaceAt::displacement_normal_f32` returns f32 displacement and normal (the \
+                 normal's cost included)."
             .into(),
         rows,
-        advice: "f32 after an f64 phase reduction is accurate to about a micrometre — plenty \
-                 for rendering — but in this implementation it is not faster: the f64 phase \
-                 reduction is most of the work and the f32 lanes add conversions. It exists for \
-                 clients that have no f64 (GPU shaders); it is not bit-identical to the model, so \
-                 keep f64 for anything that must agree between machines."
-            .into(),
+        advice: "ADVICE_F32".into(),
     }
 }
 

@@ -502,7 +502,7 @@ impl SurfaceAt<'_> {
     /// If `out.len() != points.len()`.
     pub fn displacement_normal_f32(&self, points: &[DVec2], out: &mut [SurfacePointF32]) {
         assert_eq!(points.len(), out.len(), "one output per point");
-        for_blocks_of::<{ crate::wave::FAST_BLOCK }, _>(
+        for_blocks(
             points,
             out,
             #[inline(always)]

@@ -197,10 +197,6 @@ pub fn accumulate_all(
 /// The block size never changes a result, only speed (every lane is computed on its own).
 pub const BLOCK: usize = 8;
 
-/// Points per block of the single-precision fast path: 16 f32 lanes fill two AVX2 registers
-/// (one AVX-512 register) per quantity. Like [`BLOCK`], it never changes a result.
-pub const FAST_BLOCK: usize = 16;
-
 /// A set of waves stored as a structure of arrays, for evaluating many points at once.
 ///
 /// Per wave it keeps exactly the factors the scalar path forms first (`Q·A·dx`, `A·k`, …, each
