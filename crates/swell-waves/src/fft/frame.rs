@@ -94,23 +94,7 @@ impl FftLayer {
             let mut scratch = self.transform.take_scratch();
             let mut htilde = std::mem::take(&mut scratch.htilde);
             let mut buf = std::mem::take(&mut scratch.spectrum);
-            let zero = Complex::new(0.0, 0.0);
-            // Two passes over the half plane. The first computes every entry's (sin, cos) from a
-            // contiguous ω array with no branch (empty entries too: it is cheaper to compute and
-            // drop them than to branch), so the branch-free kernel vectorises; the pair is parked
-            // in `htilde` as (re, im) = (sin, cos). The second evolves h̃ from it. The arithmetic
-            // per entry is exactly the one-pass form's, so the bits are unchanged.
-            for (h, &w) in htilde.iter_mut().zip(&self.omegas) {
-                let (s, c) = sin_cos(reduce_phase(w * t_r));
-                *h = Complex::new(s, c);
-            }
-            for (h, mode) in htilde.iter_mut().zip(&self.half) {
-                *h = if mode.is_empty() {
-                    zero
-                } else {
-                    mode.evolve(h.re, h.im)
-                };
-            }
+            self.evolve_into(t_r, &mut scratch.phases, &mut htilde);
             for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
                 for ((b, h), k) in buf.iter_mut().zip(&htilde).zip(&self.wavevectors) {
                     *b = grid.apply(k[0], k[1], k[2], self.choppiness, *h);
@@ -135,5 +119,35 @@ impl FftLayer {
             grids,
             transforms,
         };
+    }
+
+    /// h̃(k, t) of every half-plane entry at reduced time `t_r` into `htilde` (zero for empty
+    /// entries), as [`FftLayer::frame`] documents; `phases` is working memory.
+    ///
+    /// The phase of an entry depends on its ω_q only, and a layer has few distinct ω_q (whole
+    /// multiples of ω0): `sin_cos(reduce_phase(ω·t_r))` is evaluated once per distinct value
+    /// (`phase_omegas`) and gathered per entry (`phase_index`). Same operands and operations as
+    /// evaluating each entry's own phase, so the same bits (pinned by a test against that form).
+    pub(crate) fn evolve_into(
+        &self,
+        t_r: f64,
+        phases: &mut Vec<(f64, f64)>,
+        htilde: &mut [Complex<f64>],
+    ) {
+        let zero = Complex::new(0.0, 0.0);
+        phases.clear();
+        phases.extend(
+            self.phase_omegas
+                .iter()
+                .map(|&w| sin_cos(reduce_phase(w * t_r))),
+        );
+        for ((h, mode), &ix) in htilde.iter_mut().zip(&self.half).zip(&self.phase_index) {
+            *h = if mode.is_empty() {
+                zero
+            } else {
+                let (s, c) = phases[ix as usize];
+                mode.evolve(s, c)
+            };
+        }
     }
 }

@@ -69,9 +69,15 @@ pub struct FftLayer {
     pub(crate) backend: FftBackend,
     /// Half plane, column-major: entry (m, n) at `m·N + (n mod N)` for m = 0 … N/2 − 1.
     pub(crate) half: Vec<Mode>,
-    /// `half[i].omega_q`, contiguous: the frame's phase pass streams through it (see
-    /// `FftLayer::frame_into`) instead of striding through 112-byte modes.
-    pub(crate) omegas: Vec<f64>,
+    /// The distinct values of `half[i].omega_q`, ascending (bit-distinct: equal bits, one entry).
+    /// ω_q is a whole multiple of ω0, so a layer has few of them (≈ 200 at 256² with T = 200 s,
+    /// against 32 768 half-plane entries): a frame evaluates `sin_cos(reduce_phase(ω·t_r))` once
+    /// per value here and gathers it through `phase_index`.
+    pub(crate) phase_omegas: Vec<f64>,
+    /// For each half-plane entry i, the position of `half[i].omega_q` in `phase_omegas`. Since
+    /// `phase_omegas[phase_index[i]]` has the very bits of `half[i].omega_q`, the gathered
+    /// (sin, cos) is bit-identical to evaluating the entry's own phase.
+    pub(crate) phase_index: Vec<u32>,
     /// `[kx, kz, 1/|k|]` of `half[i]`, contiguous: each grid's multiplier pass streams through
     /// these 24 bytes per entry rather than the whole mode.
     pub(crate) wavevectors: Vec<[f64; 3]>,
@@ -239,7 +245,7 @@ impl FftLayer {
             }
         }
 
-        let omegas = half.iter().map(|m| m.omega_q).collect();
+        let (phase_omegas, phase_index) = phase_table(&half);
         let wavevectors = half.iter().map(|m| [m.kx, m.kz, m.inv_k]).collect();
         Ok(FftLayer {
             n,
@@ -248,7 +254,8 @@ impl FftLayer {
             repeat_period,
             backend: spec.backend,
             half,
-            omegas,
+            phase_omegas,
+            phase_index,
             wavevectors,
             modes,
             variance,
@@ -308,4 +315,24 @@ impl FftLayer {
             self.half[(-m) as usize * self.n + col(-n)].h0_neg
         }
     }
+}
+
+/// The distinct ω_q of `half` in ascending order, and each entry's position among them (see
+/// `FftLayer::phase_omegas`). Values are compared by their bits, so the table can never merge
+/// two frequencies that would round differently in `ω·t_r`.
+fn phase_table(half: &[Mode]) -> (Vec<f64>, Vec<u32>) {
+    let mut omegas: Vec<f64> = half.iter().map(|m| m.omega_q).collect();
+    omegas.sort_by(f64::total_cmp);
+    omegas.dedup_by(|a, b| a.to_bits() == b.to_bits());
+    let index = half
+        .iter()
+        .map(|m| {
+            let i = omegas
+                .binary_search_by(|w| w.total_cmp(&m.omega_q))
+                .expect("every omega_q is in the table");
+            // At most N/2·N ≤ 2^19 entries (MAX_RESOLUTION), so the position fits in u32.
+            i as u32
+        })
+        .collect();
+    (omegas, index)
 }

@@ -644,3 +644,45 @@ fn sample_between_interpolates_linearly_in_time() {
         exact[0]
     );
 }
+
+/// The evolution gathers (sin, cos) from a table of the distinct ω_q; it must give exactly the
+/// bits of evaluating each entry's own phase, `sin_cos(reduce_phase(ω_q·t_r))`, which is what the
+/// recipe and the golden vectors specify.
+#[test]
+fn evolution_table_equals_the_per_entry_phase_bit_for_bit() {
+    use crate::math::{reduce_phase, sin_cos};
+    let mut long = spec(128, 300.0);
+    long.repeat_period = 1.0e5;
+    for (spec, density) in [
+        (spec(256, 256.0), bump(40.0, 2.0)),
+        (spec(64, 80.0), bump(10.0, 1.0)),
+        (long, bump(30.0, 3.0)),
+    ] {
+        let layer = layer_with(&spec, 11, density);
+        // With T = 200 s the table is ~1% of the entries (187 of 32 768 at 256²); a long T makes
+        // it larger (every ω distinct in the limit) but never wrong.
+        if spec.repeat_period == 200.0 {
+            assert!(layer.phase_omegas.len() < layer.half.len() / 8);
+        }
+        let mut table = vec![Complex::new(0.0, 0.0); layer.half.len()];
+        let mut phases = Vec::new();
+        for t in [0.0f64, 0.1, 10.0, 77.7, 199.999, -3.25, 1.0e7 + 0.5] {
+            let t_r = t.rem_euclid(layer.repeat_period);
+            layer.evolve_into(t_r, &mut phases, &mut table);
+            for (mode, h) in layer.half.iter().zip(&table) {
+                let want = if mode.is_empty() {
+                    Complex::new(0.0, 0.0)
+                } else {
+                    let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
+                    mode.evolve(s, c)
+                };
+                assert_eq!(
+                    (h.re.to_bits(), h.im.to_bits()),
+                    (want.re.to_bits(), want.im.to_bits()),
+                    "t = {t}, omega_q = {}",
+                    mode.omega_q
+                );
+            }
+        }
+    }
+}

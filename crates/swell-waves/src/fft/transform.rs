@@ -63,6 +63,9 @@ pub(crate) struct Scratch {
     fft: Vec<Complex<f64>>,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
     pub(crate) htilde: Vec<Complex<f64>>,
+    /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
+    /// `FftLayer::phase_omegas`); resized by the frame.
+    pub(crate) phases: Vec<(f64, f64)>,
     /// One field's half spectrum (N/2·N), overwritten by the column pass.
     pub(crate) spectrum: Vec<Complex<f64>>,
 }
@@ -89,6 +92,7 @@ impl InverseRealFft2 {
             rows: vec![zero; half],
             fft: vec![zero; self.fft.get_inplace_scratch_len()],
             htilde: vec![zero; half],
+            phases: Vec::new(),
             spectrum: vec![zero; half],
         }
     }

@@ -75,14 +75,22 @@ impl FftLayer {
         let t_r = t.rem_euclid(self.repeat_period);
         let choppy = self.choppiness > 0.0;
         let zero = Complex::new(0.0, 0.0);
+        // One sin_cos per distinct ω_q, gathered per entry: the bits of the per-entry phase (see
+        // `FftLayer::frame_into`).
+        let phases: Vec<(f64, f64)> = self
+            .phase_omegas
+            .iter()
+            .map(|&w| sin_cos(reduce_phase(w * t_r)))
+            .collect();
         let rate: Vec<Complex<f64>> = self
             .half
             .iter()
-            .map(|mode| {
+            .zip(&self.phase_index)
+            .map(|(mode, &ix)| {
                 if mode.is_empty() {
                     return zero;
                 }
-                let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
+                let (s, c) = phases[ix as usize];
                 htilde_rate(mode, s, c)
             })
             .collect();
