@@ -93,22 +93,28 @@ impl FftLayer {
             // Buffers come from the layer's pool: a frame allocates only the grids it returns.
             let mut scratch = self.transform.take_scratch();
             let mut htilde = std::mem::take(&mut scratch.htilde);
-            let mut buf = std::mem::take(&mut scratch.spectrum);
             self.evolve_into(t_r, &mut scratch.phases, &mut htilde);
             for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
-                for ((b, h), k) in buf.iter_mut().zip(&htilde).zip(&self.wavevectors) {
-                    *b = grid.apply(k[0], k[1], k[2], self.choppiness, *h);
-                }
                 let mut out = old[grid.index()]
                     .take()
                     .filter(|g| g.len() == n * n)
                     .unwrap_or_else(|| vec![0.0; n * n]);
-                self.transform.process(&mut buf, &mut scratch, &mut out);
+                if grid == FftGrid::Height {
+                    // c(k) = 1: the spectrum is h̃ itself.
+                    self.transform.process(&htilde, &mut scratch, &mut out);
+                } else {
+                    // Each column's spectrum c(k)·h̃ is made just before its transform.
+                    let column = |m: usize, col: &mut [Complex<f64>]| {
+                        let span = m * n..(m + 1) * n;
+                        let (h, k) = (&htilde[span.clone()], &self.wavevectors[span]);
+                        grid.apply_slice(k, self.choppiness, h, col);
+                    };
+                    self.transform.process_with(column, &mut scratch, &mut out);
+                }
                 grids[grid.index()] = Some(out);
                 transforms += 1;
             }
             scratch.htilde = htilde;
-            scratch.spectrum = buf;
             self.transform.give_back(scratch);
         }
         *frame = FftFrame {

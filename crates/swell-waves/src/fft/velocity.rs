@@ -107,11 +107,9 @@ impl FftLayer {
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
         for &grid in grids {
-            for ((b, r), mode) in buf.iter_mut().zip(&rate).zip(&self.half) {
-                *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *r);
-            }
+            grid.apply_slice(&self.wavevectors, self.choppiness, &rate, &mut buf);
             let mut out = vec![0.0; n * n];
-            self.transform.process(&mut buf, &mut scratch, &mut out);
+            self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
         }
         let fields = if choppy {
