@@ -3,7 +3,7 @@
 use rustfft::num_complex::Complex;
 
 use super::fields::{FftFields, FftGrid};
-use super::layer::FftLayer;
+use super::layer::{FftLayer, evolve};
 use crate::math::{reduce_phase, sin_cos};
 
 /// The fields of an FFT layer at one time, on the layer's N×N grid.
@@ -106,8 +106,8 @@ impl FftLayer {
                     // Each column's spectrum c(k)·h̃ is made just before its transform.
                     let column = |m: usize, col: &mut [Complex<f64>]| {
                         let span = m * n..(m + 1) * n;
-                        let (h, k) = (&htilde[span.clone()], &self.wavevectors[span]);
-                        grid.apply_slice(k, self.choppiness, h, col);
+                        let r = &self.factors[grid.index()][span.clone()];
+                        grid.apply_factors(r, &htilde[span], col);
                     };
                     self.transform.process_with(column, &mut scratch, &mut out);
                 }
@@ -147,12 +147,14 @@ impl FftLayer {
                 .iter()
                 .map(|&w| sin_cos(reduce_phase(w * t_r))),
         );
-        for ((h, mode), &ix) in htilde.iter_mut().zip(&self.half).zip(&self.phase_index) {
-            *h = if mode.is_empty() {
+        let entries = self.amplitudes.iter().zip(&self.phase_index);
+        for (h, (&amp, &ix)) in htilde.iter_mut().zip(entries) {
+            // `Mode::is_empty`: h0(k) = h0(−k) = 0.
+            *h = if amp == [0.0; 4] {
                 zero
             } else {
                 let (s, c) = phases[ix as usize];
-                mode.evolve(s, c)
+                evolve(amp, s, c)
             };
         }
     }

@@ -4,6 +4,7 @@
 use glam::DVec2;
 use rustfft::num_complex::Complex;
 
+use super::fields::FftGrid;
 use super::transform::InverseRealFft2;
 use super::{FftBackend, FftSpec};
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
@@ -46,13 +47,21 @@ impl Mode {
     /// `re = (a·c + b·s) + (p·c + q·s)`, `im = (b·c − a·s) + (p·s − q·c)`.
     #[inline]
     pub(crate) fn evolve(&self, s: f64, c: f64) -> Complex<f64> {
-        let (a, b) = (self.h0.re, self.h0.im);
-        let (p, q) = (self.h0_neg.re, self.h0_neg.im);
-        Complex::new(
-            (a * c + b * s) + (p * c + q * s),
-            (b * c - a * s) + (p * s - q * c),
+        evolve(
+            [self.h0.re, self.h0.im, self.h0_neg.re, self.h0_neg.im],
+            s,
+            c,
         )
     }
+}
+
+/// [`Mode::evolve`] from the amplitudes `[a, b, p, q]` (h0 = a + ib, h0(−k) = p + iq).
+#[inline]
+pub(crate) fn evolve([a, b, p, q]: [f64; 4], s: f64, c: f64) -> Complex<f64> {
+    Complex::new(
+        (a * c + b * s) + (p * c + q * s),
+        (b * c - a * s) + (p * s - q * c),
+    )
 }
 
 /// A built Tessendorf FFT layer: a seeded random sea on a periodic square tile, ready to produce
@@ -78,9 +87,15 @@ pub struct FftLayer {
     /// `phase_omegas[phase_index[i]]` has the very bits of `half[i].omega_q`, the gathered
     /// (sin, cos) is bit-identical to evaluating the entry's own phase.
     pub(crate) phase_index: Vec<u32>,
-    /// `[kx, kz, 1/|k|]` of `half[i]`, contiguous: each grid's multiplier pass streams through
-    /// these 24 bytes per entry rather than the whole mode.
-    pub(crate) wavevectors: Vec<[f64; 3]>,
+    /// `[a, b, p, q]` of `half[i]` (h0 = a + ib, h0(−k) = p + iq), contiguous: the evolution
+    /// streams through these 32 bytes per entry rather than the whole mode.
+    pub(crate) amplitudes: Vec<[f64; 4]>,
+    /// Per grid (indexed by [`FftGrid::index`]), the real factor r of its multiplier c(k) at
+    /// every half-plane entry, `FftGrid::factor(kx, kz, 1/|k|, λ)` formed once at build time
+    /// (empty for `Height`, whose c is 1). A frame's multiplier pass then reads 8 bytes per
+    /// entry instead of `[kx, kz, 1/|k|]` and recomputing r for every frame; the same
+    /// expression on the same operands, so the same bits.
+    pub(crate) factors: [Vec<f64>; 8],
     pub(crate) modes: usize,
     pub(crate) variance: f64,
     pub(crate) transform: InverseRealFft2,
@@ -246,7 +261,17 @@ impl FftLayer {
         }
 
         let (phase_omegas, phase_index) = phase_table(&half);
-        let wavevectors = half.iter().map(|m| [m.kx, m.kz, m.inv_k]).collect();
+        let amplitudes = half
+            .iter()
+            .map(|m| [m.h0.re, m.h0.im, m.h0_neg.re, m.h0_neg.im])
+            .collect();
+        let factors = FftGrid::ALL.map(|g| match g {
+            FftGrid::Height => Vec::new(),
+            _ => half
+                .iter()
+                .map(|m| g.factor(m.kx, m.kz, m.inv_k, choppiness))
+                .collect(),
+        });
         Ok(FftLayer {
             n,
             tile_size,
@@ -256,7 +281,8 @@ impl FftLayer {
             half,
             phase_omegas,
             phase_index,
-            wavevectors,
+            amplitudes,
+            factors,
             modes,
             variance,
             transform: InverseRealFft2::new(n, spec.backend),
