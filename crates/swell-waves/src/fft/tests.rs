@@ -686,3 +686,29 @@ fn evolution_table_equals_the_per_entry_phase_bit_for_bit() {
         }
     }
 }
+
+/// The one-grid accessors read exactly what `sample` reads, for every filter and grid, and 0 for
+/// grids the frame lacks.
+#[test]
+fn sample_height_and_sample_grid_equal_sample_bit_for_bit() {
+    let layer = layer_with(&spec(32, 50.0), 3, bump(12.0, 1.5));
+    let mut rng = SwellRng::new(8, 1);
+    for fields in [FftFields::ALL, FftFields::HEIGHT, FftFields::SLOPES] {
+        let frame = layer.frame(4.5, fields);
+        for _ in 0..300 {
+            let (a, b) = rng.gaussian_pair();
+            let p0 = DVec2::new(a * 80.0, b * 80.0);
+            for filter in [
+                SampleFilter::Nearest,
+                SampleFilter::Bilinear,
+                SampleFilter::Bicubic,
+            ] {
+                let all = values(&frame.sample(p0, filter));
+                assert_eq!(frame.sample_height(p0, filter).to_bits(), all[0].to_bits());
+                for (g, v) in FftGrid::ALL.into_iter().zip(all) {
+                    assert_eq!(frame.sample_grid(g, p0, filter).to_bits(), v.to_bits());
+                }
+            }
+        }
+    }
+}
