@@ -4,7 +4,10 @@
 use glam::DVec2;
 use rustfft::num_complex::Complex;
 
+use std::sync::Arc;
+
 use super::fields::FftGrid;
+use super::frame::GridPool;
 use super::transform::InverseRealFft2;
 use super::{FftBackend, FftSpec};
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
@@ -99,6 +102,9 @@ pub struct FftLayer {
     pub(crate) modes: usize,
     pub(crate) variance: f64,
     pub(crate) transform: InverseRealFft2,
+    /// Grid buffers of this layer's dropped frames (shared by clones of the layer, which have the
+    /// same resolution).
+    pub(crate) grid_pool: Arc<GridPool>,
 }
 
 impl FftLayer {
@@ -286,6 +292,7 @@ impl FftLayer {
             modes,
             variance,
             transform: InverseRealFft2::new(n, spec.backend),
+            grid_pool: Arc::new(GridPool::new(n)),
         })
     }
 

@@ -712,3 +712,34 @@ fn sample_height_and_sample_grid_equal_sample_bit_for_bit() {
         }
     }
 }
+
+/// Dropped frames hand their grids to the layer, and the next frames reuse them (no fresh pages)
+/// with unchanged bits; the pool keeps at most one full frame's grids.
+#[test]
+fn dropped_frames_recycle_their_grids_without_changing_bits() {
+    let s = spec(32, 100.0);
+    let fresh = layer_with(&s, 4, bump(20.0, 2.0));
+    let want = bits(&fresh.frame(13.5, FftFields::ALL));
+    let layer = layer_with(&s, 4, bump(20.0, 2.0));
+    let old = layer.frame(77.0, FftFields::ALL);
+    let old_ptrs: Vec<_> = FftGrid::ALL
+        .iter()
+        .map(|&g| old.grid(g).unwrap().as_ptr())
+        .collect();
+    // A clone holds its own copies; dropping both offers 16 grids to a pool that keeps 8.
+    let copy = old.clone();
+    drop(old);
+    drop(copy);
+    let again = layer.frame(13.5, FftFields::ALL);
+    assert_eq!(bits(&again), want);
+    let reused = FftGrid::ALL
+        .iter()
+        .filter(|&&g| old_ptrs.contains(&again.grid(g).unwrap().as_ptr()))
+        .count();
+    assert!(reused > 0, "no grid buffer was reused");
+    assert!(layer.grid_pool.free.lock().unwrap().len() <= FftGrid::ALL.len());
+    // A recycled frame's unused grids go back to the pool too.
+    let mut r = layer.frame(5.0, FftFields::ALL);
+    layer.frame_into(13.5, FftFields::HEIGHT, &mut r);
+    assert_eq!(bits(&r), bits(&fresh.frame(13.5, FftFields::HEIGHT)));
+}

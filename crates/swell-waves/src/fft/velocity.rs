@@ -125,6 +125,7 @@ impl FftLayer {
                 tile_size: self.tile_size,
                 grids: out_grids,
                 transforms: grids.len(),
+                pool: None,
             },
         }
     }
