@@ -199,8 +199,8 @@ impl FftLayer {
                     // Each column's spectrum c(k)·h̃ is made just before its transform.
                     let column = |m: usize, col: &mut [Complex<f64>]| {
                         let span = m * n..(m + 1) * n;
-                        let r = &self.factors[grid.index()][span.clone()];
-                        grid.apply_factors(r, &htilde[span], col);
+                        let k = &self.wavevectors[span.clone()];
+                        grid.apply_slice(k, self.choppiness, &htilde[span], col);
                     };
                     self.transform.process_with(column, &mut scratch, &mut out);
                 }

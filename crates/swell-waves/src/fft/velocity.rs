@@ -107,7 +107,7 @@ impl FftLayer {
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
         for &grid in grids {
-            grid.apply_factors(&self.factors[grid.index()], &rate, &mut buf);
+            grid.apply_slice(&self.wavevectors, self.choppiness, &rate, &mut buf);
             let mut out = vec![0.0; n * n];
             self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
