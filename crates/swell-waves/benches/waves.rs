@@ -241,7 +241,17 @@ fn targets(c: &mut Criterion) {
                 .sum::<f64>()
         })
     });
-    g.bench_function("height_bilinear/frame_sample", |b| {
+    // The target row: the height accessor, which reads the height grid only.
+    g.bench_function("height_bilinear/frame_sample_height", |b| {
+        b.iter(|| {
+            pts.iter()
+                .map(|&p| frame.sample_height(black_box(p), SampleFilter::Bilinear))
+                .sum::<f64>()
+        })
+    });
+    // The full sample (every grid the frame has; here only height) and its `.displacement.y`:
+    // what this row measured before `sample_height` existed.
+    g.bench_function("height_bilinear/frame_sample_full", |b| {
         b.iter(|| {
             pts.iter()
                 .map(|&p| {

@@ -1,16 +1,22 @@
 //! Time evolution of the spectrum and the transforms into grids.
 
+use std::sync::{Arc, Mutex};
+
 use rustfft::num_complex::Complex;
 
 use super::fields::{FftFields, FftGrid};
-use super::layer::FftLayer;
+use super::layer::{FftLayer, evolve};
 use crate::math::{reduce_phase, sin_cos};
 
 /// The fields of an FFT layer at one time, on the layer's N×N grid.
 ///
 /// Grid layout: the value at `x = i·L/N`, `z = j·L/N` is stored at `[j·N + i]`. The tile repeats
 /// with period L in x and z.
-#[derive(Debug, Clone)]
+///
+/// A frame made by [`FftLayer::frame`] hands its grid buffers back to its layer when it is
+/// dropped, and the layer's next frames reuse them (see [`FftLayer::frame`]): holding frames in
+/// an `Arc` or a cache and dropping them when stale is all the recycling a server needs.
+#[derive(Clone)]
 pub struct FftFrame {
     pub(crate) t: f64,
     pub(crate) fields: FftFields,
@@ -18,6 +24,88 @@ pub struct FftFrame {
     pub(crate) tile_size: f64,
     pub(crate) grids: [Option<Vec<f64>>; 8],
     pub(crate) transforms: usize,
+    /// Where the grids go when the frame is dropped (`None`: to the allocator).
+    pub(crate) pool: Option<Arc<GridPool>>,
+}
+
+impl std::fmt::Debug for FftFrame {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FftFrame")
+            .field("t", &self.t)
+            .field("fields", &self.fields)
+            .field("n", &self.n)
+            .field("tile_size", &self.tile_size)
+            .field("transforms", &self.transforms)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for FftFrame {
+    fn drop(&mut self) {
+        if let Some(pool) = &self.pool {
+            for grid in self.grids.iter_mut().filter_map(Option::take) {
+                pool.put(grid);
+            }
+        }
+    }
+}
+
+/// Grid buffers (N² f64 each) of dropped frames, for the next frames of a layer.
+///
+/// A fresh N² buffer costs page faults (N = 256: 128 pages of 4 KiB, ~0.05 ms a grid here, a
+/// fifth of its transform): the allocator hands large blocks back to the OS when they are freed
+/// and maps new ones for the next frame. Reusing them cannot change a result, because a frame
+/// overwrites every value of every grid it computes. At most `cap` buffers are kept (the grids of
+/// one full frame, and no more than `GRID_POOL_BYTES`), so an idle layer holds at most that much.
+pub(crate) struct GridPool {
+    len: usize,
+    cap: usize,
+    pub(crate) free: Mutex<Vec<Vec<f64>>>,
+}
+
+/// Most bytes of grid buffers a layer's pool keeps: 16 MiB is one full frame at 512² (8 grids)
+/// and two grids at 1024²; at 256² the one-frame count limit (4 MiB) applies first.
+const GRID_POOL_BYTES: usize = 16 << 20;
+
+impl GridPool {
+    /// A pool of N×N grids.
+    pub(crate) fn new(n: usize) -> Self {
+        let len = n * n;
+        let by_bytes = GRID_POOL_BYTES / (len * std::mem::size_of::<f64>());
+        Self {
+            len,
+            cap: by_bytes.clamp(1, FftGrid::ALL.len()),
+            free: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A buffer of N² values (contents unspecified: the caller overwrites all of them).
+    fn take(&self) -> Vec<f64> {
+        let pooled = self.free.lock().ok().and_then(|mut f| f.pop());
+        pooled.unwrap_or_else(|| vec![0.0; self.len])
+    }
+
+    /// Keeps `grid` for a later frame if it has the pool's size and the pool has room; otherwise
+    /// frees it. A poisoned lock only means the buffer is freed.
+    fn put(&self, grid: Vec<f64>) {
+        if grid.len() != self.len {
+            return;
+        }
+        if let Ok(mut free) = self.free.lock()
+            && free.len() < self.cap
+        {
+            free.push(grid);
+        }
+    }
+}
+
+impl std::fmt::Debug for GridPool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GridPool")
+            .field("len", &self.len)
+            .field("cap", &self.cap)
+            .finish_non_exhaustive()
+    }
 }
 
 impl FftFrame {
@@ -65,6 +153,9 @@ impl FftLayer {
     /// `t` should be finite: a non-finite `t` gives NaN grids (validate times at the boundary).
     /// The result depends only on the layer, `t_r` and `fields`; with the portable backend it is
     /// the same to the bit on every platform.
+    ///
+    /// Grid buffers come from the layer's pool of dropped frames' grids when it has some (every
+    /// value is overwritten, so this cannot change a result), else from the allocator.
     pub fn frame(&self, t: f64, fields: FftFields) -> FftFrame {
         let mut frame = FftFrame {
             t,
@@ -73,6 +164,7 @@ impl FftLayer {
             tile_size: self.tile_size,
             grids: Default::default(),
             transforms: 0,
+            pool: None,
         };
         self.frame_into(t, fields, &mut frame);
         frame
@@ -82,50 +174,47 @@ impl FftLayer {
     /// layer, or of any layer of the same resolution): the same bits as `frame(t, fields)`, since
     /// every value of every grid asked is overwritten, but no allocation and no fresh pages from
     /// the OS once the buffers exist. A tick loop that keeps the previous tick's frame recycles
-    /// it here; grids not in `fields` are dropped.
+    /// it here; grids not in `fields` go to the old frame's pool (see [`FftLayer::frame`]).
     pub fn frame_into(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
         let mut grids: [Option<Vec<f64>>; 8] = Default::default();
         let mut old = std::mem::take(&mut frame.grids);
+        let old_pool = frame.pool.take();
         let mut transforms = 0;
         if fields.grid_count() > 0 {
             // Buffers come from the layer's pool: a frame allocates only the grids it returns.
             let mut scratch = self.transform.take_scratch();
             let mut htilde = std::mem::take(&mut scratch.htilde);
-            let mut buf = std::mem::take(&mut scratch.spectrum);
-            let zero = Complex::new(0.0, 0.0);
-            // Two passes over the half plane. The first computes every entry's (sin, cos) from a
-            // contiguous ω array with no branch (empty entries too: it is cheaper to compute and
-            // drop them than to branch), so the branch-free kernel vectorises; the pair is parked
-            // in `htilde` as (re, im) = (sin, cos). The second evolves h̃ from it. The arithmetic
-            // per entry is exactly the one-pass form's, so the bits are unchanged.
-            for (h, &w) in htilde.iter_mut().zip(&self.omegas) {
-                let (s, c) = sin_cos(reduce_phase(w * t_r));
-                *h = Complex::new(s, c);
-            }
-            for (h, mode) in htilde.iter_mut().zip(&self.half) {
-                *h = if mode.is_empty() {
-                    zero
-                } else {
-                    mode.evolve(h.re, h.im)
-                };
-            }
+            self.evolve_into(t_r, &mut scratch.phases, &mut htilde);
             for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
-                for ((b, h), k) in buf.iter_mut().zip(&htilde).zip(&self.wavevectors) {
-                    *b = grid.apply(k[0], k[1], k[2], self.choppiness, *h);
-                }
                 let mut out = old[grid.index()]
                     .take()
                     .filter(|g| g.len() == n * n)
-                    .unwrap_or_else(|| vec![0.0; n * n]);
-                self.transform.process(&mut buf, &mut scratch, &mut out);
+                    .unwrap_or_else(|| self.grid_pool.take());
+                if grid == FftGrid::Height {
+                    // c(k) = 1: the spectrum is h̃ itself.
+                    self.transform.process(&htilde, &mut scratch, &mut out);
+                } else {
+                    // Each column's spectrum c(k)·h̃ is made just before its transform.
+                    let column = |m: usize, col: &mut [Complex<f64>]| {
+                        let span = m * n..(m + 1) * n;
+                        let k = &self.wavevectors[span.clone()];
+                        grid.apply_slice(k, self.choppiness, &htilde[span], col);
+                    };
+                    self.transform.process_with(column, &mut scratch, &mut out);
+                }
                 grids[grid.index()] = Some(out);
                 transforms += 1;
             }
             scratch.htilde = htilde;
-            scratch.spectrum = buf;
             self.transform.give_back(scratch);
+        }
+        // Grids the old frame had and this one does not go back to the old frame's pool.
+        if let Some(pool) = &old_pool {
+            for grid in old.into_iter().flatten() {
+                pool.put(grid);
+            }
         }
         *frame = FftFrame {
             t,
@@ -134,6 +223,39 @@ impl FftLayer {
             tile_size: self.tile_size,
             grids,
             transforms,
+            pool: Some(Arc::clone(&self.grid_pool)),
         };
+    }
+
+    /// h̃(k, t) of every half-plane entry at reduced time `t_r` into `htilde` (zero for empty
+    /// entries), as [`FftLayer::frame`] documents; `phases` is working memory.
+    ///
+    /// The phase of an entry depends on its ω_q only, and a layer has few distinct ω_q (whole
+    /// multiples of ω0): `sin_cos(reduce_phase(ω·t_r))` is evaluated once per distinct value
+    /// (`phase_omegas`) and gathered per entry (`phase_index`). Same operands and operations as
+    /// evaluating each entry's own phase, so the same bits (pinned by a test against that form).
+    pub(crate) fn evolve_into(
+        &self,
+        t_r: f64,
+        phases: &mut Vec<(f64, f64)>,
+        htilde: &mut [Complex<f64>],
+    ) {
+        let zero = Complex::new(0.0, 0.0);
+        phases.clear();
+        phases.extend(
+            self.phase_omegas
+                .iter()
+                .map(|&w| sin_cos(reduce_phase(w * t_r))),
+        );
+        let entries = self.amplitudes.iter().zip(&self.phase_index);
+        for (h, (&amp, &ix)) in htilde.iter_mut().zip(entries) {
+            // `Mode::is_empty`: h0(k) = h0(−k) = 0.
+            *h = if amp == [0.0; 4] {
+                zero
+            } else {
+                let (s, c) = phases[ix as usize];
+                evolve(amp, s, c)
+            };
+        }
     }
 }

@@ -4,6 +4,9 @@
 use glam::DVec2;
 use rustfft::num_complex::Complex;
 
+use std::sync::Arc;
+
+use super::frame::GridPool;
 use super::transform::InverseRealFft2;
 use super::{FftBackend, FftSpec};
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
@@ -46,13 +49,21 @@ impl Mode {
     /// `re = (a·c + b·s) + (p·c + q·s)`, `im = (b·c − a·s) + (p·s − q·c)`.
     #[inline]
     pub(crate) fn evolve(&self, s: f64, c: f64) -> Complex<f64> {
-        let (a, b) = (self.h0.re, self.h0.im);
-        let (p, q) = (self.h0_neg.re, self.h0_neg.im);
-        Complex::new(
-            (a * c + b * s) + (p * c + q * s),
-            (b * c - a * s) + (p * s - q * c),
+        evolve(
+            [self.h0.re, self.h0.im, self.h0_neg.re, self.h0_neg.im],
+            s,
+            c,
         )
     }
+}
+
+/// [`Mode::evolve`] from the amplitudes `[a, b, p, q]` (h0 = a + ib, h0(−k) = p + iq).
+#[inline]
+pub(crate) fn evolve([a, b, p, q]: [f64; 4], s: f64, c: f64) -> Complex<f64> {
+    Complex::new(
+        (a * c + b * s) + (p * c + q * s),
+        (b * c - a * s) + (p * s - q * c),
+    )
 }
 
 /// A built Tessendorf FFT layer: a seeded random sea on a periodic square tile, ready to produce
@@ -69,15 +80,28 @@ pub struct FftLayer {
     pub(crate) backend: FftBackend,
     /// Half plane, column-major: entry (m, n) at `m·N + (n mod N)` for m = 0 … N/2 − 1.
     pub(crate) half: Vec<Mode>,
-    /// `half[i].omega_q`, contiguous: the frame's phase pass streams through it (see
-    /// `FftLayer::frame_into`) instead of striding through 112-byte modes.
-    pub(crate) omegas: Vec<f64>,
+    /// The distinct values of `half[i].omega_q`, ascending (bit-distinct: equal bits, one entry).
+    /// ω_q is a whole multiple of ω0, so a layer has few of them (≈ 200 at 256² with T = 200 s,
+    /// against 32 768 half-plane entries): a frame evaluates `sin_cos(reduce_phase(ω·t_r))` once
+    /// per value here and gathers it through `phase_index`.
+    pub(crate) phase_omegas: Vec<f64>,
+    /// For each half-plane entry i, the position of `half[i].omega_q` in `phase_omegas`. Since
+    /// `phase_omegas[phase_index[i]]` has the very bits of `half[i].omega_q`, the gathered
+    /// (sin, cos) is bit-identical to evaluating the entry's own phase.
+    pub(crate) phase_index: Vec<u32>,
+    /// `[a, b, p, q]` of `half[i]` (h0 = a + ib, h0(−k) = p + iq), contiguous: the evolution
+    /// streams through these 32 bytes per entry rather than the whole mode.
+    pub(crate) amplitudes: Vec<[f64; 4]>,
     /// `[kx, kz, 1/|k|]` of `half[i]`, contiguous: each grid's multiplier pass streams through
-    /// these 24 bytes per entry rather than the whole mode.
+    /// these 24 bytes per entry rather than the whole mode. (Storing each grid's factor r of
+    /// c(k) instead, 8 bytes per entry and grid, measured no faster and took 2.3× the memory.)
     pub(crate) wavevectors: Vec<[f64; 3]>,
     pub(crate) modes: usize,
     pub(crate) variance: f64,
     pub(crate) transform: InverseRealFft2,
+    /// Grid buffers of this layer's dropped frames (shared by clones of the layer, which have the
+    /// same resolution).
+    pub(crate) grid_pool: Arc<GridPool>,
 }
 
 impl FftLayer {
@@ -239,7 +263,11 @@ impl FftLayer {
             }
         }
 
-        let omegas = half.iter().map(|m| m.omega_q).collect();
+        let (phase_omegas, phase_index) = phase_table(&half);
+        let amplitudes = half
+            .iter()
+            .map(|m| [m.h0.re, m.h0.im, m.h0_neg.re, m.h0_neg.im])
+            .collect();
         let wavevectors = half.iter().map(|m| [m.kx, m.kz, m.inv_k]).collect();
         Ok(FftLayer {
             n,
@@ -248,11 +276,14 @@ impl FftLayer {
             repeat_period,
             backend: spec.backend,
             half,
-            omegas,
+            phase_omegas,
+            phase_index,
+            amplitudes,
             wavevectors,
             modes,
             variance,
             transform: InverseRealFft2::new(n, spec.backend),
+            grid_pool: Arc::new(GridPool::new(n)),
         })
     }
 
@@ -308,4 +339,24 @@ impl FftLayer {
             self.half[(-m) as usize * self.n + col(-n)].h0_neg
         }
     }
+}
+
+/// The distinct ω_q of `half` in ascending order, and each entry's position among them (see
+/// `FftLayer::phase_omegas`). Values are compared by their bits, so the table can never merge
+/// two frequencies that would round differently in `ω·t_r`.
+fn phase_table(half: &[Mode]) -> (Vec<f64>, Vec<u32>) {
+    let mut omegas: Vec<f64> = half.iter().map(|m| m.omega_q).collect();
+    omegas.sort_by(f64::total_cmp);
+    omegas.dedup_by(|a, b| a.to_bits() == b.to_bits());
+    let index = half
+        .iter()
+        .map(|m| {
+            let i = omegas
+                .binary_search_by(|w| w.total_cmp(&m.omega_q))
+                .expect("every omega_q is in the table");
+            // At most N/2·N ≤ 2^19 entries (MAX_RESOLUTION), so the position fits in u32.
+            i as u32
+        })
+        .collect();
+    (omegas, index)
 }

@@ -33,7 +33,8 @@
 //!    (`transform` module: N/2 column FFTs and N/2 packed row FFTs of length N, all unnormalised
 //!    inverse DFTs). Grid node (i, j) is the point (i·L/N, j·L/N), stored at `[j·N + i]`.
 //! 6. **Sampling.** [`FftFrame::sample`] reads a frame anywhere with a [`SampleFilter`] on the
-//!    periodic grid; [`FftLayer::sample_reference`] sums the series directly (the reference).
+//!    periodic grid ([`FftFrame::sample_height`] and [`FftFrame::sample_grid`] read one grid,
+//!    to the same bits); [`FftLayer::sample_reference`] sums the series directly (the reference).
 //!
 //! # Determinism
 //! With [`FftBackend::Portable`] (RustFFT's scalar planner) a frame is the same to the bit on

@@ -35,12 +35,22 @@ pub struct FftSample {
 /// [0, 1]. `u = x.rem_euclid(L)` (exact), `g = u·N / L` (`u·N` exact: N is a power of two),
 /// `i = floor(g) mod N`, `f = g − floor(g)`. `rem_euclid` may round up to L itself for tiny
 /// negative x; then g = N, which wraps to node 0.
+///
+/// Computed without library calls, to the same bits as that formula (pinned by a test against
+/// `tests::grid_coord_reference`): for |x| < L, `x % L` is exactly x, so `rem_euclid` is x or
+/// x + L (the fmod call is needed only farther out); g is in [0, N] or is −0, where truncation
+/// is floor, and `+ 0.0` turns the fraction −0 that g = −0 would give into floor's +0. N is a
+/// power of two (the layer checks it), so `mod N` is a mask.
 #[inline]
 fn grid_coord(x: f64, l: f64, n: usize) -> (usize, f64) {
-    let u = x.rem_euclid(l);
+    let u = if x.abs() < l {
+        if x < 0.0 { x + l } else { x }
+    } else {
+        x.rem_euclid(l)
+    };
     let g = u * n as f64 / l;
-    let f = g.floor();
-    ((f as usize) % n, g - f)
+    let t = g as usize;
+    (t & (n - 1), (g - t as f64) + 0.0)
 }
 
 /// Catmull–Rom weights for nodes −1, 0, 1, 2 at fraction t:
@@ -56,6 +66,78 @@ fn catmull_rom(t: f64) -> [f64; 4] {
     ]
 }
 
+/// Where a point falls on a frame's grid, and how to read any grid there: the node and fraction
+/// per axis, computed once per point and shared by every grid the point reads.
+#[derive(Debug, Clone, Copy)]
+struct Stencil {
+    n: usize,
+    i: usize,
+    j: usize,
+    fx: f64,
+    fz: f64,
+    filter: SampleFilter,
+}
+
+impl Stencil {
+    #[inline]
+    fn new(frame: &FftFrame, p0: DVec2, filter: SampleFilter) -> Self {
+        let n = frame.n;
+        debug_assert!(n.is_power_of_two());
+        let (i, fx) = grid_coord(p0.x, frame.tile_size, n);
+        let (j, fz) = grid_coord(p0.y, frame.tile_size, n);
+        Self {
+            n,
+            i,
+            j,
+            fx,
+            fz,
+            filter,
+        }
+    }
+
+    /// Node index `base + off` mod N (N a power of two).
+    #[inline]
+    fn wrap(&self, base: usize, off: isize) -> usize {
+        base.wrapping_add_signed(off) & (self.n - 1)
+    }
+
+    /// The filtered value of one N×N grid (see [`FftFrame::sample`] for the formulas).
+    #[inline]
+    fn read(&self, g: &[f64]) -> f64 {
+        let Self {
+            n, i, j, fx, fz, ..
+        } = *self;
+        match self.filter {
+            SampleFilter::Nearest => {
+                let ii = self.wrap(i, isize::from(fx >= 0.5));
+                let jj = self.wrap(j, isize::from(fz >= 0.5));
+                g[jj * n + ii]
+            }
+            SampleFilter::Bilinear => {
+                let (i1, j1) = (self.wrap(i, 1), self.wrap(j, 1));
+                let row0 = (1.0 - fx) * g[j * n + i] + fx * g[j * n + i1];
+                let row1 = (1.0 - fx) * g[j1 * n + i] + fx * g[j1 * n + i1];
+                (1.0 - fz) * row0 + fz * row1
+            }
+            SampleFilter::Bicubic => {
+                let wx = catmull_rom(fx);
+                let wz = catmull_rom(fz);
+                let cols = [self.wrap(i, -1), i, self.wrap(i, 1), self.wrap(i, 2)];
+                let mut acc = 0.0;
+                for (b, wzb) in wz.iter().enumerate() {
+                    let row = self.wrap(j, b as isize - 1) * n;
+                    let mut r = 0.0;
+                    for (a, wxa) in wx.iter().enumerate() {
+                        r += wxa * g[row + cols[a]];
+                    }
+                    acc += wzb * r;
+                }
+                acc
+            }
+        }
+    }
+}
+
 impl FftFrame {
     /// The frame's fields at world point `p0 = (x, z)`, m (any finite magnitude; the tile wraps).
     ///
@@ -67,43 +149,11 @@ impl FftFrame {
     ///   with Catmull–Rom weights `w₋₁ = 0.5·((−t+2)·t − 1)·t`, `w₀ = 0.5·((3t−5)·t·t + 2)`,
     ///   `w₁ = 0.5·((−3t+4)·t + 1)·t`, `w₂ = 0.5·(t−1)·t·t`.
     ///
-    /// Fields not in the frame read as 0.
+    /// Grid coordinates: `u = x.rem_euclid(L)` (exact), `g = u·N/L`, `i = floor(g) mod N`,
+    /// `fx = g − floor(g)`; likewise z. Fields not in the frame read as 0.
     pub fn sample(&self, p0: DVec2, filter: SampleFilter) -> FftSample {
-        let n = self.n;
-        let (i, fx) = grid_coord(p0.x, self.tile_size, n);
-        let (j, fz) = grid_coord(p0.y, self.tile_size, n);
-        let wrap = |base: usize, off: isize| (base as isize + off).rem_euclid(n as isize) as usize;
-        let read = |g: &[f64]| -> f64 {
-            match filter {
-                SampleFilter::Nearest => {
-                    let ii = wrap(i, isize::from(fx >= 0.5));
-                    let jj = wrap(j, isize::from(fz >= 0.5));
-                    g[jj * n + ii]
-                }
-                SampleFilter::Bilinear => {
-                    let (i1, j1) = (wrap(i, 1), wrap(j, 1));
-                    let row0 = (1.0 - fx) * g[j * n + i] + fx * g[j * n + i1];
-                    let row1 = (1.0 - fx) * g[j1 * n + i] + fx * g[j1 * n + i1];
-                    (1.0 - fz) * row0 + fz * row1
-                }
-                SampleFilter::Bicubic => {
-                    let wx = catmull_rom(fx);
-                    let wz = catmull_rom(fz);
-                    let cols = [wrap(i, -1), i, wrap(i, 1), wrap(i, 2)];
-                    let mut acc = 0.0;
-                    for (b, wzb) in wz.iter().enumerate() {
-                        let row = wrap(j, b as isize - 1) * n;
-                        let mut r = 0.0;
-                        for (a, wxa) in wx.iter().enumerate() {
-                            r += wxa * g[row + cols[a]];
-                        }
-                        acc += wzb * r;
-                    }
-                    acc
-                }
-            }
-        };
-        let v = |grid: FftGrid| self.grid(grid).map_or(0.0, read);
+        let at = Stencil::new(self, p0, filter);
+        let v = |grid: FftGrid| self.grid(grid).map_or(0.0, |g| at.read(g));
         FftSample {
             displacement: DVec3::new(
                 v(FftGrid::DisplacementX),
@@ -113,6 +163,21 @@ impl FftFrame {
             slope: DVec2::new(v(FftGrid::SlopeX), v(FftGrid::SlopeZ)),
             jacobian: DVec3::new(v(FftGrid::DxDx), v(FftGrid::DzDz), v(FftGrid::DxDz)),
         }
+    }
+
+    /// Height h, m, at world point `p0 = (x, z)`: `sample(p0, filter).displacement.y` to the bit,
+    /// reading only the height grid (0 if the frame has none). Note that p0 is the undisplaced
+    /// point: on a choppy layer the surface above world (x, z) is found by inverting the
+    /// displacement (see [`crate::query`]), which this does not do.
+    pub fn sample_height(&self, p0: DVec2, filter: SampleFilter) -> f64 {
+        self.sample_grid(FftGrid::Height, p0, filter)
+    }
+
+    /// One grid's value at world point `p0 = (x, z)` with `filter` (the formulas of
+    /// [`FftFrame::sample`], to the bit), or 0 if the frame did not compute that grid.
+    pub fn sample_grid(&self, grid: FftGrid, p0: DVec2, filter: SampleFilter) -> f64 {
+        self.grid(grid)
+            .map_or(0.0, |g| Stencil::new(self, p0, filter).read(g))
     }
 }
 
@@ -164,6 +229,83 @@ mod tests {
             // Reproduces linear functions exactly: Σ w_a·a = t.
             let lin = -w[0] + w[2] + 2.0 * w[3];
             assert!((lin - t).abs() < 1e-15);
+        }
+    }
+
+    /// The formula of [`grid_coord`], evaluated as written (`rem_euclid`, `floor`, `%`).
+    pub(super) fn grid_coord_reference(x: f64, l: f64, n: usize) -> (usize, f64) {
+        let u = x.rem_euclid(l);
+        let g = u * n as f64 / l;
+        let f = g.floor();
+        ((f as usize) % n, g - f)
+    }
+
+    /// The call-free grid coordinate must equal the formula bit for bit, fraction sign included:
+    /// inside the tile's fast path, at its edges, for tiny negatives that round to L, and far out.
+    #[test]
+    fn grid_coord_equals_the_reference_bit_for_bit() {
+        use crate::math::SwellRng;
+        let mut rng = SwellRng::new(17, 3);
+        let check = |x: f64, l: f64, n: usize| {
+            let (i, f) = grid_coord(x, l, n);
+            let (ri, rf) = grid_coord_reference(x, l, n);
+            assert_eq!(
+                (i, f.to_bits()),
+                (ri, rf.to_bits()),
+                "x = {x:e}, L = {l}, N = {n}"
+            );
+        };
+        for &(l, n) in &[
+            (100.0, 64),
+            (256.0, 256),
+            (3.7, 16),
+            (1000.0, 1024),
+            (0.1, 32),
+        ] {
+            let h = l / n as f64;
+            let edges = [
+                0.0,
+                -0.0,
+                l,
+                -l,
+                2.0 * l,
+                -2.0 * l,
+                l * (1.0 - f64::EPSILON),
+                -l * (1.0 - f64::EPSILON),
+                f64::MIN_POSITIVE,
+                -f64::MIN_POSITIVE,
+                5e-324,
+                -5e-324,
+                -1e-300,
+                -1e-17,
+                h,
+                -h,
+                0.5 * h,
+                -0.5 * h,
+                l - h,
+                -(l - h),
+                1e7 + 25.0,
+                -1e7 - 25.0,
+                1e300,
+                -1e300,
+            ];
+            for x in edges {
+                check(x, l, n);
+                check(f64::from_bits(x.to_bits() + 1), l, n);
+                if x != 0.0 {
+                    check(f64::from_bits(x.to_bits() - 1), l, n);
+                }
+            }
+            for k in -3 * n as i64..=3 * n as i64 {
+                check(k as f64 * h, l, n);
+            }
+            for _ in 0..20_000 {
+                let (a, b) = rng.gaussian_pair();
+                check(a * l, l, n);
+                check(b * l * 1e-12, l, n);
+                check(a * l * 1e6, l, n);
+                check(b * 1e15, l, n);
+            }
         }
     }
 

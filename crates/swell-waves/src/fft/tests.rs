@@ -644,3 +644,102 @@ fn sample_between_interpolates_linearly_in_time() {
         exact[0]
     );
 }
+
+/// The evolution gathers (sin, cos) from a table of the distinct ω_q; it must give exactly the
+/// bits of evaluating each entry's own phase, `sin_cos(reduce_phase(ω_q·t_r))`, which is what the
+/// recipe and the golden vectors specify.
+#[test]
+fn evolution_table_equals_the_per_entry_phase_bit_for_bit() {
+    use crate::math::{reduce_phase, sin_cos};
+    let mut long = spec(128, 300.0);
+    long.repeat_period = 1.0e5;
+    for (spec, density) in [
+        (spec(256, 256.0), bump(40.0, 2.0)),
+        (spec(64, 80.0), bump(10.0, 1.0)),
+        (long, bump(30.0, 3.0)),
+    ] {
+        let layer = layer_with(&spec, 11, density);
+        // With T = 200 s the table is ~1% of the entries (187 of 32 768 at 256²); a long T makes
+        // it larger (every ω distinct in the limit) but never wrong.
+        if spec.repeat_period == 200.0 {
+            assert!(layer.phase_omegas.len() < layer.half.len() / 8);
+        }
+        let mut table = vec![Complex::new(0.0, 0.0); layer.half.len()];
+        let mut phases = Vec::new();
+        for t in [0.0f64, 0.1, 10.0, 77.7, 199.999, -3.25, 1.0e7 + 0.5] {
+            let t_r = t.rem_euclid(layer.repeat_period);
+            layer.evolve_into(t_r, &mut phases, &mut table);
+            for (mode, h) in layer.half.iter().zip(&table) {
+                let want = if mode.is_empty() {
+                    Complex::new(0.0, 0.0)
+                } else {
+                    let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
+                    mode.evolve(s, c)
+                };
+                assert_eq!(
+                    (h.re.to_bits(), h.im.to_bits()),
+                    (want.re.to_bits(), want.im.to_bits()),
+                    "t = {t}, omega_q = {}",
+                    mode.omega_q
+                );
+            }
+        }
+    }
+}
+
+/// The one-grid accessors read exactly what `sample` reads, for every filter and grid, and 0 for
+/// grids the frame lacks.
+#[test]
+fn sample_height_and_sample_grid_equal_sample_bit_for_bit() {
+    let layer = layer_with(&spec(32, 50.0), 3, bump(12.0, 1.5));
+    let mut rng = SwellRng::new(8, 1);
+    for fields in [FftFields::ALL, FftFields::HEIGHT, FftFields::SLOPES] {
+        let frame = layer.frame(4.5, fields);
+        for _ in 0..300 {
+            let (a, b) = rng.gaussian_pair();
+            let p0 = DVec2::new(a * 80.0, b * 80.0);
+            for filter in [
+                SampleFilter::Nearest,
+                SampleFilter::Bilinear,
+                SampleFilter::Bicubic,
+            ] {
+                let all = values(&frame.sample(p0, filter));
+                assert_eq!(frame.sample_height(p0, filter).to_bits(), all[0].to_bits());
+                for (g, v) in FftGrid::ALL.into_iter().zip(all) {
+                    assert_eq!(frame.sample_grid(g, p0, filter).to_bits(), v.to_bits());
+                }
+            }
+        }
+    }
+}
+
+/// Dropped frames hand their grids to the layer, and the next frames reuse them (no fresh pages)
+/// with unchanged bits; the pool keeps at most one full frame's grids.
+#[test]
+fn dropped_frames_recycle_their_grids_without_changing_bits() {
+    let s = spec(32, 100.0);
+    let fresh = layer_with(&s, 4, bump(20.0, 2.0));
+    let want = bits(&fresh.frame(13.5, FftFields::ALL));
+    let layer = layer_with(&s, 4, bump(20.0, 2.0));
+    let old = layer.frame(77.0, FftFields::ALL);
+    let old_ptrs: Vec<_> = FftGrid::ALL
+        .iter()
+        .map(|&g| old.grid(g).unwrap().as_ptr())
+        .collect();
+    // A clone holds its own copies; dropping both offers 16 grids to a pool that keeps 8.
+    let copy = old.clone();
+    drop(old);
+    drop(copy);
+    let again = layer.frame(13.5, FftFields::ALL);
+    assert_eq!(bits(&again), want);
+    let reused = FftGrid::ALL
+        .iter()
+        .filter(|&&g| old_ptrs.contains(&again.grid(g).unwrap().as_ptr()))
+        .count();
+    assert!(reused > 0, "no grid buffer was reused");
+    assert!(layer.grid_pool.free.lock().unwrap().len() <= FftGrid::ALL.len());
+    // A recycled frame's unused grids go back to the pool too.
+    let mut r = layer.frame(5.0, FftFields::ALL);
+    layer.frame_into(13.5, FftFields::HEIGHT, &mut r);
+    assert_eq!(bits(&r), bits(&fresh.frame(13.5, FftFields::HEIGHT)));
+}

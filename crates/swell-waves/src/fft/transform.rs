@@ -14,8 +14,11 @@
 //!    transformed once; `f(·, a) = Re z`, `f(·, b) = Im z`. The row pass costs N/2 complex
 //!    transforms.
 //!
-//! All N/2 columns go through RustFFT in one call (its buffers may hold several transforms back
-//! to back), and likewise the N/2 packed rows.
+//! How it is scheduled does not change a bit (every 1-D transform is RustFFT's, on the same
+//! input, and is independent of the others in its batch): columns are transformed out of place
+//! (RustFFT's in-place call is an out-of-place transform plus a copy back), either straight from
+//! a stored half spectrum or one column at a time as the caller makes it; rows are packed,
+//! transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
 //!
 //! We do not use the `realfft` crate: it only plans through RustFFT's SIMD `FftPlanner`, so the
 //! portable backend (the scalar planner, identical bits on every CPU) could not use it.
@@ -57,14 +60,21 @@ impl std::fmt::Debug for InverseRealFft2 {
 }
 
 /// Working memory for [`InverseRealFft2::process`] and for a frame's spectra; reusable across
-/// calls and fields.
+/// calls and fields. Nothing read from it ever reaches a result before being overwritten.
 pub(crate) struct Scratch {
-    rows: Vec<Complex<f64>>,
+    /// G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
+    cols: Vec<Complex<f64>>,
+    /// One column's spectrum (N), filled by the caller of `process_with`.
+    column: Vec<Complex<f64>>,
+    /// One block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart) and its transform.
+    rows_in: Vec<Complex<f64>>,
+    rows_out: Vec<Complex<f64>>,
     fft: Vec<Complex<f64>>,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
     pub(crate) htilde: Vec<Complex<f64>>,
-    /// One field's half spectrum (N/2·N), overwritten by the column pass.
-    pub(crate) spectrum: Vec<Complex<f64>>,
+    /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
+    /// `FftLayer::phase_omegas`); resized by the frame.
+    pub(crate) phases: Vec<(f64, f64)>,
 }
 
 impl InverseRealFft2 {
@@ -85,11 +95,19 @@ impl InverseRealFft2 {
     pub(crate) fn scratch(&self) -> Scratch {
         let zero = Complex::new(0.0, 0.0);
         let half = self.n / 2 * self.n;
+        let pairs = ROW_PAIRS.min(self.n / 2);
+        let fft_len = self
+            .fft
+            .get_outofplace_scratch_len()
+            .max(self.fft.get_immutable_scratch_len());
         Scratch {
-            rows: vec![zero; half],
-            fft: vec![zero; self.fft.get_inplace_scratch_len()],
+            cols: vec![zero; half],
+            column: vec![zero; self.n],
+            rows_in: vec![zero; pairs * (self.n + ROW_STRIDE_PAD)],
+            rows_out: vec![zero; pairs * self.n],
+            fft: vec![zero; fft_len],
             htilde: vec![zero; half],
-            spectrum: vec![zero; half],
+            phases: Vec::new(),
         }
     }
 
@@ -110,46 +128,94 @@ impl InverseRealFft2 {
     /// Transforms a half spectrum into a real grid.
     ///
     /// `half` holds columns `m = 0 … N/2 − 1` back to back, column m at `[m·N .. (m+1)·N]`,
-    /// entry n (wrapped: index `n mod N`) along kz; it is overwritten. The missing Nyquist column
-    /// is taken as zero. `out[j·N + i]` receives f at `x = i·L/N`, `z = j·L/N`.
-    pub(crate) fn process(
+    /// entry n (wrapped: index `n mod N`) along kz. The missing Nyquist column is taken as zero.
+    /// `out[j·N + i]` receives f at `x = i·L/N`, `z = j·L/N`.
+    pub(crate) fn process(&self, half: &[Complex<f64>], scratch: &mut Scratch, out: &mut [f64]) {
+        let n = self.n;
+        debug_assert_eq!(half.len(), n / 2 * n);
+        // Column pass straight from `half` into G: RustFFT's immutable form runs the same
+        // algorithm as its in-place one (which is out of place into scratch, then a copy back).
+        self.fft
+            .process_immutable_with_scratch(half, &mut scratch.cols, &mut scratch.fft);
+        self.row_pass(scratch, out);
+    }
+
+    /// [`InverseRealFft2::process`] of the half spectrum whose column m `column(m, buf)` writes
+    /// into `buf` (N entries, every one of them), one column at a time: the column is
+    /// transformed while it is in L1, and no N/2·N spectrum is ever stored. Same bits as
+    /// `process` of the assembled spectrum.
+    pub(crate) fn process_with(
         &self,
-        half: &mut [Complex<f64>],
+        mut column: impl FnMut(usize, &mut [Complex<f64>]),
         scratch: &mut Scratch,
         out: &mut [f64],
     ) {
         let n = self.n;
-        let h = n / 2;
-        debug_assert_eq!(half.len(), h * n);
-        debug_assert_eq!(out.len(), n * n);
-        // Column pass: G[m, j] in place.
-        self.fft.process_with_scratch(half, &mut scratch.fft);
-        // Pack row pairs.
-        for p in 0..h {
-            let (a, b) = (2 * p, 2 * p + 1);
-            let row = &mut scratch.rows[p * n..(p + 1) * n];
-            row[0] = Complex::new(half[a].re, half[b].re);
-            row[h] = Complex::new(0.0, 0.0);
-            for m in 1..h {
-                let ga = half[m * n + a];
-                let gb = half[m * n + b];
-                row[m] = Complex::new(ga.re - gb.im, ga.im + gb.re);
-                row[n - m] = Complex::new(ga.re + gb.im, gb.re - ga.im);
-            }
+        for (m, g) in scratch.cols.chunks_exact_mut(n).enumerate() {
+            column(m, &mut scratch.column);
+            self.fft
+                .process_outofplace_with_scratch(&mut scratch.column, g, &mut scratch.fft);
         }
-        // Row pass.
-        self.fft
-            .process_with_scratch(&mut scratch.rows, &mut scratch.fft);
-        for p in 0..h {
-            let row = &scratch.rows[p * n..(p + 1) * n];
-            let (lo, hi) = out[2 * p * n..(2 * p + 2) * n].split_at_mut(n);
-            for i in 0..n {
-                lo[i] = row[i].re;
-                hi[i] = row[i].im;
+        self.row_pass(scratch, out);
+    }
+
+    /// The row pass from G (`scratch.cols`) into `out`, ROW_PAIRS pairs at a time: pack the
+    /// block (a tiled transpose: for each m the block's 2·ROW_PAIRS values of G[m, ·] are
+    /// contiguous), transform it, unpack it into `out`. The block stays in L1/L2 from packing to
+    /// unpacking. Each row's transform is independent of the others in its batch, so the
+    /// blocking leaves every bit as the one-batch form computed it.
+    fn row_pass(&self, scratch: &mut Scratch, out: &mut [f64]) {
+        let n = self.n;
+        let h = n / 2;
+        debug_assert_eq!(out.len(), n * n);
+        let pairs = ROW_PAIRS.min(h);
+        let g = &scratch.cols;
+        let (rows, zs) = (&mut scratch.rows_in, &mut scratch.rows_out);
+        // Packed rows sit ROW_STRIDE_PAD entries further apart than N: with a stride of exactly
+        // N·16 bytes (a multiple of 4 KiB) the block's rows all map to the same L1 sets, and
+        // packing, which writes one entry in each row in turn, thrashes them.
+        let stride = n + ROW_STRIDE_PAD;
+        for p0 in (0..h).step_by(pairs) {
+            let a0 = 2 * p0;
+            for q in 0..pairs {
+                let (a, b) = (a0 + 2 * q, a0 + 2 * q + 1);
+                rows[q * stride] = Complex::new(g[a].re, g[b].re);
+                rows[q * stride + h] = Complex::new(0.0, 0.0);
+            }
+            for m in 1..h {
+                let col = &g[m * n + a0..m * n + a0 + 2 * pairs];
+                for (q, ab) in col.chunks_exact(2).enumerate() {
+                    let (ga, gb) = (ab[0], ab[1]);
+                    rows[q * stride + m] = Complex::new(ga.re - gb.im, ga.im + gb.re);
+                    rows[q * stride + n - m] = Complex::new(ga.re + gb.im, gb.re - ga.im);
+                }
+            }
+            for (row, z) in rows.chunks_exact_mut(stride).zip(zs.chunks_exact_mut(n)) {
+                self.fft
+                    .process_outofplace_with_scratch(&mut row[..n], z, &mut scratch.fft);
+            }
+            let block = &mut out[a0 * n..(a0 + 2 * pairs) * n];
+            for (z, pair) in zs.chunks_exact(n).zip(block.chunks_exact_mut(2 * n)) {
+                let (lo, hi) = pair.split_at_mut(n);
+                for (l, z) in lo.iter_mut().zip(z) {
+                    *l = z.re;
+                }
+                for (h, z) in hi.iter_mut().zip(z) {
+                    *h = z.im;
+                }
             }
         }
     }
 }
+
+/// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
+/// 32 KiB of packed rows plus 32 KiB of their transforms. Any value dividing N/2 (or ≥ N/2)
+/// gives the same bits; this one measured fastest at 256².
+const ROW_PAIRS: usize = 8;
+
+/// Padding between packed rows, in complex entries: 4 (one 64-byte cache line) moves each row
+/// to different L1 sets. The padding is never read.
+const ROW_STRIDE_PAD: usize = 4;
 
 #[cfg(test)]
 mod tests {
@@ -187,8 +253,7 @@ mod tests {
             let t = InverseRealFft2::new(n, backend);
             let mut s = t.scratch();
             let mut out = vec![0.0; n * n];
-            let mut buf = half.clone();
-            t.process(&mut buf, &mut s, &mut out);
+            t.process(&half, &mut s, &mut out);
             for j in 0..n {
                 for i in 0..n {
                     let mut acc = Complex::new(0.0, 0.0);

@@ -75,14 +75,22 @@ impl FftLayer {
         let t_r = t.rem_euclid(self.repeat_period);
         let choppy = self.choppiness > 0.0;
         let zero = Complex::new(0.0, 0.0);
+        // One sin_cos per distinct ω_q, gathered per entry: the bits of the per-entry phase (see
+        // `FftLayer::frame_into`).
+        let phases: Vec<(f64, f64)> = self
+            .phase_omegas
+            .iter()
+            .map(|&w| sin_cos(reduce_phase(w * t_r)))
+            .collect();
         let rate: Vec<Complex<f64>> = self
             .half
             .iter()
-            .map(|mode| {
+            .zip(&self.phase_index)
+            .map(|(mode, &ix)| {
                 if mode.is_empty() {
                     return zero;
                 }
-                let (s, c) = sin_cos(reduce_phase(mode.omega_q * t_r));
+                let (s, c) = phases[ix as usize];
                 htilde_rate(mode, s, c)
             })
             .collect();
@@ -99,11 +107,9 @@ impl FftLayer {
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
         for &grid in grids {
-            for ((b, r), mode) in buf.iter_mut().zip(&rate).zip(&self.half) {
-                *b = grid.apply(mode.kx, mode.kz, mode.inv_k, self.choppiness, *r);
-            }
+            grid.apply_slice(&self.wavevectors, self.choppiness, &rate, &mut buf);
             let mut out = vec![0.0; n * n];
-            self.transform.process(&mut buf, &mut scratch, &mut out);
+            self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
         }
         let fields = if choppy {
@@ -119,6 +125,7 @@ impl FftLayer {
                 tile_size: self.tile_size,
                 grids: out_grids,
                 transforms: grids.len(),
+                pool: None,
             },
         }
     }
