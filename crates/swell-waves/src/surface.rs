@@ -633,7 +633,7 @@ fn blocks_avx2<const B: usize, T>(
 static SIMD: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
 
 #[inline]
-fn simd_enabled() -> bool {
+pub(crate) fn simd_enabled() -> bool {
     SIMD.load(std::sync::atomic::Ordering::Relaxed)
 }
 

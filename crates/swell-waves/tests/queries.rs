@@ -415,6 +415,24 @@ fn simd_dispatch_does_not_change_a_bit() {
     assert_eq!(on.0, off.0, "f64 samples");
     assert_eq!(on.1, off.1, "f64 queries");
     assert_eq!(on.2, off.2, "f32 fast path");
+
+    // FFT frames (their evolution, multiplier and packing passes take the AVX2 path too).
+    let spec: swell_waves::SurfaceSpec = serde_json::from_value(serde_json::json!({
+        "seed": 5, "layers": [{"kind": "fft", "resolution": 64, "tile_size": 200.0,
+            "choppiness": 1.0, "wind_direction": [1.0, 0.3],
+            "spectrum": {"kind": "jonswap", "wind_speed": 14.0, "fetch": 80000.0}}]}))
+    .unwrap();
+    let fft = Surface::new(&spec).unwrap();
+    let frame = |simd: bool| {
+        swell_waves::surface::set_simd_dispatch(simd);
+        let f = fft
+            .fft_frame(0, 987.25, swell_waves::fft::FftFields::ALL)
+            .unwrap();
+        swell_waves::fft::FftGrid::ALL.map(|g| f.grid(g).unwrap().to_vec())
+    };
+    let (a, b) = (frame(true), frame(false));
+    swell_waves::surface::set_simd_dispatch(true);
+    assert_eq!(a, b, "FFT frame grids");
 }
 
 /// `Precision::F32` in the query options runs every query (inversion included) on the fast

@@ -217,7 +217,7 @@ impl FftGrid {
     /// outside the loop (inside, it costs an indirect jump per entry and blocks vectorisation);
     /// each arm evaluates `factor` and `apply_factor` of a constant grid, so the bits are
     /// `apply`'s.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn apply_slice(
         self,
         ks: &[[f64; 3]],

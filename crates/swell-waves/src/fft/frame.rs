@@ -176,6 +176,25 @@ impl FftLayer {
     /// the OS once the buffers exist. A tick loop that keeps the previous tick's frame recycles
     /// it here; grids not in `fields` go to the old frame's pool (see [`FftLayer::frame`]).
     pub fn frame_into(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::surface::simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked on the line above.
+            unsafe { self.frame_into_avx2(t, fields, frame) };
+            return;
+        }
+        self.frame_into_body(t, fields, frame);
+    }
+
+    /// [`FftLayer::frame_into`]'s passes outside the FFT library (evolution, multipliers,
+    /// packing) compiled for AVX2 — the same bits, see `surface::for_blocks_of`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn frame_into_avx2(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
+        self.frame_into_body(t, fields, frame);
+    }
+
+    #[inline(always)]
+    fn frame_into_body(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
         let mut grids: [Option<Vec<f64>>; 8] = Default::default();
@@ -197,12 +216,16 @@ impl FftLayer {
                     self.transform.process(&htilde, &mut scratch, &mut out);
                 } else {
                     // Each column's spectrum c(k)·h̃ is made just before its transform.
-                    let column = |m: usize, col: &mut [Complex<f64>]| {
-                        let span = m * n..(m + 1) * n;
-                        let k = &self.wavevectors[span.clone()];
-                        grid.apply_slice(k, self.choppiness, &htilde[span], col);
-                    };
-                    self.transform.process_with(column, &mut scratch, &mut out);
+                    self.transform.process_with(
+                        #[inline(always)]
+                        |m: usize, col: &mut [Complex<f64>]| {
+                            let span = m * n..(m + 1) * n;
+                            let k = &self.wavevectors[span.clone()];
+                            grid.apply_slice(k, self.choppiness, &htilde[span], col);
+                        },
+                        &mut scratch,
+                        &mut out,
+                    );
                 }
                 grids[grid.index()] = Some(out);
                 transforms += 1;
@@ -234,6 +257,7 @@ impl FftLayer {
     /// multiples of ω0): `sin_cos(reduce_phase(ω·t_r))` is evaluated once per distinct value
     /// (`phase_omegas`) and gathered per entry (`phase_index`). Same operands and operations as
     /// evaluating each entry's own phase, so the same bits (pinned by a test against that form).
+    #[inline(always)]
     pub(crate) fn evolve_into(
         &self,
         t_r: f64,

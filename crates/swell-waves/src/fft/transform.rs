@@ -130,6 +130,7 @@ impl InverseRealFft2 {
     /// `half` holds columns `m = 0 … N/2 − 1` back to back, column m at `[m·N .. (m+1)·N]`,
     /// entry n (wrapped: index `n mod N`) along kz. The missing Nyquist column is taken as zero.
     /// `out[j·N + i]` receives f at `x = i·L/N`, `z = j·L/N`.
+    #[inline(always)]
     pub(crate) fn process(&self, half: &[Complex<f64>], scratch: &mut Scratch, out: &mut [f64]) {
         let n = self.n;
         debug_assert_eq!(half.len(), n / 2 * n);
@@ -144,6 +145,7 @@ impl InverseRealFft2 {
     /// into `buf` (N entries, every one of them), one column at a time: the column is
     /// transformed while it is in L1, and no N/2·N spectrum is ever stored. Same bits as
     /// `process` of the assembled spectrum.
+    #[inline(always)]
     pub(crate) fn process_with(
         &self,
         mut column: impl FnMut(usize, &mut [Complex<f64>]),
@@ -164,6 +166,7 @@ impl InverseRealFft2 {
     /// contiguous), transform it, unpack it into `out`. The block stays in L1/L2 from packing to
     /// unpacking. Each row's transform is independent of the others in its batch, so the
     /// blocking leaves every bit as the one-batch form computed it.
+    #[inline(always)]
     fn row_pass(&self, scratch: &mut Scratch, out: &mut [f64]) {
         let n = self.n;
         let h = n / 2;
