@@ -558,7 +558,13 @@ fn precision(size: Size) -> Knob {
                  normal's cost included)."
             .into(),
         rows,
-        advice: "ADVICE_F32".into(),
+        advice: "The f32 fast path is a few micrometres off the f64 model for about a sixth of \
+                 the work (the normal included): use it for rendering-side batches, probes and \
+                 many small floating objects, where micrometres never show. It is deterministic \
+                 (its own golden vectors, `proto/vectors/surface_f32_v1.json`), so replicas that \
+                 all use it agree bit for bit — but not with f64 replicas: choose one precision \
+                 for everything that must agree, and keep f64 for server authority."
+            .into(),
     }
 }
 
