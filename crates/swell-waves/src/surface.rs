@@ -455,18 +455,7 @@ impl SurfaceAt<'_> {
     /// # Panics
     /// If `out.len() != points.len()`.
     pub fn sample_batch(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
-        assert_eq!(points.len(), out.len(), "one output per point");
-        for_blocks(
-            points,
-            out,
-            #[inline(always)]
-            |block, dst| {
-                let lanes = self.sample_lanes(block, derivatives);
-                for (l, o) in dst.iter_mut().enumerate() {
-                    *o = lanes.get(l);
-                }
-            },
-        );
+        self.sample_batch_as(points, derivatives, out, self.options.precision);
     }
 
     /// Single-precision variant of [`SurfaceAt::sample_batch`] — an approximation knob, not the
@@ -478,13 +467,27 @@ impl SurfaceAt<'_> {
     /// # Panics
     /// If `out.len() != points.len()`.
     pub fn sample_batch_f32(&self, points: &[DVec2], derivatives: bool, out: &mut [SurfaceSample]) {
+        self.sample_batch_as(points, derivatives, out, Precision::F32);
+    }
+
+    /// The batch loop behind [`SurfaceAt::sample_batch`] and [`SurfaceAt::sample_batch_f32`].
+    fn sample_batch_as(
+        &self,
+        points: &[DVec2],
+        derivatives: bool,
+        out: &mut [SurfaceSample],
+        precision: Precision,
+    ) {
         assert_eq!(points.len(), out.len(), "one output per point");
         for_blocks(
             points,
             out,
             #[inline(always)]
             |block, dst| {
-                let lanes = self.lanes_f32(block, derivatives);
+                let lanes = match precision {
+                    Precision::F32 => self.lanes_f32(block, derivatives).widen(),
+                    Precision::F64 => self.sample_lanes(block, derivatives),
+                };
                 for (l, o) in dst.iter_mut().enumerate() {
                     *o = lanes.get(l);
                 }
