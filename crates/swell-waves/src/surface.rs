@@ -577,15 +577,6 @@ fn add_fft<const B: usize>(
 /// Runs `f` over `points` in blocks of [`crate::wave::BLOCK`], with the matching slice of `out`.
 /// The last, partial block is padded by repeating its last point; padded lanes are computed and
 /// dropped (lanes never interact, so padding cannot change a result).
-pub(crate) fn for_blocks<T>(
-    points: &[DVec2],
-    out: &mut [T],
-    f: impl FnMut(&[DVec2; crate::wave::BLOCK], &mut [T]),
-) {
-    for_blocks_of::<{ crate::wave::BLOCK }, T>(points, out, f);
-}
-
-/// [`for_blocks`] with blocks of `B` points.
 ///
 /// On x86-64 CPUs with AVX2 the loop (and everything `f` inlines) is compiled for AVX2 and chosen
 /// at run time, whatever level the crate was built for: twice the lanes per instruction, the same
@@ -594,28 +585,26 @@ pub(crate) fn for_blocks<T>(
 /// each operation rounds exactly as in the baseline build; tests compare the two paths bit for
 /// bit.
 #[inline]
-pub(crate) fn for_blocks_of<const B: usize, T>(
+pub(crate) fn for_blocks<T>(
     points: &[DVec2],
     out: &mut [T],
-    f: impl FnMut(&[DVec2; B], &mut [T]),
+    f: impl FnMut(&[DVec2; BLOCK], &mut [T]),
 ) {
     #[cfg(target_arch = "x86_64")]
     if simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, checked on the line above.
-        unsafe { blocks_avx2::<B, T>(points, out, f) };
+        unsafe { blocks_avx2(points, out, f) };
         return;
     }
-    blocks::<B, T>(points, out, f);
+    blocks(points, out, f);
 }
 
+const BLOCK: usize = crate::wave::BLOCK;
+
 #[inline(always)]
-fn blocks<const B: usize, T>(
-    points: &[DVec2],
-    out: &mut [T],
-    mut f: impl FnMut(&[DVec2; B], &mut [T]),
-) {
-    for (src, dst) in points.chunks(B).zip(out.chunks_mut(B)) {
-        let block: [DVec2; B] = std::array::from_fn(|l| src[l.min(src.len() - 1)]);
+fn blocks<T>(points: &[DVec2], out: &mut [T], mut f: impl FnMut(&[DVec2; BLOCK], &mut [T])) {
+    for (src, dst) in points.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+        let block: [DVec2; BLOCK] = std::array::from_fn(|l| src[l.min(src.len() - 1)]);
         f(&block, dst);
     }
 }
@@ -623,12 +612,8 @@ fn blocks<const B: usize, T>(
 /// [`blocks`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn blocks_avx2<const B: usize, T>(
-    points: &[DVec2],
-    out: &mut [T],
-    f: impl FnMut(&[DVec2; B], &mut [T]),
-) {
-    blocks::<B, T>(points, out, f);
+fn blocks_avx2<T>(points: &[DVec2], out: &mut [T], f: impl FnMut(&[DVec2; BLOCK], &mut [T])) {
+    blocks(points, out, f);
 }
 
 /// Whether batch loops may take the run-time AVX2 path (on by default; tests turn it off to

@@ -186,7 +186,7 @@ impl FftLayer {
     }
 
     /// [`FftLayer::frame_into`]'s passes outside the FFT library (evolution, multipliers,
-    /// packing) compiled for AVX2 — the same bits, see `surface::for_blocks_of`.
+    /// packing) compiled for AVX2 — the same bits, see `surface::for_blocks`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn frame_into_avx2(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
