@@ -73,7 +73,17 @@
 //! - random numbers come from the generator specified in [`math`] (PCG32 keyed by splitmix64),
 //!   pinned by tests; FFT draws are keyed by wave vector, not by grid size;
 //! - FFT frames use RustFFT's scalar planner by default ([`fft::FftBackend::Portable`]); the
-//!   `Native` backend is faster but its low bits depend on the CPU's SIMD support.
+//!   `Native` backend is faster but its low bits depend on the CPU's SIMD support;
+//! - batch loops and FFT frame passes pick an AVX2-compiled copy at run time where the CPU has
+//!   it: `avx2` only (no `fma`), so every operation rounds as in the baseline build (tested).
+//!
+//! # Precision
+//! [`QueryOptions::precision`] picks the arithmetic: [`Precision::F64`] (the default, the model
+//! above) or [`Precision::F32`], the single-precision fast path for rendering and probes (phases
+//! reduced in f64 in turns, then f32 sin/cos, sums and normals; a few micrometres off f64 for
+//! several times less work; [`SurfaceAt::displacement_normal_f32`]). `F32` is just as
+//! deterministic, with its own golden vectors, but it is a different model: replicas that must
+//! agree use the same precision.
 //!
 //! Golden vectors in `proto/vectors/` pin the outputs; changing them is a model-version change
 //! ([`MODEL_VERSION`]).
