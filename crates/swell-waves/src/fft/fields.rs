@@ -250,6 +250,55 @@ impl FftGrid {
     }
 }
 
+impl FftGrid {
+    /// [`FftGrid::apply`] over one half-plane column (fixed m), reading the wave vector from
+    /// its parts: `kx` for the whole column, `kz[i]` per row (`q·Δk`, the same value in every
+    /// column) and `inv_k[i] = 1/|k|`, which the layer stores as 0 for an empty entry. For a kept
+    /// entry these are exactly the `[kx, kz, 1/|k|]` that [`FftGrid::apply_slice`] reads, so the
+    /// bits are the same; an empty entry (stored as k = 0, 1/|k| = 0, h = 0) gets the constant
+    /// `apply(0, 0, 0, λ, 0)` by a select. 16 bytes per entry less to stream than `apply_slice`.
+    #[inline(always)]
+    pub(crate) fn apply_column(
+        self,
+        kx: f64,
+        kz: &[f64],
+        inv_k: &[f64],
+        lambda: f64,
+        h: &[Complex<f64>],
+        out: &mut [Complex<f64>],
+    ) {
+        #[inline(always)]
+        fn run(
+            g: FftGrid,
+            kx: f64,
+            kz: &[f64],
+            inv_k: &[f64],
+            lambda: f64,
+            h: &[Complex<f64>],
+            out: &mut [Complex<f64>],
+        ) {
+            let zero = Complex::new(0.0, 0.0);
+            let empty = g.apply(0.0, 0.0, 0.0, lambda, zero);
+            let n = out.len();
+            let (kz, inv_k, h) = (&kz[..n], &inv_k[..n], &h[..n]);
+            for i in 0..n {
+                let v = g.apply_factor(g.factor(kx, kz[i], inv_k[i], lambda), h[i]);
+                out[i] = if inv_k[i] == 0.0 { empty } else { v };
+            }
+        }
+        match self {
+            FftGrid::Height => out.copy_from_slice(h),
+            FftGrid::DisplacementX => run(FftGrid::DisplacementX, kx, kz, inv_k, lambda, h, out),
+            FftGrid::DisplacementZ => run(FftGrid::DisplacementZ, kx, kz, inv_k, lambda, h, out),
+            FftGrid::SlopeX => run(FftGrid::SlopeX, kx, kz, inv_k, lambda, h, out),
+            FftGrid::SlopeZ => run(FftGrid::SlopeZ, kx, kz, inv_k, lambda, h, out),
+            FftGrid::DxDx => run(FftGrid::DxDx, kx, kz, inv_k, lambda, h, out),
+            FftGrid::DzDz => run(FftGrid::DzDz, kx, kz, inv_k, lambda, h, out),
+            FftGrid::DxDz => run(FftGrid::DxDz, kx, kz, inv_k, lambda, h, out),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -220,8 +220,14 @@ impl FftLayer {
                         #[inline(always)]
                         |m: usize, col: &mut [Complex<f64>]| {
                             let span = m * n..(m + 1) * n;
-                            let k = &self.wavevectors[span.clone()];
-                            grid.apply_slice(k, self.choppiness, &htilde[span], col);
+                            grid.apply_column(
+                                self.kx_cols[m],
+                                &self.kz_rows,
+                                &self.inv_ks[span.clone()],
+                                self.choppiness,
+                                &htilde[span],
+                                col,
+                            );
                         },
                         &mut scratch,
                         &mut out,
