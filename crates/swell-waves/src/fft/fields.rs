@@ -212,51 +212,14 @@ impl FftGrid {
         }
     }
 
-    /// [`FftGrid::apply`] over a run of entries: `out[i] = c(k_i)·h[i]` with
-    /// `k_i = (ks[i][0], ks[i][1])`, `1/|k_i| = ks[i][2]`. The match on the grid is taken once,
-    /// outside the loop (inside, it costs an indirect jump per entry and blocks vectorisation);
-    /// each arm evaluates `factor` and `apply_factor` of a constant grid, so the bits are
-    /// `apply`'s.
-    #[inline(always)]
-    pub(crate) fn apply_slice(
-        self,
-        ks: &[[f64; 3]],
-        lambda: f64,
-        h: &[Complex<f64>],
-        out: &mut [Complex<f64>],
-    ) {
-        #[inline(always)]
-        fn run(
-            g: FftGrid,
-            ks: &[[f64; 3]],
-            lambda: f64,
-            h: &[Complex<f64>],
-            out: &mut [Complex<f64>],
-        ) {
-            for ((o, h), k) in out.iter_mut().zip(h).zip(ks) {
-                *o = g.apply_factor(g.factor(k[0], k[1], k[2], lambda), *h);
-            }
-        }
-        match self {
-            FftGrid::Height => out.copy_from_slice(h),
-            FftGrid::DisplacementX => run(FftGrid::DisplacementX, ks, lambda, h, out),
-            FftGrid::DisplacementZ => run(FftGrid::DisplacementZ, ks, lambda, h, out),
-            FftGrid::SlopeX => run(FftGrid::SlopeX, ks, lambda, h, out),
-            FftGrid::SlopeZ => run(FftGrid::SlopeZ, ks, lambda, h, out),
-            FftGrid::DxDx => run(FftGrid::DxDx, ks, lambda, h, out),
-            FftGrid::DzDz => run(FftGrid::DzDz, ks, lambda, h, out),
-            FftGrid::DxDz => run(FftGrid::DxDz, ks, lambda, h, out),
-        }
-    }
-}
-
-impl FftGrid {
-    /// [`FftGrid::apply`] over one half-plane column (fixed m), reading the wave vector from
-    /// its parts: `kx` for the whole column, `kz[i]` per row (`q·Δk`, the same value in every
-    /// column) and `inv_k[i] = 1/|k|`, which the layer stores as 0 for an empty entry. For a kept
-    /// entry these are exactly the `[kx, kz, 1/|k|]` that [`FftGrid::apply_slice`] reads, so the
-    /// bits are the same; an empty entry (stored as k = 0, 1/|k| = 0, h = 0) gets the constant
-    /// `apply(0, 0, 0, λ, 0)` by a select. 16 bytes per entry less to stream than `apply_slice`.
+    /// [`FftGrid::apply`] over one half-plane column (fixed m), the multiplier pass of frames
+    /// and velocity frames: `out[i] = c(k_i)·h[i]`, the wave vector read from its parts — `kx`
+    /// for the whole column, `kz[i]` per row (`q·Δk`, the same in every column) and
+    /// `inv_k[i] = 1/|k|`, which the layer stores as 0 for an empty entry. For a kept entry these
+    /// are exactly the mode's `kx`, `kz`, `1/|k|`, so the bits are `apply`'s; an empty entry
+    /// (a mode stored as k = 0, 1/|k| = 0, h = 0) gets the constant `apply(0, 0, 0, λ, 0)` by a
+    /// select. The match on the grid is taken once, outside the loop (inside, it costs an
+    /// indirect jump per entry and blocks vectorisation).
     #[inline(always)]
     pub(crate) fn apply_column(
         self,
@@ -304,32 +267,40 @@ mod tests {
     use super::*;
     use crate::math::SwellRng;
 
-    /// The run form must give `apply`'s bits for every grid (it is the frame's hot loop).
+    /// The column form must give `apply`'s bits for every grid (it is the frames' hot loop),
+    /// empty entries included.
     #[test]
-    fn apply_slice_equals_apply_bit_for_bit() {
+    fn apply_column_equals_apply_bit_for_bit() {
         let mut rng = SwellRng::new(5, 0);
-        let mut ks = Vec::new();
-        let mut h = Vec::new();
-        for _ in 0..257 {
-            let (kx, kz) = rng.gaussian_pair();
+        let n = 257;
+        let kx = rng.gaussian_pair().0.abs();
+        let (mut kz, mut inv_k, mut h) = (Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..n {
+            let (z, _) = rng.gaussian_pair();
             let (a, b) = rng.gaussian_pair();
-            ks.push([kx, kz, 1.0 / (kx * kx + kz * kz).sqrt()]);
+            kz.push(z);
+            inv_k.push(1.0 / (kx * kx + z * z).sqrt());
             h.push(Complex::new(a, b));
         }
-        // An empty entry as the layer stores it: k = 0, 1/|k| = 0, h = 0.
-        ks[3] = [0.0; 3];
-        h[3] = Complex::new(0.0, 0.0);
-        h[4] = Complex::new(-0.0, 0.0);
-        let mut out = vec![Complex::new(0.0, 0.0); h.len()];
+        // Empty entries as the layer stores them: 1/|k| = 0 and h = 0 (the mode's k is 0).
+        for i in [3, 4] {
+            inv_k[i] = 0.0;
+            h[i] = Complex::new(0.0, 0.0);
+        }
+        let mut out = vec![Complex::new(0.0, 0.0); n];
         for grid in FftGrid::ALL {
             for lambda in [0.0, 1.0, 1.3] {
-                grid.apply_slice(&ks, lambda, &h, &mut out);
-                for ((o, k), h) in out.iter().zip(&ks).zip(&h) {
-                    let want = grid.apply(k[0], k[1], k[2], lambda, *h);
+                grid.apply_column(kx, &kz, &inv_k, lambda, &h, &mut out);
+                for i in 0..n {
+                    let want = if inv_k[i] == 0.0 {
+                        grid.apply(0.0, 0.0, 0.0, lambda, h[i])
+                    } else {
+                        grid.apply(kx, kz[i], inv_k[i], lambda, h[i])
+                    };
                     assert_eq!(
-                        (o.re.to_bits(), o.im.to_bits()),
+                        (out[i].re.to_bits(), out[i].im.to_bits()),
                         (want.re.to_bits(), want.im.to_bits()),
-                        "{grid:?}"
+                        "{grid:?} {i}"
                     );
                 }
             }

@@ -92,14 +92,12 @@ pub struct FftLayer {
     /// `[a, b, p, q]` of `half[i]` (h0 = a + ib, h0(−k) = p + iq), contiguous: the evolution
     /// streams through these 32 bytes per entry rather than the whole mode.
     pub(crate) amplitudes: Vec<[f64; 4]>,
-    /// `[kx, kz, 1/|k|]` of `half[i]`, contiguous: each grid's multiplier pass streams through
-    /// these 24 bytes per entry rather than the whole mode. (Storing each grid's factor r of
-    /// c(k) instead, 8 bytes per entry and grid, measured no faster and took 2.3× the memory.)
-    pub(crate) wavevectors: Vec<[f64; 3]>,
-    /// The same wave vectors in parts, for the frame's multiplier passes
+    /// The wave vectors of `half` in parts, for the multiplier passes
     /// ([`super::FftGrid::apply_column`]): `kx_cols[m] = m·Δk`, `kz_rows[i] = q·Δk` for row i
     /// of every column (q = i, or i − N past N/2; 0 on the Nyquist row, which is never kept) and
-    /// `inv_ks[i] = 1/|k|` of `half[i]` (0 for an empty entry). 8 bytes per entry instead of 24.
+    /// `inv_ks[i] = 1/|k|` of `half[i]` (0 for an empty entry): 8 bytes per entry to stream
+    /// rather than a `[kx, kz, 1/|k|]` triple or the whole mode. (Storing each grid's factor r
+    /// of c(k) instead, 8 bytes per entry and grid, measured no faster for 2.3× the memory.)
     pub(crate) kx_cols: Vec<f64>,
     pub(crate) kz_rows: Vec<f64>,
     pub(crate) inv_ks: Vec<f64>,
@@ -275,7 +273,6 @@ impl FftLayer {
             .iter()
             .map(|m| [m.h0.re, m.h0.im, m.h0_neg.re, m.h0_neg.im])
             .collect();
-        let wavevectors = half.iter().map(|m| [m.kx, m.kz, m.inv_k]).collect();
         let kx_cols = (0..h).map(|m| wave_vector(m, 0).x).collect();
         let kz_rows = (0..n as i32)
             .map(|i| match i {
@@ -295,7 +292,6 @@ impl FftLayer {
             phase_omegas,
             phase_index,
             amplitudes,
-            wavevectors,
             kx_cols,
             kz_rows,
             inv_ks,

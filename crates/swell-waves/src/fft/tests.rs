@@ -744,11 +744,11 @@ fn dropped_frames_recycle_their_grids_without_changing_bits() {
     assert_eq!(bits(&r), bits(&fresh.frame(13.5, FftFields::HEIGHT)));
 }
 
-/// The frame's column-wise multiplier pass (`apply_column`, wave vectors in parts) gives the
-/// per-entry pass's bits (`apply_slice` on `[kx, kz, 1/|k|]`), empty entries included, on real
+/// The frames' column-wise multiplier pass (`apply_column`, wave vectors in parts) gives
+/// `apply`'s bits on each mode's own `kx`, `kz`, `1/|k|`, empty entries included, on real
 /// layers: full band, a band-limited one (whole empty regions) and one with zero energy.
 #[test]
-fn column_multiplier_pass_equals_the_per_entry_pass_bit_for_bit() {
+fn column_multiplier_pass_equals_the_per_mode_formula_bit_for_bit() {
     let mut limited = spec(32, 300.0);
     limited.band = Some(crate::fft::Band {
         min_wavelength: 30.0,
@@ -764,29 +764,19 @@ fn column_multiplier_pass_equals_the_per_entry_pass_bit_for_bit() {
         let mut htilde = vec![Complex::new(0.0, 0.0); n / 2 * n];
         let mut phases = Vec::new();
         layer.evolve_into(37.5, &mut phases, &mut htilde);
-        let (mut a, mut b) = (
-            vec![Complex::new(0.0, 0.0); n],
-            vec![Complex::new(0.0, 0.0); n],
-        );
+        let mut out = vec![Complex::new(0.0, 0.0); n];
         for grid in FftGrid::ALL {
             for m in 0..n / 2 {
                 let span = m * n..(m + 1) * n;
-                let ks = &layer.wavevectors[span.clone()];
                 let h = &htilde[span.clone()];
-                grid.apply_slice(ks, layer.choppiness, h, &mut a);
-                let inv = &layer.inv_ks[span];
-                grid.apply_column(
-                    layer.kx_cols[m],
-                    &layer.kz_rows,
-                    inv,
-                    layer.choppiness,
-                    h,
-                    &mut b,
-                );
-                for (x, y) in a.iter().zip(&b) {
+                let inv = &layer.inv_ks[span.clone()];
+                let kx = layer.kx_cols[m];
+                grid.apply_column(kx, &layer.kz_rows, inv, layer.choppiness, h, &mut out);
+                for ((o, mode), h) in out.iter().zip(&layer.half[span]).zip(h) {
+                    let want = grid.apply(mode.kx, mode.kz, mode.inv_k, layer.choppiness, *h);
                     assert_eq!(
-                        (x.re.to_bits(), x.im.to_bits()),
-                        (y.re.to_bits(), y.im.to_bits()),
+                        (o.re.to_bits(), o.im.to_bits()),
+                        (want.re.to_bits(), want.im.to_bits()),
                         "{grid:?} column {m}"
                     );
                 }

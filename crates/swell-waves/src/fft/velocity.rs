@@ -107,7 +107,12 @@ impl FftLayer {
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
         for &grid in grids {
-            grid.apply_slice(&self.wavevectors, self.choppiness, &rate, &mut buf);
+            for (m, col) in buf.chunks_exact_mut(n).enumerate() {
+                let span = m * n..(m + 1) * n;
+                let (inv_k, rate) = (&self.inv_ks[span.clone()], &rate[span]);
+                let kx = self.kx_cols[m];
+                grid.apply_column(kx, &self.kz_rows, inv_k, self.choppiness, rate, col);
+            }
             let mut out = vec![0.0; n * n];
             self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
