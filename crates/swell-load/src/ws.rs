@@ -1,0 +1,501 @@
+//! WebSocket side: connecting with a subprotocol, the stream's messages in both encodings, clock
+//! sync by ping/pong, and the `id`-matched query client of `ws-query`.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use futures_util::{SinkExt as _, StreamExt as _};
+use prost::Message as _;
+use serde::Deserialize;
+use serde::de::IgnoredAny;
+use tokio::sync::{mpsc, oneshot};
+use tokio_tungstenite::tungstenite::{self, Message, client::IntoClientRequest as _};
+
+use crate::stats::Outcome;
+use crate::wire::{Wire, v1};
+
+/// A client WebSocket.
+pub type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+/// Pings per clock sync; the one with the shortest round trip wins (its midpoint is the best
+/// estimate of when the server read its clock).
+const SYNC_PINGS: u32 = 5;
+/// Messages queued to one socket's writer before senders wait.
+const WRITE_QUEUE: usize = 1024;
+
+/// Opens `GET {url}/v1/scenes/{scene}/stream` with `wire`'s subprotocol.
+///
+/// # Errors
+/// The reason, with the status and body of a refused upgrade.
+pub async fn connect(url: &str, scene: &str, wire: Wire) -> Result<Ws, String> {
+    let ws_url = format!(
+        "{}/v1/scenes/{scene}/stream",
+        url.replacen("http://", "ws://", 1)
+    );
+    let mut req = ws_url
+        .as_str()
+        .into_client_request()
+        .map_err(|e| format!("{ws_url}: {e}"))?;
+    req.headers_mut().insert(
+        "sec-websocket-protocol",
+        wire.subprotocol().parse().expect("a valid header value"),
+    );
+    match tokio_tungstenite::connect_async_with_config(req, None, true).await {
+        Ok((ws, _)) => Ok(ws),
+        Err(tungstenite::Error::Http(resp)) => {
+            let body = resp
+                .body()
+                .as_ref()
+                .map(|b| String::from_utf8_lossy(b).into_owned())
+                .unwrap_or_default();
+            Err(format!(
+                "{ws_url}: upgrade refused: {} {}",
+                resp.status(),
+                body.trim()
+            ))
+        }
+        Err(e) => Err(format!("{ws_url}: {e}")),
+    }
+}
+
+/// A decoded server message (only what the tool needs).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ServerMsg {
+    /// Clock sync answer.
+    Pong {
+        /// Echoed id.
+        id: Option<u64>,
+        /// The scene clock when the server answered, s.
+        scene_time: f64,
+    },
+    /// A tick frame.
+    Tick {
+        /// Tick number.
+        tick: i64,
+        /// Its scene time, s.
+        t: f64,
+        /// Body states carried.
+        bodies: usize,
+    },
+    /// A `sample_result` / `orientation_result`: values answered.
+    Answer {
+        /// Echoed id.
+        id: Option<u64>,
+        /// Points or bodies answered.
+        values: usize,
+    },
+    /// An `error`.
+    Error {
+        /// Echoed id.
+        id: Option<u64>,
+        /// Error code.
+        code: String,
+        /// Message.
+        message: String,
+    },
+}
+
+#[derive(Deserialize)]
+struct JsonMsg {
+    #[serde(rename = "type")]
+    ty: String,
+    id: Option<u64>,
+    tick: Option<i64>,
+    t: Option<f64>,
+    scene_time: Option<f64>,
+    bodies: Option<Vec<IgnoredAny>>,
+    height: Option<Vec<IgnoredAny>>,
+    normal: Option<Vec<IgnoredAny>>,
+    displacement: Option<Vec<IgnoredAny>>,
+    jacobian: Option<Vec<IgnoredAny>>,
+    residual: Option<Vec<IgnoredAny>>,
+    code: Option<String>,
+    message: Option<String>,
+}
+
+/// Decodes a frame's payload.
+///
+/// # Errors
+/// A payload that is not a server message of `wire`.
+pub fn decode(wire: Wire, payload: &[u8]) -> Result<ServerMsg, String> {
+    match wire {
+        Wire::Json => {
+            let m: JsonMsg = serde_json::from_slice(payload).map_err(|e| e.to_string())?;
+            let len = |v: &Option<Vec<IgnoredAny>>| v.as_ref().map_or(0, Vec::len);
+            Ok(match m.ty.as_str() {
+                "pong" => ServerMsg::Pong {
+                    id: m.id,
+                    scene_time: m.scene_time.ok_or("pong without scene_time")?,
+                },
+                "tick" => ServerMsg::Tick {
+                    tick: m.tick.ok_or("tick without tick")?,
+                    t: m.t.ok_or("tick without t")?,
+                    bodies: len(&m.bodies),
+                },
+                "sample_result" => ServerMsg::Answer {
+                    id: m.id,
+                    values: [
+                        &m.height,
+                        &m.normal,
+                        &m.displacement,
+                        &m.jacobian,
+                        &m.residual,
+                    ]
+                    .into_iter()
+                    .map(len)
+                    .max()
+                    .unwrap_or(0),
+                },
+                "orientation_result" => ServerMsg::Answer {
+                    id: m.id,
+                    values: len(&m.bodies),
+                },
+                "error" => ServerMsg::Error {
+                    id: m.id,
+                    code: m.code.unwrap_or_default(),
+                    message: m.message.unwrap_or_default(),
+                },
+                other => return Err(format!("unknown message type {other:?}")),
+            })
+        }
+        Wire::Protobuf => {
+            use v1::server_message::Msg;
+            let m = v1::ServerMessage::decode(payload).map_err(|e| e.to_string())?;
+            Ok(match m.msg.ok_or("empty server message")? {
+                Msg::Pong(p) => ServerMsg::Pong {
+                    id: m.id,
+                    scene_time: p.scene_time,
+                },
+                Msg::Tick(t) => ServerMsg::Tick {
+                    tick: t.tick,
+                    t: t.t,
+                    bodies: t.bodies.len(),
+                },
+                Msg::SampleResult(r) => ServerMsg::Answer {
+                    id: m.id,
+                    values: crate::workload::sample_len_proto(&r),
+                },
+                Msg::OrientationResult(r) => ServerMsg::Answer {
+                    id: m.id,
+                    values: r.bodies.len(),
+                },
+                Msg::Error(e) => ServerMsg::Error {
+                    id: m.id,
+                    code: e.code,
+                    message: e.message,
+                },
+            })
+        }
+    }
+}
+
+/// A frame of `wire`'s kind carrying `payload`.
+pub fn frame(wire: Wire, payload: Vec<u8>) -> Message {
+    match wire {
+        Wire::Json => Message::Text(
+            String::from_utf8(payload)
+                .expect("JSON messages are built from UTF-8")
+                .into(),
+        ),
+        Wire::Protobuf => Message::Binary(payload.into()),
+    }
+}
+
+/// `ping {id, client_time}`.
+pub fn ping(wire: Wire, id: u64, client_time: f64) -> Message {
+    frame(
+        wire,
+        match wire {
+            Wire::Json => serde_json::to_vec(
+                &serde_json::json!({"type": "ping", "id": id, "client_time": client_time}),
+            )
+            .expect("serialises"),
+            Wire::Protobuf => v1::ClientMessage {
+                id: Some(id),
+                msg: Some(v1::client_message::Msg::Ping(v1::Ping { client_time })),
+            }
+            .encode_to_vec(),
+        },
+    )
+}
+
+/// `subscribe {ticks: true, bodies}`.
+pub fn subscribe(wire: Wire, bodies: &[u64]) -> Message {
+    frame(
+        wire,
+        match wire {
+            Wire::Json => serde_json::to_vec(
+                &serde_json::json!({"type": "subscribe", "ticks": true, "bodies": bodies}),
+            )
+            .expect("serialises"),
+            Wire::Protobuf => v1::ClientMessage {
+                id: None,
+                msg: Some(v1::client_message::Msg::Subscribe(v1::Subscribe {
+                    ticks: true,
+                    bodies: bodies.to_vec(),
+                })),
+            }
+            .encode_to_vec(),
+        },
+    )
+}
+
+/// The payload of a data frame; `None` for control frames.
+pub fn payload(m: &Message) -> Option<&[u8]> {
+    match m {
+        Message::Text(t) => Some(t.as_bytes()),
+        Message::Binary(b) => Some(b),
+        _ => None,
+    }
+}
+
+/// A clock sync: the scene clock read `scene_time` at local instant `local`.
+#[derive(Debug, Clone, Copy)]
+pub struct ClockSync {
+    /// Midpoint of the winning ping's round trip.
+    pub local: Instant,
+    /// The scene time the server answered with.
+    pub scene_time: f64,
+    /// That ping's round trip.
+    pub rtt: Duration,
+}
+
+impl ClockSync {
+    /// How late `arrival` is for a frame of scene time `t`, s, with the clock at `rate`
+    /// (negative: early, i.e. sync error).
+    pub fn delay(&self, t: f64, rate: f64, arrival: Instant) -> f64 {
+        let expected = (t - self.scene_time) / rate;
+        let actual = if arrival >= self.local {
+            arrival.duration_since(self.local).as_secs_f64()
+        } else {
+            -self.local.duration_since(arrival).as_secs_f64()
+        };
+        actual - expected
+    }
+}
+
+/// Syncs with the scene clock over `ws` (before subscribing: ticks would interleave).
+///
+/// # Errors
+/// The socket closed or did not answer within `timeout`.
+pub async fn sync_clock(ws: &mut Ws, wire: Wire, timeout: Duration) -> Result<ClockSync, String> {
+    let mut best: Option<ClockSync> = None;
+    for id in 0..u64::from(SYNC_PINGS) {
+        let sent = Instant::now();
+        ws.send(ping(wire, id, 0.0))
+            .await
+            .map_err(|e| format!("ping: {e}"))?;
+        let scene_time = tokio::time::timeout(timeout, async {
+            while let Some(m) = ws.next().await {
+                let m = m.map_err(|e| format!("waiting for pong: {e}"))?;
+                if let Some(p) = payload(&m)
+                    && let Ok(ServerMsg::Pong {
+                        id: Some(got),
+                        scene_time,
+                    }) = decode(wire, p)
+                    && got == id
+                {
+                    return Ok(scene_time);
+                }
+            }
+            Err("closed while waiting for pong".to_string())
+        })
+        .await
+        .map_err(|_| format!("no pong within {timeout:?}"))??;
+        let rtt = sent.elapsed();
+        if best.is_none_or(|b| rtt < b.rtt) {
+            best = Some(ClockSync {
+                local: sent + rtt / 2,
+                scene_time,
+                rtt,
+            });
+        }
+    }
+    Ok(best.expect("at least one ping"))
+}
+
+enum Reply {
+    Values(usize, u64),
+    Error(String, String),
+    Closed(String),
+}
+
+type PendingMap = Arc<Mutex<HashMap<u64, oneshot::Sender<Reply>>>>;
+
+/// One WebSocket carrying queries: a writer task fed by a bounded queue and a reader task that
+/// hands each answer to the query with its `id`.
+pub struct QueryConn {
+    tx: mpsc::Sender<Message>,
+    pending: PendingMap,
+    next_id: AtomicU64,
+    wire: Wire,
+    timeout: Duration,
+}
+
+impl QueryConn {
+    /// Takes over `ws`.
+    pub fn new(ws: Ws, wire: Wire, timeout: Duration) -> Self {
+        let (mut sink, mut stream) = ws.split();
+        let (tx, mut rx) = mpsc::channel::<Message>(WRITE_QUEUE);
+        let pending: PendingMap = Arc::default();
+        // Writer: ends when every sender is dropped (the connection is dropped), then closes.
+        tokio::spawn(async move {
+            while let Some(m) = rx.recv().await {
+                if sink.send(m).await.is_err() {
+                    return;
+                }
+            }
+            let _ = sink.close().await;
+        });
+        // Reader: ends when the socket closes; every query still waiting is told why.
+        let p = pending.clone();
+        tokio::spawn(async move {
+            let reason = loop {
+                match stream.next().await {
+                    None => break "connection closed".to_string(),
+                    Some(Err(e)) => break format!("connection lost: {e}"),
+                    Some(Ok(Message::Close(c))) => {
+                        break format!("server closed the socket: {c:?}");
+                    }
+                    Some(Ok(m)) => {
+                        let Some(bytes) = payload(&m) else { continue };
+                        let n = bytes.len() as u64;
+                        let (id, reply) = match decode(wire, bytes) {
+                            Ok(ServerMsg::Answer { id, values }) => (id, Reply::Values(values, n)),
+                            Ok(ServerMsg::Error { id, code, message }) => {
+                                (id, Reply::Error(code, message))
+                            }
+                            _ => continue,
+                        };
+                        let waiter = id.and_then(|id| p.lock().expect("not poisoned").remove(&id));
+                        if let Some(w) = waiter {
+                            let _ = w.send(reply);
+                        }
+                    }
+                }
+            };
+            for (_, w) in p.lock().expect("not poisoned").drain() {
+                let _ = w.send(Reply::Closed(reason.clone()));
+            }
+        });
+        Self {
+            tx,
+            pending,
+            next_id: AtomicU64::new(1),
+            wire,
+            timeout,
+        }
+    }
+
+    /// Sends `q` with a fresh id and waits for its answer.
+    pub async fn query(&self, q: &crate::workload::PreparedWs, check: bool) -> Outcome {
+        let id = self.next_id.fetch_add(1, Ordering::Relaxed);
+        let msg = q.with_id(self.wire, id);
+        let sent = msg.len() as u64;
+        let (tx, rx) = oneshot::channel();
+        self.pending.lock().expect("not poisoned").insert(id, tx);
+        if self.tx.send(frame(self.wire, msg)).await.is_err() {
+            self.pending.lock().expect("not poisoned").remove(&id);
+            return Outcome::Err {
+                label: "connection closed".into(),
+                detail: "the socket's writer has stopped".into(),
+            };
+        }
+        match tokio::time::timeout(self.timeout, rx).await {
+            Err(_) => {
+                self.pending.lock().expect("not poisoned").remove(&id);
+                Outcome::Err {
+                    label: "timeout".into(),
+                    detail: format!("no answer to id {id} within {:?}", self.timeout),
+                }
+            }
+            Ok(Err(_)) => Outcome::Err {
+                label: "connection closed".into(),
+                detail: "the socket's reader has stopped".into(),
+            },
+            Ok(Ok(Reply::Closed(why))) => Outcome::Err {
+                label: "connection closed".into(),
+                detail: why,
+            },
+            Ok(Ok(Reply::Error(code, message))) => Outcome::Err {
+                label: format!("error {code}"),
+                detail: message,
+            },
+            Ok(Ok(Reply::Values(n, received))) => {
+                if check && n as u64 != q.points {
+                    return Outcome::Err {
+                        label: "invalid answer".into(),
+                        detail: format!("{n} values for {} asked", q.points),
+                    };
+                }
+                Outcome::Ok {
+                    points: q.points,
+                    sent,
+                    received,
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn server_messages_decode_in_both_encodings() {
+        let tick = br#"{"type":"tick","tick":7,"t":0.35,"bodies":[{"id":1},{"id":2}]}"#;
+        assert_eq!(
+            decode(Wire::Json, tick).unwrap(),
+            ServerMsg::Tick {
+                tick: 7,
+                t: 0.35,
+                bodies: 2
+            }
+        );
+        let ans = br#"{"type":"sample_result","id":4,"t":1.0,"height":[1,2,3],"normal":[[0,1,0],[0,1,0],[0,1,0]]}"#;
+        assert_eq!(
+            decode(Wire::Json, ans).unwrap(),
+            ServerMsg::Answer {
+                id: Some(4),
+                values: 3
+            }
+        );
+        let pb = v1::ServerMessage {
+            id: Some(3),
+            msg: Some(v1::server_message::Msg::Pong(v1::Pong {
+                client_time: 0.0,
+                scene_time: 12.5,
+                tick: 375,
+            })),
+        }
+        .encode_to_vec();
+        assert_eq!(
+            decode(Wire::Protobuf, &pb).unwrap(),
+            ServerMsg::Pong {
+                id: Some(3),
+                scene_time: 12.5
+            }
+        );
+        assert!(decode(Wire::Json, b"{\"type\":\"dance\"}").is_err());
+    }
+
+    #[test]
+    fn delay_maps_scene_time_through_the_sync() {
+        let local = Instant::now();
+        let s = ClockSync {
+            local,
+            scene_time: 100.0,
+            rtt: Duration::ZERO,
+        };
+        // A frame for t = 101 arriving 1.002 s after the sync at rate 1 is 2 ms late.
+        let d = s.delay(101.0, 1.0, local + Duration::from_millis(1002));
+        assert!((d - 0.002).abs() < 1e-9, "{d}");
+        // At rate 2, t = 101 is due 0.5 s after the sync.
+        let d = s.delay(101.0, 2.0, local + Duration::from_millis(500));
+        assert!(d.abs() < 1e-9, "{d}");
+    }
+}
