@@ -1,7 +1,7 @@
 //! The two load shapes, over any transport: a request is a future made from its index.
 //!
-//! - Open loop: request `i` is due at `begin + i/rate`. A scheduler sleeps until each due time
-//!   and starts the request as its own task (waiting for one of `max_in_flight` slots if the
+//! - Open loop: request `i` is due at `begin + i/rate`. A timetable thread hands out each due
+//!   time as it falls due, and the driver starts the request as its own task (waiting for one of `max_in_flight` slots if the
 //!   server is behind); latency runs from the due time, so a stalled server shows its queue.
 //! - Closed loop: `concurrency` workers each send, await, record, repeat.
 //!
@@ -39,6 +39,41 @@ impl Drop for Pending {
     }
 }
 
+/// Longest single sleep of the timetable thread, so it notices a stopped run promptly.
+const TIMETABLE_NAP: Duration = Duration::from_millis(50);
+
+/// The open-loop timetable: `(i, begin + i/rate)` for every due time before `end`, each sent when
+/// it falls due. A plain thread sleeping to each due time keeps to it within the OS's sleep slack
+/// (~0.1 ms); tokio's timer wheel rounds sleeps up to whole milliseconds, which would add up to a
+/// millisecond of the tool's own lateness to every latency. The thread ends at `end` or as soon
+/// as the receiver is dropped.
+fn timetable(
+    begin: Instant,
+    end: Instant,
+    rate: f64,
+) -> tokio::sync::mpsc::UnboundedReceiver<(u64, Instant)> {
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    std::thread::spawn(move || {
+        for i in 0u64.. {
+            let due = begin + Duration::from_secs_f64(i as f64 / rate);
+            if due >= end {
+                return;
+            }
+            loop {
+                let now = Instant::now();
+                if now >= due || tx.is_closed() {
+                    break;
+                }
+                std::thread::sleep((due - now).min(TIMETABLE_NAP));
+            }
+            if tx.send((i, due)).is_err() {
+                return;
+            }
+        }
+    });
+    rx
+}
+
 /// Runs `shape` until the recorder's window ends or `stop` fires; returns the measured time
 /// (shorter than the window when stopped early). `make(i)` gives request `i`'s kind and future.
 pub async fn drive<F, Fut>(
@@ -61,15 +96,12 @@ where
             max_in_flight,
         } => {
             let slots = Arc::new(Semaphore::new(max_in_flight));
-            for i in 0u64.. {
-                let due = window.begin + Duration::from_secs_f64(i as f64 / rate);
-                if due >= window.end {
-                    break;
-                }
-                tokio::select! {
-                    _ = tokio::time::sleep_until(due.into()) => {}
+            let mut due_times = timetable(window.begin, window.end, rate);
+            loop {
+                let (i, due) = tokio::select! {
+                    d = due_times.recv() => match d { Some(d) => d, None => break },
                     _ = stop.cancelled() => break,
-                }
+                };
                 let permit = tokio::select! {
                     p = slots.clone().acquire_owned() => p.expect("the semaphore is never closed"),
                     _ = stop.cancelled() => break,
