@@ -152,7 +152,7 @@ impl Wave {
     pub fn accumulate_reference(&self, p0: DVec2, t: f64, out: &mut SurfaceSample) {
         let along = self.direction.x * p0.x + self.direction.y * p0.y;
         let theta = self.wavenumber * along - self.omega * t + self.phase;
-        let (s, c) = theta.sin_cos(); // reference path: platform trig on purpose
+        let (s, c) = theta.sin_cos(); // determinism: reference (platform trig on purpose)
         accumulate_with(self, s, c, true, out);
     }
 }
