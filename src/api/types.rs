@@ -217,11 +217,12 @@ pub struct Body {
     /// Yaw, rad (rotation about +y; positive turns the bow from +x towards −z).
     #[serde(default)]
     pub yaw: f64,
-    /// Length, m.
+    /// Length, m, in (0, 10 km] ([`swell_waves::body::MAX_FOOTPRINT`]).
     pub length: f64,
-    /// Beam, m.
+    /// Beam, m, in (0, 10 km].
     pub beam: f64,
-    /// Explicit probes `[u, v]` in the body frame; default a 3×3 grid over the footprint.
+    /// Explicit probes `[u, v]` in the body frame, m, each within ±10 km; default a 3×3 grid
+    /// over the footprint.
     #[serde(default)]
     pub probes: Option<Vec<[f64; 2]>>,
 }
