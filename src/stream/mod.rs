@@ -147,7 +147,10 @@ struct Queue {
 }
 
 impl Queue {
+    /// Encodes and queues `out`, after the non-finite check every answer passes
+    /// ([`Outgoing::finite_or_error`]).
     fn push(&self, out: Outgoing) {
+        let out = out.finite_or_error();
         let msg = match self.codec {
             Codec::Json => Message::Text(messages::encode_json(&out).into()),
             Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
