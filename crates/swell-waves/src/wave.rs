@@ -477,8 +477,9 @@ impl WaveSoA {
     }
 
     /// Phase offsets of the single-precision fast path at time `t`, one per wave, in turns:
-    /// `c = reduce_phase(φ − ω·t) / 2π` ∈ [−½, ½]. Computed once per time (a snapshot keeps
-    /// them), so the per-point work carries no time term.
+    /// `c = reduce_phase(φ − ω·t) / 2π` ∈ [−½, ½]. Computed once per time (a snapshot computes
+    /// them on its first f32 evaluation and keeps them), so the per-point work carries no time
+    /// term.
     pub fn phase_offsets(&self, t: f64) -> Vec<f64> {
         self.omega
             .iter()
