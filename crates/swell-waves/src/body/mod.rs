@@ -39,6 +39,6 @@ pub use spec::{BodyModel, BodySpec, MAX_MASS, MAX_WAVELENGTH_FACTOR};
 pub use state::{BodyState, BodyStatus, quat_from_rotation_vector};
 pub use water::WaterPoint;
 pub use world::{
-    Body, BodyId, BodyInput, MAX_SUBSTEPS, MAX_TICK_HZ, PHASE_PER_SUBSTEP, World, WorldSettings,
-    WorldSnapshot, substeps_for,
+    Body, BodyId, BodyInput, MAX_SUBSTEPS, MAX_TICK_HZ, PHASE_PER_SUBSTEP, SEA_WATER_DENSITY,
+    World, WorldSettings, WorldSnapshot, substeps_for,
 };
