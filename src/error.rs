@@ -109,6 +109,21 @@ impl ApiError {
         )
     }
 
+    /// 500 `non_finite_result`: the answer to a valid request came out with a NaN or an
+    /// infinity (a model fault the input checks did not foresee). Sent instead of the answer, so
+    /// a client never reads a NaN (or JSON's `null`) as a value; the message names the number's
+    /// path in the answer (`found` is e.g. `bodies[0].heave = NaN`). Logged as an error.
+    pub fn non_finite(found: impl std::fmt::Display) -> Self {
+        tracing::error!(%found, "non-finite number in an answer; sent an error instead");
+        Self::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "non_finite_result",
+            format!(
+                "the answer came out non-finite ({found}); no answer was sent rather than a wrong one"
+            ),
+        )
+    }
+
     /// 503 `overloaded`.
     pub fn overloaded(message: impl Into<String>) -> Self {
         Self::new(StatusCode::SERVICE_UNAVAILABLE, "overloaded", message)

@@ -1,8 +1,10 @@
 //! # swell (the server)
 //!
 //! An axum + tokio service over the [`swell_waves`] model: scenes (named wave models with a
-//! clock), and HTTP endpoints that answer height, normal, displacement and body-orientation
-//! queries, bit-identical for the same scene, time and point on every replica.
+//! clock and floating bodies), HTTP endpoints that answer height, normal, displacement and
+//! body-orientation queries, bit-identical for the same scene, time and point on every replica,
+//! and a WebSocket stream of the same queries and of tick frames. No answer carries a NaN or an
+//! infinity ([`api::finite`]).
 //!
 //! ```no_run
 //! # async fn run() -> Result<(), Box<dyn std::error::Error>> {
@@ -17,6 +19,8 @@
 //! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
 //! - [`state`] — the registry and admin operations (validate → persist → swap).
 //! - [`frames`] — the shared, bounded FFT frame cache.
+//! - [`bodies`] — server-authoritative floating bodies: a body world per scene, stepped at the
+//!   scene's tick rate by its own loop ([`bodies::runner`]).
 //! - [`api`] — routes, middleware, request/response types, handlers, JSON/protobuf negotiation.
 //! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
 //! - [`wire`] — protobuf types generated from `proto/` and their conversions.

@@ -297,6 +297,47 @@ async fn bad_bodies_and_clock_values_are_400() {
     s.stop().await;
 }
 
+/// Regression (issue 11): `{"length": 1e300}` was accepted and answered 200 with
+/// `"heave": null` (a NaN written as JSON null). Body sizes are bounded: 400 naming the field.
+#[tokio::test]
+async fn issue_11_huge_body_is_400_not_a_null_heave() {
+    let s = TestServer::start(config()).await;
+    let max = swell_waves::body::MAX_FOOTPRINT;
+    for (body, field) in [
+        (
+            json!({"position": [0, 0], "length": 1e300, "beam": 1}),
+            "bodies[0].length",
+        ),
+        (
+            json!({"position": [0, 0], "length": 1, "beam": 2.0 * max}),
+            "bodies[0].beam",
+        ),
+        (
+            json!({"position": [0, 0], "length": 1, "beam": 1, "probes": [[0, 1e300]]}),
+            "bodies[0].probes[0][1]",
+        ),
+    ] {
+        let (st, v) = s
+            .post_json("/v1/scenes/lake/orientation", &json!({"bodies": [body]}))
+            .await;
+        assert_eq!(
+            (st, code(&v), v["error"]["field"].as_str()),
+            (400, "invalid_value", Some(field)),
+            "{v}"
+        );
+    }
+    // The largest allowed body is answered, with numbers.
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/lake/orientation",
+            &json!({"bodies": [{"position": [0, 0], "length": max, "beam": max}]}),
+        )
+        .await;
+    assert_eq!(st, 200, "{v}");
+    assert!(v["bodies"][0]["heave"].is_f64(), "{v}");
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn wrong_method_is_405_json() {
     let s = TestServer::start(config()).await;

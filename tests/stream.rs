@@ -385,30 +385,38 @@ async fn unknown_scene_and_plain_get_are_refused_before_the_upgrade() {
     s.stop().await;
 }
 
+/// Regression (issue 11): a message over `ws_max_message_bytes` dropped the connection without
+/// the documented Close 1009: the client saw no status (1005) or an abnormal closure. (This test
+/// used to accept a close without a frame.) Both a message a little over the limit and one far
+/// over it, most of which the server never reads, must get Close 1009 with a reason.
 #[tokio::test]
-async fn oversized_messages_close_the_socket() {
+async fn issue_11_oversized_message_gets_close_1009() {
     let mut cfg = config();
     cfg.limits.ws_max_message_bytes = 4096;
     let s = TestServer::start(cfg).await;
-    let mut ws = ws_connect(s.addr, "calm", None).await;
-    let big = format!(
-        r#"{{"type":"ping","client_time":0,"pad":"{}"}}"#,
-        "x".repeat(8192)
-    );
-    let _ = ws.send(Message::Text(big.into())).await;
-    let end = timeout(Duration::from_secs(5), async {
-        loop {
-            match ws.next().await {
-                Some(Ok(Message::Close(f))) => return f.map(|f| f.code),
-                Some(Ok(_)) => {}
-                _ => return None,
+    for pad in [8192, 512 * 1024] {
+        let mut ws = ws_connect(s.addr, "calm", None).await;
+        let big = format!(
+            r#"{{"type":"ping","client_time":0,"pad":"{}"}}"#,
+            "x".repeat(pad)
+        );
+        let _ = ws.send(Message::Text(big.into())).await;
+        let end = timeout(Duration::from_secs(5), async {
+            loop {
+                match ws.next().await {
+                    Some(Ok(Message::Close(f))) => return Ok(f),
+                    Some(Ok(_)) => {}
+                    other => return Err(format!("{other:?}")),
+                }
             }
-        }
-    })
-    .await
-    .expect("closed within 5 s");
-    if let Some(code) = end {
-        assert_eq!(code, CloseCode::Size);
+        })
+        .await
+        .expect("closed within 5 s");
+        let frame = end
+            .unwrap_or_else(|e| panic!("{pad}: no Close frame, the stream ended with {e}"))
+            .unwrap_or_else(|| panic!("{pad}: a Close frame without a status code"));
+        assert_eq!(frame.code, CloseCode::Size, "{pad}: {frame:?}");
+        assert!(frame.reason.contains("4096"), "{pad}: {frame:?}");
     }
     s.stop().await;
 }

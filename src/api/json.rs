@@ -1,8 +1,10 @@
-//! JSON bodies: parsing with the path of the offending field, and the extractor every JSON
-//! endpoint uses, so malformed input always comes back as an [`ApiError`].
+//! JSON bodies: parsing with the path of the offending field ([`from_slice`], [`from_value`]),
+//! and [`RawBody`], the size-limited body extractor admin endpoints take before they check the
+//! token and parse, so malformed input always comes back as an [`ApiError`].
 //!
-//! Query bodies may also be protobuf: see [`crate::api::wire`], which decodes them into the same
-//! request types. Admin bodies (scene specs, clock updates) are JSON only; protobuf gets 415.
+//! Query bodies may also be protobuf: see [`crate::api::wire`], whose `Body` extractor decodes
+//! either into the same request types. Admin bodies (scene specs, clock updates, body spawns and
+//! inputs) are JSON only; protobuf gets 415.
 
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Request};
@@ -92,19 +94,5 @@ pub async fn read_bytes<S: Send + Sync>(req: Request, state: &S) -> Result<Bytes
             "request body is larger than the server's limit (max_body_bytes)",
         )),
         Err(r) => Err(ApiError::bad_json(r.body_text())),
-    }
-}
-
-/// A JSON body parsed into `T` (any content type but protobuf is read as JSON, so
-/// `curl -d` works without a header).
-#[derive(Debug)]
-pub struct Json<T>(pub T);
-
-impl<S: Send + Sync, T: DeserializeOwned> FromRequest<S> for Json<T> {
-    type Rejection = ApiError;
-
-    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
-        let RawBody(bytes) = RawBody::from_request(req, state).await?;
-        from_slice(&bytes).map(Json)
     }
 }

@@ -4,6 +4,9 @@
 //! - [`json`] — JSON body extraction with field paths in errors.
 //! - [`scenes`] — list, detail, put, delete, clock.
 //! - [`query`] — height, sample, orientation (`run_*` functions callable from any transport).
+//! - [`finite`] — the check every answer passes before it is encoded: no NaN or infinity on
+//!   the wire.
+//! - [`bodies`] — floating-body endpoints (spawn, list, read, delete, input).
 //! - [`admin`] — bearer-token check.
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
 //! - [`wire`] — JSON/protobuf content negotiation for query bodies and answers.
@@ -14,6 +17,7 @@
 
 pub mod admin;
 pub mod bodies;
+pub mod finite;
 pub mod json;
 pub mod ops;
 pub mod query;

@@ -2,8 +2,9 @@
 //!
 //! The `run_*` functions are plain, blocking and transport-free: they take a scene, a resolved
 //! time and a decoded request and return the response type, so the HTTP handlers here and the
-//! WebSocket handler to come share them. Handlers resolve the scene and its time, then run the
-//! query in `spawn_blocking` (FFT frames and big batches are CPU work).
+//! WebSocket session ([`crate::stream`]) share them. Handlers resolve the scene and its time,
+//! then run the query in `spawn_blocking` (FFT frames and big batches are CPU work). Answers are
+//! checked for non-finite numbers where they are encoded ([`crate::api::finite`]), not here.
 
 use std::sync::Arc;
 

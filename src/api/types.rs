@@ -1,5 +1,6 @@
 //! Request and response types of the API, apart from the handlers, so every transport (HTTP
-//! JSON today; WebSocket and protobuf next) decodes into and encodes from the same structs.
+//! JSON and protobuf, the WebSocket stream in both subprotocols) decodes into and encodes from
+//! the same structs.
 //!
 //! Numbers are f64 and travel exactly: serde_json writes the shortest round-trip form and, with
 //! `float_roundtrip`, parses it back to the same bits.
@@ -217,11 +218,12 @@ pub struct Body {
     /// Yaw, rad (rotation about +y; positive turns the bow from +x towards −z).
     #[serde(default)]
     pub yaw: f64,
-    /// Length, m.
+    /// Length, m, in (0, 10 km] ([`swell_waves::body::MAX_FOOTPRINT`]).
     pub length: f64,
-    /// Beam, m.
+    /// Beam, m, in (0, 10 km].
     pub beam: f64,
-    /// Explicit probes `[u, v]` in the body frame; default a 3×3 grid over the footprint.
+    /// Explicit probes `[u, v]` in the body frame, m, each within ±10 km; default a 3×3 grid
+    /// over the footprint.
     #[serde(default)]
     pub probes: Option<Vec<[f64; 2]>>,
 }
@@ -263,8 +265,7 @@ pub struct BodyOrientation {
 }
 
 /// A floating body's state in a tick frame (server-authoritative simulation). Mirrors
-/// `swell.v1.BodyState`. Tick frames carry these once scenes have bodies; until then the list
-/// is empty.
+/// `swell.v1.BodyState`.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct BodyState {
     /// Body id (unique within the scene).
@@ -286,7 +287,8 @@ pub struct BodyState {
 }
 
 /// A tick frame of the WebSocket stream: the scene's tick number, its time, and the body states
-/// at that tick (empty until scenes have floating bodies). Mirrors `swell.v1.Tick`.
+/// at that tick (empty when the scene has no floating bodies, or none the subscriber asked
+/// for). Mirrors `swell.v1.Tick`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Tick {
     /// `floor(t·tick_hz)` of the scene clock.

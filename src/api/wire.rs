@@ -18,6 +18,7 @@ use prost::Message;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+use crate::api::finite::check_answer;
 use crate::api::json::{from_slice, read_bytes};
 use crate::api::types::{
     HeightResponse, OrientationRequest, OrientationResponse, SampleRequest, SampleResponse,
@@ -167,7 +168,12 @@ fn protobuf_response(status: axum::http::StatusCode, bytes: Vec<u8>) -> Response
 }
 
 impl<T: ToProto> IntoResponse for Reply<T> {
+    /// Checks the answer for non-finite numbers ([`check_answer`]) and encodes it; a
+    /// non-finite answer becomes a 500 `non_finite_result` error in either format.
     fn into_response(self) -> Response {
+        if let Err(e) = check_answer(&self.1) {
+            return e.into_response();
+        }
         match self.0 {
             Format::Json => axum::Json(self.1).into_response(),
             Format::Protobuf => protobuf_response(

@@ -15,7 +15,7 @@ pub mod runner;
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
-use swell_waves::body::{BodyInput, BodySpec, HullSpec, World, WorldSettings};
+use swell_waves::body::{BodyInput, BodySpec, HullSpec, SEA_WATER_DENSITY, World, WorldSettings};
 use swell_waves::{QueryOptions, Surface};
 
 pub use crate::api::types::BodyState;
@@ -24,9 +24,6 @@ use crate::error::ApiError;
 /// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
 /// is re-anchored instead. Two seconds at 30 Hz: catching up more would stall the loop further.
 pub const MAX_CATCH_UP_TICKS: i64 = 60;
-
-/// Sea water density, kg/m³.
-pub const WATER_DENSITY: f64 = 1025.0;
 
 /// Damping ratio of the server's default drag: about 30% of critical in heave, so a spawned boat
 /// settles within a few oscillations, as players expect, instead of bobbing forever.
@@ -101,8 +98,8 @@ impl SpawnRequest {
         };
         // Heave stiffness ρ·g·A and critical damping 2·sqrt(k·m); drag acts on the submerged
         // fraction f = m/(ρ·V) at rest, so divide by it to get that damping at the waterline.
-        let k = WATER_DENSITY * gravity * area;
-        let f = (self.mass / (WATER_DENSITY * volume)).clamp(0.05, 1.0);
+        let k = SEA_WATER_DENSITY * gravity * area;
+        let f = (self.mass / (SEA_WATER_DENSITY * volume)).clamp(0.05, 1.0);
         let c = 2.0 * DEFAULT_DAMPING_RATIO * (k * self.mass).max(0.0).sqrt() / f;
         let c = if c.is_finite() { c } else { 0.0 };
         BodySpec {
@@ -436,7 +433,7 @@ impl SceneBodies {
 fn settings(anchor: i64, tick_hz: f64, gravity: f64) -> WorldSettings {
     WorldSettings {
         tick_hz,
-        water_density: WATER_DENSITY,
+        water_density: SEA_WATER_DENSITY,
         gravity,
         start_time: anchor as f64 / tick_hz,
     }

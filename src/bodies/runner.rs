@@ -2,10 +2,10 @@
 //!
 //! A scene's loop runs while the scene has bodies: each tick of a tokio interval at the scene's
 //! tick rate it advances the bodies to the scene clock's current tick (off the reactor, in
-//! `spawn_blocking`: 1,000 bodies take milliseconds) and publishes the new states on a `watch`
-//! channel, which readers (HTTP, the WebSocket tick stream) take the latest value of. A `watch`
-//! never queues: a slow reader skips frames instead of holding memory or delaying the loop.
-//! Missed interval ticks are skipped, not bunched: the next iteration simply steps several
+//! `spawn_blocking`: 1,000 bodies take milliseconds). Readers take the states from the body
+//! world itself, under its lock: the HTTP body endpoints, and the WebSocket tick loop through
+//! [`BodiesHook`] (which first catches the bodies up to its frame's tick). Nothing is queued for
+//! readers, so a slow one never holds memory or delays the loop. Missed interval ticks are skipped, not bunched: the next iteration simply steps several
 //! fixed ticks to catch up with the clock, so lateness never changes the trajectory.
 
 use std::collections::BTreeMap;
@@ -13,30 +13,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use tokio::sync::watch;
-
 use super::{BodiesRecord, BodyState, SceneBodies};
 use crate::error::ApiError;
 use crate::state::AppState;
 
-/// Latest body states of a scene.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct BodyFrame {
-    /// Scene tick of the states.
-    pub tick: i64,
-    /// Scene time of the states, s.
-    pub t: f64,
-    /// States in id order.
-    pub bodies: Vec<BodyState>,
-}
-
-/// One scene's bodies, their loop flag and their frame channel.
+/// One scene's bodies and their loop flag.
 #[derive(Debug)]
 pub struct SceneBodiesCell {
     /// The body world. Locked for a step (milliseconds) or a read.
     pub bodies: Mutex<SceneBodies>,
-    /// The latest frame, replaced after every loop step.
-    pub frames: watch::Sender<Arc<BodyFrame>>,
     running: AtomicBool,
 }
 
@@ -45,15 +30,6 @@ impl SceneBodiesCell {
     /// whole states).
     pub fn lock(&self) -> std::sync::MutexGuard<'_, SceneBodies> {
         self.bodies.lock().unwrap_or_else(|p| p.into_inner())
-    }
-
-    /// Replaces the latest frame with `b`'s states.
-    pub fn publish(&self, b: &SceneBodies) {
-        self.frames.send_replace(Arc::new(BodyFrame {
-            tick: b.tick(),
-            t: b.t(),
-            bodies: b.states(None),
-        }));
     }
 }
 
@@ -139,14 +115,8 @@ impl BodyRegistry {
 }
 
 fn new_cell(bodies: SceneBodies) -> SceneBodiesCell {
-    let frame = BodyFrame {
-        tick: bodies.tick(),
-        t: bodies.t(),
-        bodies: bodies.states(None),
-    };
     SceneBodiesCell {
         bodies: Mutex::new(bodies),
-        frames: watch::Sender::new(Arc::new(frame)),
         running: AtomicBool::new(false),
     }
 }
@@ -207,7 +177,6 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             let start = Instant::now();
             let adv = b.advance_to(target, &scene.surface, scene_hz, gravity);
             let took = start.elapsed();
-            stepping.publish(&b);
             Some((adv, took, b.len()))
         })
         .await;
@@ -279,7 +248,7 @@ impl crate::stream::ticks::TickHook for BodiesHook {
         _previous: Option<i64>,
         tick: i64,
         _t: f64,
-    ) -> Vec<super::BodyState> {
+    ) -> Vec<BodyState> {
         let Some(cell) = self.state.bodies.get(&self.scene) else {
             return Vec::new();
         };
@@ -287,15 +256,12 @@ impl crate::stream::ticks::TickHook for BodiesHook {
         if b.is_empty() {
             return Vec::new();
         }
-        let stepped = b.catch_up_to(
+        b.catch_up_to(
             tick,
             &scene.surface,
             scene.spec.tick_hz,
             scene.spec.surface.gravity,
         );
-        if stepped > 0 {
-            cell.publish(&b);
-        }
         b.states(None)
     }
 }

@@ -13,15 +13,13 @@ use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
+use swell_waves::body::MAX_TICK_HZ;
 use swell_waves::surface::layer_seed;
 use swell_waves::{Layer, LayerSpec, Surface, SurfaceSpec};
 
 use crate::error::ApiError;
 pub use clock::Clock;
 
-/// Largest tick rate a scene may ask for, Hz: ticks drive stream frames, and 1 kHz is already far
-/// beyond any game's network rate.
-pub const MAX_TICK_HZ: f64 = 1000.0;
 /// Longest scene description, bytes.
 pub const MAX_DESCRIPTION: usize = 4096;
 /// Name of the seeded generator every layer draws from, as clients should look it up.
@@ -95,6 +93,8 @@ impl SceneSpec {
     /// # Errors
     /// 422 naming `tick_hz` or `description`.
     pub fn validate(&self) -> Result<(), ApiError> {
+        // The body model's limit: a scene's bodies step at the scene's tick rate, so a scene may
+        // not tick faster than a body world can.
         if !(self.tick_hz.is_finite() && self.tick_hz > 0.0 && self.tick_hz <= MAX_TICK_HZ) {
             return Err(ApiError::invalid_spec(
                 &swell_waves::SpecError::OutOfRange {

@@ -12,9 +12,10 @@ use std::sync::Arc;
 
 use axum::http::StatusCode;
 use prost::Message as _;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
+use crate::api::finite::check_answer;
 use crate::api::json;
 use crate::api::types::{
     OrientationRequest, OrientationResponse, SampleRequest, SampleResponse, Tick,
@@ -96,6 +97,41 @@ pub struct Outgoing {
     pub id: Option<u64>,
     /// The payload.
     pub event: Event,
+}
+
+impl Outgoing {
+    /// This message, or, when its payload holds a NaN or an infinity, an error with the same id
+    /// in its place (500 `non_finite_result` naming the number, see [`crate::api::finite`]).
+    /// The session's send queue passes everything through here before encoding, so no
+    /// non-finite number reaches a socket in either subprotocol.
+    pub fn finite_or_error(self) -> Outgoing {
+        #[derive(Serialize)]
+        struct PongNumbers {
+            client_time: f64,
+            scene_time: f64,
+        }
+        let checked = match &self.event {
+            Event::Pong {
+                client_time,
+                scene_time,
+                ..
+            } => check_answer(&PongNumbers {
+                client_time: *client_time,
+                scene_time: *scene_time,
+            }),
+            Event::SampleResult(r) => check_answer(r),
+            Event::OrientationResult(r) => check_answer(r),
+            Event::Tick(t) => check_answer(t.as_ref()),
+            Event::Error(_) => Ok(()),
+        };
+        match checked {
+            Ok(()) => self,
+            Err(e) => Outgoing {
+                id: self.id,
+                event: Event::Error(e),
+            },
+        }
+    }
 }
 
 /// A malformed message: the id when it could still be read, and the error.
@@ -207,6 +243,12 @@ pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
     })?;
     let id = m.id;
     let request = match m.msg {
+        // Protobuf doubles can carry NaN and infinities (JSON cannot): refuse them here rather
+        // than echo one back in the pong.
+        Some(client_message::Msg::Ping(p)) if !p.client_time.is_finite() => Err(ApiError::invalid(
+            "client_time",
+            format!("client_time must be a finite number, got {}", p.client_time),
+        )),
         Some(client_message::Msg::Ping(p)) => Ok(Request::Ping {
             client_time: p.client_time,
         }),
@@ -315,6 +357,56 @@ mod tests {
     fn json_sample_rejects_unknown_fields_by_path() {
         let e = decode_json(r#"{"type":"sample","id":1,"points":[],"colour":1}"#).unwrap_err();
         assert_eq!(e.error.field.as_deref(), Some("colour"));
+    }
+
+    /// Regression (issue 11): a socket answer with a NaN in it was encoded as it was (`null` in
+    /// JSON, a NaN in protobuf). It must become an error with the request's id instead.
+    #[test]
+    fn issue_11_non_finite_socket_answer_becomes_an_error() {
+        let answer = SampleResponse {
+            t: 3.0,
+            height: Some(vec![0.5, f64::NAN]),
+            ..Default::default()
+        };
+        let out = Outgoing {
+            id: Some(9),
+            event: Event::SampleResult(answer.clone()),
+        }
+        .finite_or_error();
+        let Event::Error(e) = &out.event else {
+            panic!("a NaN answer went through: {out:?}");
+        };
+        assert_eq!((out.id, e.code), (Some(9), "non_finite_result"));
+        assert!(e.message.contains("height[1]"), "{}", e.message);
+        let v: Value = serde_json::from_str(&encode_json(&out)).unwrap();
+        assert_eq!(v["type"], "error");
+        // A finite answer passes untouched.
+        let ok = SampleResponse {
+            height: Some(vec![0.5, 0.25]),
+            ..answer
+        };
+        let out = Outgoing {
+            id: Some(10),
+            event: Event::SampleResult(ok.clone()),
+        }
+        .finite_or_error();
+        assert!(matches!(out.event, Event::SampleResult(r) if r == ok));
+    }
+
+    #[test]
+    fn protobuf_ping_with_a_nan_time_is_refused() {
+        let bytes = v1::ClientMessage {
+            id: Some(2),
+            msg: Some(client_message::Msg::Ping(v1::Ping {
+                client_time: f64::NAN,
+            })),
+        }
+        .encode_to_vec();
+        let e = decode_protobuf(&bytes).unwrap_err();
+        assert_eq!(
+            (e.id, e.error.code, e.error.field.as_deref()),
+            (Some(2), "invalid_value", Some("client_time"))
+        );
     }
 
     #[test]

@@ -2,7 +2,9 @@
 //! frames.
 //!
 //! - [`messages`] — the messages and their two codecs (`swell.v1.json`, `swell.v1.protobuf`).
-//! - [`ticks`] — the per-scene tick loop (and the seam where floating bodies will step).
+//! - [`ticks`] — the per-scene tick loop; its [`ticks::TickHook`] puts the scene's floating
+//!   bodies, caught up to each frame's tick, in the frame
+//!   ([`crate::bodies::runner::BodiesHook`]).
 //!
 //! # A session
 //! One task reads the socket and owns the session's state (subscription, filter); a writer task
@@ -14,7 +16,12 @@
 //!
 //! Queries run as in HTTP ([`crate::api::query::run_sample`] etc., on a blocking thread), a few
 //! at a time per socket, each answering into the queue when done (answers carry the request's
-//! `id`, and may come back in a different order than asked).
+//! `id`, and may come back in a different order than asked). Every message is checked for
+//! non-finite numbers on its way into the queue ([`messages::Outgoing::finite_or_error`]).
+//!
+//! A message (or frame) over [`crate::Limits::ws_max_message_bytes`] ends the session with Close
+//! 1009 (message too big): tungstenite refuses it on read, and the session queues the Close
+//! frame before the socket drops.
 //!
 //! # Shutdown
 //! Each session watches the server's shutdown token ([`crate::AppState::shutdown`]): when it
@@ -131,6 +138,9 @@ pub async fn stream(
 enum End {
     /// The client closed or the connection dropped.
     Client,
+    /// The client sent a message or frame over `ws_max_message_bytes`: answered with Close
+    /// 1009 (message too big).
+    TooBig,
     /// The send queue overflowed: the client stopped reading.
     SlowConsumer,
     /// The server is shutting down.
@@ -147,7 +157,10 @@ struct Queue {
 }
 
 impl Queue {
+    /// Encodes and queues `out`, after the non-finite check every answer passes
+    /// ([`Outgoing::finite_or_error`]).
     fn push(&self, out: Outgoing) {
+        let out = out.finite_or_error();
         let msg = match self.codec {
             Codec::Json => Message::Text(messages::encode_json(&out).into()),
             Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
@@ -244,6 +257,7 @@ where
             () = slow.cancelled() => break End::SlowConsumer,
             msg = stream.next() => {
                 let decoded = match msg {
+                    Some(Err(e)) if too_big(&e) => break End::TooBig,
                     None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break End::Client,
                     // Control frames: tungstenite answers pings itself.
                     Some(Ok(Message::Ping(_) | Message::Pong(_))) => continue,
@@ -281,11 +295,25 @@ where
             tracing::info!(scene = %scene_id, "disconnecting a WebSocket client that stopped reading");
             writer.abort();
         }
-        End::Shutdown | End::Client => {
+        End::Shutdown | End::Client | End::TooBig => {
             if end == End::Shutdown {
                 let _ = queue.tx.try_send(Message::Close(Some(CloseFrame {
                     code: close_code::AWAY,
                     reason: "server shutting down".into(),
+                })));
+            }
+            if end == End::TooBig {
+                // The read half is unusable after the error (tungstenite fuses it), but the
+                // write half still works: say why before the connection drops, or the client
+                // sees only an abnormal closure (1005/1006).
+                metrics::counter!("swell_ws_too_big_disconnects_total").increment(1);
+                let _ = queue.tx.try_send(Message::Close(Some(CloseFrame {
+                    code: close_code::SIZE,
+                    reason: format!(
+                        "message larger than {} bytes (ws_max_message_bytes)",
+                        state.limits.ws_max_message_bytes
+                    )
+                    .into(),
                 })));
             }
             // Queries still running hold clones of the queue; the writer ends once they finish
@@ -300,6 +328,23 @@ where
         }
     }
     metrics::gauge!("swell_ws_sessions").decrement(1.0);
+}
+
+/// Whether a read error is tungstenite refusing a message or a frame over the size limit
+/// (`max_message_size` / `max_frame_size`, both set to `ws_max_message_bytes`). Walks the
+/// error's sources, so it does not depend on how axum wraps tungstenite's error.
+fn too_big(e: &axum::Error) -> bool {
+    let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    while let Some(err) = cur {
+        if let Some(tungstenite::Error::Capacity(
+            tungstenite::error::CapacityError::MessageTooLong { .. },
+        )) = err.downcast_ref::<tungstenite::Error>()
+        {
+            return true;
+        }
+        cur = err.source();
+    }
+    false
 }
 
 fn wrong_frame(got: &str, protocol: &str, want: &str) -> DecodeError {

@@ -104,6 +104,20 @@ pub(crate) fn positive(field: &str, value: f64) -> Result<f64, SpecError> {
     }
 }
 
+/// Checks a number is finite, strictly positive and at most `max`.
+pub(crate) fn positive_at_most(field: &str, value: f64, max: f64) -> Result<f64, SpecError> {
+    finite(field, value)?;
+    if value > 0.0 && value <= max {
+        Ok(value)
+    } else {
+        Err(SpecError::OutOfRange {
+            field: field.to_string(),
+            value,
+            allowed: format!("in (0, {max}]"),
+        })
+    }
+}
+
 /// Checks a number is finite and not negative.
 pub(crate) fn non_negative(field: &str, value: f64) -> Result<f64, SpecError> {
     finite(field, value)?;

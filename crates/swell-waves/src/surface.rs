@@ -4,7 +4,7 @@
 //! Only what a scene declares is built (a surface without an FFT layer holds no FFT state), and a
 //! [`SurfaceAt`] computes only the FFT fields its queries need.
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::{DVec2, DVec3, Vec3};
 
@@ -274,7 +274,7 @@ impl Surface {
             frames,
             options: *options,
             velocities: Vec::new(),
-            offsets: self.phase_offsets(t),
+            offsets: OnceLock::new(),
         })
     }
 
@@ -310,7 +310,7 @@ impl Surface {
             frames,
             options: *options,
             velocities: Vec::new(),
-            offsets: self.phase_offsets(t),
+            offsets: OnceLock::new(),
         })
     }
 
@@ -343,8 +343,10 @@ pub struct SurfaceAt<'s> {
     /// [`SurfaceAt::with_velocity`] or [`SurfaceAt::with_velocity_frames`]).
     pub(crate) velocities: Vec<Option<Arc<crate::fft::FftVelocityFrame>>>,
     /// Per analytic layer, the f32 fast path's phase offsets at `t` (turns, see
-    /// [`WaveSoA::phase_offsets`]); empty for FFT layers.
-    pub(crate) offsets: Vec<Vec<f64>>,
+    /// [`WaveSoA::phase_offsets`]); empty for FFT layers. Computed on the first f32 evaluation
+    /// ([`SurfaceAt::lanes_f32`]), so f64 snapshots never pay for them; the values depend only
+    /// on the surface and `t`, so when they are computed changes no bit.
+    pub(crate) offsets: OnceLock<Vec<Vec<f64>>>,
 }
 
 impl SurfaceAt<'_> {
@@ -426,13 +428,16 @@ impl SurfaceAt<'_> {
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = LanesF32::<B>::default();
+        let offsets = self
+            .offsets
+            .get_or_init(|| self.surface.phase_offsets(self.t));
         for (((layer, frame), soa), offsets) in self
             .surface
             .layers
             .iter()
             .zip(&self.frames)
             .zip(&self.surface.soa)
-            .zip(&self.offsets)
+            .zip(offsets)
         {
             match (layer, soa) {
                 (Layer::Fft(f), _) => {

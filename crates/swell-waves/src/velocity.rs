@@ -34,7 +34,7 @@ pub fn accumulate_velocity(w: &Wave, p0: DVec2, t: f64, out: &mut DVec3) {
 pub fn accumulate_velocity_reference(w: &Wave, p0: DVec2, t: f64, out: &mut DVec3) {
     let along = w.direction.x * p0.x + w.direction.y * p0.y;
     let theta = w.wavenumber * along - w.omega * t + w.phase;
-    let (s, c) = theta.sin_cos(); // reference path: platform trig on purpose
+    let (s, c) = theta.sin_cos(); // determinism: reference (platform trig on purpose)
     velocity_with(w, s, c, out);
 }
 

@@ -152,7 +152,7 @@ impl Wave {
     pub fn accumulate_reference(&self, p0: DVec2, t: f64, out: &mut SurfaceSample) {
         let along = self.direction.x * p0.x + self.direction.y * p0.y;
         let theta = self.wavenumber * along - self.omega * t + self.phase;
-        let (s, c) = theta.sin_cos(); // reference path: platform trig on purpose
+        let (s, c) = theta.sin_cos(); // determinism: reference (platform trig on purpose)
         accumulate_with(self, s, c, true, out);
     }
 }
@@ -477,8 +477,9 @@ impl WaveSoA {
     }
 
     /// Phase offsets of the single-precision fast path at time `t`, one per wave, in turns:
-    /// `c = reduce_phase(φ − ω·t) / 2π` ∈ [−½, ½]. Computed once per time (a snapshot keeps
-    /// them), so the per-point work carries no time term.
+    /// `c = reduce_phase(φ − ω·t) / 2π` ∈ [−½, ½]. Computed once per time (a snapshot computes
+    /// them on its first f32 evaluation and keeps them), so the per-point work carries no time
+    /// term.
     pub fn phase_offsets(&self, t: f64) -> Vec<f64> {
         self.omega
             .iter()

@@ -5,7 +5,7 @@ mod common;
 
 use common::gerstner_spec;
 use serde_json::json;
-use swell_waves::body::BodyFootprint;
+use swell_waves::body::{BodyFootprint, MAX_FOOTPRINT};
 use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec};
 
 fn body(x: f64, z: f64, yaw: f64, length: f64, beam: f64) -> BodyFootprint {
@@ -110,4 +110,46 @@ fn zero_size_bodies_are_errors() {
         .orientation(&sea, "bodies[3]")
         .unwrap_err();
     assert_eq!(e.field(), "bodies[3].length");
+}
+
+/// Regression (issue 11): a body of length 1e300 was accepted and its orientation came out NaN
+/// (the plane fit squares probe offsets of 5e299), which the server sent as `"heave": null`.
+/// Sizes and probe offsets are now bounded by `MAX_FOOTPRINT`, and the largest allowed body
+/// still gets a finite orientation.
+#[test]
+fn issue_11_huge_footprints_are_rejected_not_nan() {
+    let s = Surface::new(&gerstner_spec(1, 4, 0.3)).unwrap();
+    let sea = s
+        .at(0.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    for (b, field) in [
+        (body(0.0, 0.0, 0.0, 1e300, 1.0), "bodies[0].length"),
+        (
+            body(0.0, 0.0, 0.0, 1.0, 2.0 * MAX_FOOTPRINT),
+            "bodies[0].beam",
+        ),
+        (
+            BodyFootprint {
+                probes: Some(vec![[0.0, 0.0], [1e300, 0.0]]),
+                ..body(0.0, 0.0, 0.0, 1.0, 1.0)
+            },
+            "bodies[0].probes[1][0]",
+        ),
+    ] {
+        let e = b.orientation(&sea, "bodies[0]").unwrap_err();
+        assert_eq!(e.field(), field, "{e}");
+    }
+    let largest = BodyFootprint {
+        probes: Some(vec![
+            [-MAX_FOOTPRINT, -MAX_FOOTPRINT],
+            [MAX_FOOTPRINT, 0.0],
+            [0.0, MAX_FOOTPRINT],
+        ]),
+        ..body(1e9, -1e9, 2.0, MAX_FOOTPRINT, MAX_FOOTPRINT)
+    };
+    let o = largest.orientation(&sea, "bodies[0]").unwrap();
+    assert!(o.heave.is_finite() && o.rotation.is_finite() && o.normal.is_finite());
+    let grid = body(1e9, -1e9, 2.0, MAX_FOOTPRINT, MAX_FOOTPRINT);
+    let o = grid.orientation(&sea, "bodies[0]").unwrap();
+    assert!(o.heave.is_finite() && o.rotation.is_finite() && o.normal.is_finite());
 }

@@ -147,6 +147,26 @@ fn velocity_at_a_world_point_follows_the_particle_found_by_inversion() {
     assert_eq!((w.height, w.velocity), (0.0, DVec3::ZERO));
 }
 
+/// Regression (issue 11): `water_at` turned a NaN height into 0 (its inversion kept only
+/// iterates with a residual below +inf, so a NaN first iterate left the initial 0 in place),
+/// where `height` answers NaN. A body there read calm water instead of being rolled back by the
+/// step's finiteness check. Both must now agree, NaN included.
+#[test]
+fn issue_11_water_at_reports_nan_like_height_does() {
+    let s = Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap();
+    let sea = s
+        .at(4.0, QueryFields::HEIGHT, &QueryOptions::default())
+        .unwrap();
+    let far = DVec2::new(f64::INFINITY, 0.0);
+    assert!(sea.height(far.x, far.y).is_nan());
+    let w = sea.water_at(far, 0.0);
+    assert!(
+        w.height.is_nan(),
+        "water_at said {} where height is NaN",
+        w.height
+    );
+}
+
 #[test]
 fn velocity_frames_from_the_caller_must_match_the_layers() {
     let s = Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap();

@@ -13,7 +13,7 @@
 
 use glam::{DQuat, DVec2, DVec3};
 
-use crate::error::{SpecError, finite, positive};
+use crate::error::{SpecError, finite, in_range, positive_at_most};
 use crate::math::sin_cos;
 use crate::surface::SurfaceAt;
 #[cfg(feature = "serde")]
@@ -21,6 +21,13 @@ use serde::{Deserialize, Serialize};
 
 /// Most explicit probes per body: each costs one height query.
 pub const MAX_PROBES: usize = 256;
+
+/// Largest footprint length or beam, and largest `|u|`, `|v|` of an explicit probe, m: 10 km.
+/// Twenty times the longest ship afloat, so no real body is refused, and small enough that the
+/// plane fit's sums of squared probe offsets (over at most [`MAX_PROBES`] probes) stay finite
+/// with room to spare. Unbounded, a length of 1e300 overflowed the fit and the orientation came
+/// out NaN.
+pub const MAX_FOOTPRINT: f64 = 10_000.0;
 
 /// Where a body touches the water: a rectangular footprint, or explicit probe points.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,12 +38,12 @@ pub struct BodyFootprint {
     /// Yaw ψ, rad (rotation about +y).
     #[cfg_attr(feature = "serde", serde(default))]
     pub yaw: f64,
-    /// Length along the forward axis, m (> 0).
+    /// Length along the forward axis, m (in (0, [`MAX_FOOTPRINT`]]).
     pub length: f64,
-    /// Beam (width) along the side axis, m (> 0).
+    /// Beam (width) along the side axis, m (in (0, [`MAX_FOOTPRINT`]]).
     pub beam: f64,
-    /// Explicit probe points `(u, v)` in the body frame, m. Absent means a 3×3 grid over the
-    /// footprint (corners, edge midpoints, centre).
+    /// Explicit probe points `(u, v)` in the body frame, m (each within ±[`MAX_FOOTPRINT`]).
+    /// Absent means a 3×3 grid over the footprint (corners, edge midpoints, centre).
     #[cfg_attr(feature = "serde", serde(default))]
     pub probes: Option<Vec<[f64; 2]>>,
 }
@@ -68,13 +75,14 @@ impl BodyFootprint {
     ///
     /// # Errors
     /// Non-finite position, yaw or probe; length or beam ≤ 0 (a body of zero size has no
-    /// orientation); an empty or over-long probe list.
+    /// orientation) or above [`MAX_FOOTPRINT`]; a probe coordinate beyond ±[`MAX_FOOTPRINT`];
+    /// an empty or over-long probe list.
     pub fn probes(&self, field: &str) -> Result<Vec<DVec2>, SpecError> {
         finite(&format!("{field}.position[0]"), self.position[0])?;
         finite(&format!("{field}.position[1]"), self.position[1])?;
         finite(&format!("{field}.yaw"), self.yaw)?;
-        let l = positive(&format!("{field}.length"), self.length)?;
-        let b = positive(&format!("{field}.beam"), self.beam)?;
+        let l = positive_at_most(&format!("{field}.length"), self.length, MAX_FOOTPRINT)?;
+        let b = positive_at_most(&format!("{field}.beam"), self.beam, MAX_FOOTPRINT)?;
         match &self.probes {
             None => {
                 let mut v = Vec::with_capacity(9);
@@ -96,8 +104,9 @@ impl BodyFootprint {
                 p.iter()
                     .enumerate()
                     .map(|(i, q)| {
-                        finite(&format!("{field}.probes[{i}][0]"), q[0])?;
-                        finite(&format!("{field}.probes[{i}][1]"), q[1])?;
+                        let (lo, hi) = (-MAX_FOOTPRINT, MAX_FOOTPRINT);
+                        in_range(&format!("{field}.probes[{i}][0]"), q[0], lo, hi)?;
+                        in_range(&format!("{field}.probes[{i}][1]"), q[1], lo, hi)?;
                         Ok(DVec2::new(q[0], q[1]))
                     })
                     .collect()

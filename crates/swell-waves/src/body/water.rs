@@ -1,5 +1,11 @@
 //! The sea as a body sees it: height and water velocity above a world point, with the body's
 //! wavelength filter applied to analytic layers.
+//!
+//! This path always evaluates in f64, one wave at a time ([`crate::wave::Wave::accumulate`]),
+//! whatever the snapshot's [`crate::Precision`]: bodies are stepped in f64 on every replica.
+//! With no filter (`min_wavelength = 0`) it reproduces the plain queries bit for bit at
+//! [`crate::Precision::F64`]; under [`crate::Precision::F32`] the plain queries take the
+//! single-precision path and differ from it by that path's error (about 10⁻⁶ of the amplitudes).
 
 use glam::{DVec2, DVec3};
 
@@ -19,8 +25,9 @@ pub struct WaterPoint {
 
 impl SurfaceAt<'_> {
     /// [`SurfaceAt::sample`] leaving out analytic (sine and Gerstner) waves shorter than
-    /// `min_wavelength`, m; FFT layers are never filtered. `min_wavelength = 0` gives exactly
-    /// the bits of [`SurfaceAt::sample`].
+    /// `min_wavelength`, m; FFT layers are never filtered. Always f64 (see the module docs):
+    /// `min_wavelength = 0` gives exactly the bits of [`SurfaceAt::sample`] on a
+    /// [`crate::Precision::F64`] snapshot, not on an `F32` one.
     pub fn sample_filtered(
         &self,
         p0: DVec2,
@@ -60,7 +67,10 @@ impl SurfaceAt<'_> {
     /// snapshot's inversion settings (the same iteration as [`SurfaceAt::invert`]: best iterate
     /// kept, Newton falling back to a fixed-point step where the Jacobian is singular), then
     /// reads the elevation and the particle velocity at the source point.
-    /// `min_wavelength = 0` gives the same height bits as [`SurfaceAt::height`].
+    /// `min_wavelength = 0` gives the same height bits as [`SurfaceAt::height`] on a
+    /// [`crate::Precision::F64`] snapshot (not on an `F32` one, see the module docs), NaN
+    /// included: a point whose first iterate is already non-finite answers NaN, as `height`
+    /// does, so a body's step sees it and is rolled back instead of reading calm water.
     pub fn water_at(&self, world: DVec2, min_wavelength: f64) -> WaterPoint {
         let (source, height) = if self.surface.has_horizontal_motion() {
             self.invert_filtered(world, min_wavelength)
@@ -74,18 +84,20 @@ impl SurfaceAt<'_> {
         }
     }
 
-    /// The source point and its elevation.
+    /// The source point and its elevation. Keeps the best iterate exactly as
+    /// [`SurfaceAt::invert_lanes`] does: the first one always (even a NaN one, so a NaN is
+    /// reported rather than replaced by a made-up 0), then any with a lower residual.
     fn invert_filtered(&self, target: DVec2, min_wavelength: f64) -> (DVec2, f64) {
         let inv = self.options.inversion;
         let newton = inv.method == InversionMethod::Newton;
         let mut p = target;
-        let (mut best, mut best_y, mut best_r) = (target, 0.0, f64::INFINITY);
+        let (mut best, mut best_y, mut best_r) = (target, f64::NAN, f64::INFINITY);
         let mut it = 0;
         loop {
             let s = self.sample_filtered(p, newton, min_wavelength);
             let f = p + DVec2::new(s.displacement.x, s.displacement.z) - target;
             let r = f.length();
-            if r < best_r {
+            if it == 0 || r < best_r {
                 (best, best_y, best_r) = (p, s.displacement.y, r);
             }
             if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {

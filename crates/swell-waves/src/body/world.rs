@@ -27,9 +27,14 @@ use serde::{Deserialize, Serialize};
 /// A body's id within a world.
 pub type BodyId = u64;
 
-/// Largest tick rate, Hz: beyond 1 kHz a game server gains nothing and the sea evaluations
-/// per second explode.
+/// Largest tick rate, Hz: beyond 1 kHz a game server gains nothing (it is far beyond any game's
+/// network rate) and the sea evaluations per second explode. The server bounds scene tick rates
+/// with this same constant, since a scene's bodies step at its tick rate.
 pub const MAX_TICK_HZ: f64 = 1000.0;
+
+/// Sea water density, kg/m³: the usual surface value (fresh water is 1000, the open ocean
+/// 1020–1030). The default of [`WorldSettings::water_density`], and what the server uses.
+pub const SEA_WATER_DENSITY: f64 = 1025.0;
 /// Most substeps per tick a body may take (the clamp of [`substeps_for`]).
 pub const MAX_SUBSTEPS: u32 = 256;
 /// Largest phase advance of the stiffest natural oscillation per substep, rad. Semi-implicit
@@ -45,7 +50,7 @@ pub const PHASE_PER_SUBSTEP: f64 = 0.25;
 pub struct WorldSettings {
     /// Ticks per second, Hz (in (0, 1000]); the step is `dt = 1/tick_hz`. Default 30.
     pub tick_hz: f64,
-    /// Water density ρ, kg/m³ (> 0). Default 1025 (sea water).
+    /// Water density ρ, kg/m³ (> 0). Default [`SEA_WATER_DENSITY`] (1025).
     pub water_density: f64,
     /// Gravity g, m/s² (> 0). Default 9.81; use the sea's.
     pub gravity: f64,
@@ -57,7 +62,7 @@ impl Default for WorldSettings {
     fn default() -> Self {
         Self {
             tick_hz: 30.0,
-            water_density: 1025.0,
+            water_density: SEA_WATER_DENSITY,
             gravity: crate::spectrum::STANDARD_GRAVITY,
             start_time: 0.0,
         }
