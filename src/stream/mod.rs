@@ -24,7 +24,7 @@
 //! frame before the socket drops.
 //!
 //! # Shutdown
-//! Each session watches the server's shutdown token ([`crate::AppState::shutdown`]): when it
+//! Each session watches the server's shutdown token ([`shutdown`](crate::state::Inner::shutdown) field): when it
 //! fires, the session queues a Close frame (1001, going away), lets the writer flush it (up to
 //! [`CLOSE_GRACE`]) and ends. axum's graceful shutdown does not close upgraded connections on its
 //! own.
