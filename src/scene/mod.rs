@@ -184,6 +184,11 @@ impl Scene {
         })
     }
 
+    /// Whether any layer is an FFT layer (its queries may need a frame computed: CPU work).
+    pub fn has_fft(&self) -> bool {
+        self.layer_kinds().contains(&"fft")
+    }
+
     /// Layer kinds in order.
     pub fn layer_kinds(&self) -> Vec<&'static str> {
         self.spec

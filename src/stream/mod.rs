@@ -2,6 +2,8 @@
 //! frames.
 //!
 //! - [`messages`] — the messages and their two codecs (`swell.v1.json`, `swell.v1.protobuf`).
+//! - [`frame`] — a tick frame shared by every subscriber, each body state encoded once per
+//!   codec and each subscriber's frame assembled from those bytes.
 //! - [`ticks`] — the per-scene tick loop; its [`ticks::TickHook`] puts the scene's floating
 //!   bodies, caught up to each frame's tick, in the frame
 //!   ([`crate::bodies::runner::BodiesHook`]).
@@ -14,8 +16,8 @@
 //! the client is not reading fast enough and is disconnected, without delaying anyone else's
 //! ticks (the tick loop broadcasts and never waits either).
 //!
-//! Queries run as in HTTP ([`crate::api::query::run_sample`] etc., on a blocking thread), a few
-//! at a time per socket, each answering into the queue when done (answers carry the request's
+//! Queries run as in HTTP ([`crate::api::query::run_sample`] etc.: inline when cheap, else on a
+//! blocking thread, see [`crate::api::query::runs_inline`]), a few at a time per socket, each answering into the queue when done (answers carry the request's
 //! `id`, and may come back in a different order than asked). Every message is checked for
 //! non-finite numbers on its way into the queue ([`messages::Outgoing::finite_or_error`]).
 //!
@@ -29,6 +31,7 @@
 //! [`CLOSE_GRACE`]) and ends. axum's graceful shutdown does not close upgraded connections on its
 //! own.
 
+pub mod frame;
 pub mod messages;
 pub mod ticks;
 
@@ -44,10 +47,12 @@ use futures_util::{Sink, SinkExt, Stream, StreamExt};
 use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
-use crate::api::query::{resolve_time, run_orientation, run_sample};
-use crate::api::types::Tick;
+use crate::api::query::{
+    orientation_probes, resolve_time, run_orientation, run_sample, runs_inline,
+};
 use crate::error::ApiError;
 use crate::state::AppState;
+use frame::SharedTick;
 use messages::{
     Codec, DecodeError, Event, Incoming, JSON_PROTOCOL, Outgoing, PROTOBUF_PROTOCOL, Request,
 };
@@ -170,6 +175,13 @@ impl Queue {
         }
     }
 
+    /// Queues an already encoded (and checked) message.
+    fn push_message(&self, msg: Message) {
+        if let Err(mpsc::error::TrySendError::Full(_)) = self.tx.try_send(msg) {
+            self.slow.cancel();
+        }
+    }
+
     fn error(&self, id: Option<u64>, e: ApiError) {
         self.push(Outgoing {
             id,
@@ -192,34 +204,22 @@ where
     let _ = sink.close().await;
 }
 
-/// The scene's tick frames, filtered to the subscriber's bodies.
+/// The scene's tick frames, and the bodies this subscriber follows (sorted, no repeats; empty:
+/// all).
 struct Subscription {
-    rx: broadcast::Receiver<Arc<Tick>>,
+    rx: broadcast::Receiver<Arc<SharedTick>>,
     bodies: Vec<u64>,
 }
 
 /// The next frame of the subscription; pending forever without one. `None` when the loop ended
 /// (the scene was deleted, or the server is stopping).
-async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<Tick>> {
+async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<SharedTick>> {
     let Some(s) = sub else {
         return std::future::pending().await;
     };
     loop {
         match s.rx.recv().await {
-            Ok(t) if s.bodies.is_empty() => return Some(t),
-            Ok(t) => {
-                let bodies = t
-                    .bodies
-                    .iter()
-                    .filter(|b| s.bodies.contains(&b.id))
-                    .copied()
-                    .collect();
-                return Some(Arc::new(Tick {
-                    tick: t.tick,
-                    t: t.t,
-                    bodies,
-                }));
-            }
+            Ok(t) => return Some(t),
             // Starved of CPU for a while: skip to the newest frames rather than replay old ones.
             Err(broadcast::error::RecvError::Lagged(n)) => {
                 tracing::debug!(skipped = n, "tick subscriber lagged");
@@ -276,7 +276,12 @@ where
                 }
             }
             frame = next_tick(&mut sub) => match frame {
-                Some(t) => queue.push(Outgoing { id: None, event: Event::Tick(t) }),
+                // Encoded once per frame and shared (see `frame`): only the subscriber's own
+                // selection of pre-encoded body states is assembled here.
+                Some(t) => {
+                    let interest = sub.as_ref().map_or(&[][..], |s| s.bodies.as_slice());
+                    queue.push_message(t.message(codec, interest));
+                }
                 None => {
                     sub = None;
                     if !shutdown.is_cancelled() {
@@ -387,13 +392,13 @@ fn handle(
             if !ticks {
                 *sub = None;
             } else if let Some(s) = sub {
-                s.bodies = bodies;
+                s.bodies = interest_set(bodies);
             } else if let Err(e) = state.scene(scene_id) {
                 queue.error(id, e);
             } else {
                 *sub = Some(Subscription {
                     rx: state.tickers.subscribe(state, scene_id),
-                    bodies,
+                    bodies: interest_set(bodies),
                 });
             }
         }
@@ -402,8 +407,11 @@ fn handle(
             scene_id,
             queue,
             permits,
-            id,
-            req.t,
+            Asked {
+                id,
+                t: req.t,
+                points: req.points.len(),
+            },
             move |st, scene, t| {
                 run_sample(&st.frames, &st.limits, scene, t, &req).map(Event::SampleResult)
             },
@@ -414,8 +422,11 @@ fn handle(
                 scene_id,
                 queue,
                 permits,
-                id,
-                req.t,
+                Asked {
+                    id,
+                    t: req.t,
+                    points: orientation_probes(&req),
+                },
                 move |st, scene, t| {
                     run_orientation(&st.frames, &st.limits, scene, t, &req)
                         .map(Event::OrientationResult)
@@ -425,15 +436,24 @@ fn handle(
     }
 }
 
-/// Runs a query as HTTP does (scene lookup, time resolution, the same `run_*` function on a
-/// blocking thread) and queues its answer.
+/// What a query message asked, as far as running it goes.
+struct Asked {
+    /// The client's id.
+    id: Option<u64>,
+    /// Its time (`None`: now).
+    t: Option<f64>,
+    /// Points (or probes) it samples: decides whether it runs inline.
+    points: usize,
+}
+
+/// Runs a query as HTTP does (scene lookup, time resolution, the same `run_*` function, inline
+/// when cheap ([`runs_inline`]) or on a blocking thread) and queues its answer.
 fn query(
     state: &AppState,
     scene_id: &str,
     queue: &Queue,
     permits: &Arc<Semaphore>,
-    id: Option<u64>,
-    t: Option<f64>,
+    Asked { id, t, points }: Asked,
     run: impl FnOnce(&AppState, &crate::scene::Scene, f64) -> Result<Event, ApiError> + Send + 'static,
 ) {
     let Ok(permit) = Arc::clone(permits).try_acquire_owned() else {
@@ -452,6 +472,14 @@ fn query(
         Ok(v) => v,
         Err(e) => return queue.error(id, e),
     };
+    if runs_inline(&scene, points) {
+        drop(permit);
+        match run(state, &scene, t) {
+            Ok(event) => queue.push(Outgoing { id, event }),
+            Err(e) => queue.error(id, e),
+        }
+        return;
+    }
     let st = state.clone();
     let queue = queue.clone();
     tokio::spawn(async move {
@@ -465,4 +493,11 @@ fn query(
             Err(e) => queue.error(id, e),
         }
     });
+}
+
+/// A subscriber's body ids, sorted and without repeats (what [`SharedTick::message`] takes).
+fn interest_set(mut ids: Vec<u64>) -> Vec<u64> {
+    ids.sort_unstable();
+    ids.dedup();
+    ids
 }

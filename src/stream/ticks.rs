@@ -30,6 +30,7 @@ use crate::api::types::{BodyState, Tick};
 use crate::scene::Scene;
 use crate::scene::clock::tick_of;
 use crate::state::AppState;
+use crate::stream::frame::SharedTick;
 
 /// Frames buffered per subscriber in the broadcast channel. A subscriber task only moves frames
 /// from here to its own bounded send queue, so it lags only if starved of CPU; 64 frames are two
@@ -65,11 +66,13 @@ pub trait TickHook: Send + 'static {
 /// The registry of running tick loops, by scene id.
 #[derive(Debug, Default)]
 pub struct Tickers {
-    loops: Mutex<BTreeMap<String, broadcast::Sender<Arc<Tick>>>>,
+    loops: Mutex<BTreeMap<String, broadcast::Sender<Arc<SharedTick>>>>,
 }
 
 impl Tickers {
-    fn lock(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, broadcast::Sender<Arc<Tick>>>> {
+    fn lock(
+        &self,
+    ) -> std::sync::MutexGuard<'_, BTreeMap<String, broadcast::Sender<Arc<SharedTick>>>> {
         // Entries are inserted and removed whole: a poisoned map is still consistent.
         self.loops.lock().unwrap_or_else(|p| p.into_inner())
     }
@@ -78,7 +81,7 @@ impl Tickers {
     ///
     /// The receiver is created under the registry lock, and the loop decides to stop under the
     /// same lock, so a new subscriber never attaches to a loop that is about to end.
-    pub fn subscribe(&self, state: &AppState, id: &str) -> broadcast::Receiver<Arc<Tick>> {
+    pub fn subscribe(&self, state: &AppState, id: &str) -> broadcast::Receiver<Arc<SharedTick>> {
         let mut loops = self.lock();
         if let Some(tx) = loops.get(id) {
             return tx.subscribe();
@@ -119,7 +122,7 @@ fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> 
 async fn run(
     state: AppState,
     id: String,
-    tx: broadcast::Sender<Arc<Tick>>,
+    tx: broadcast::Sender<Arc<SharedTick>>,
     mut hook: Option<Box<dyn TickHook>>,
 ) {
     let mut last: Option<i64> = None;
@@ -168,7 +171,7 @@ async fn run(
                 None => Vec::new(),
             };
             // An error only means no receiver right now; the next turn decides whether to stop.
-            let _ = tx.send(Arc::new(Tick { tick, t, bodies }));
+            let _ = tx.send(Arc::new(SharedTick::new(Tick { tick, t, bodies })));
             metrics::counter!("swell_ticks_total").increment(1);
             last = Some(tick);
         }

@@ -52,6 +52,8 @@ pub struct Report {
     pub ceiling: Option<Ceiling>,
     /// The server process, with `--server-pid`.
     pub server: Option<ServerProcess>,
+    /// The load tool's own CPU over the window, cores (Linux; `None` elsewhere).
+    pub tool_cpu_cores: Option<f64>,
 }
 
 impl Report {
@@ -235,6 +237,13 @@ impl fmt::Display for Report {
                 p.rss_start_mib,
                 p.rss_end_mib,
                 p.rss_peak_mib
+            )?;
+        }
+        if let Some(c) = self.tool_cpu_cores {
+            writeln!(
+                f,
+                "  tool      {:.0}% of one core (this process)",
+                c * 100.0
             )?;
         }
         Ok(())

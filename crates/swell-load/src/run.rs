@@ -73,6 +73,7 @@ pub async fn run(o: Options, stop: CancellationToken, progress: bool) -> Result<
     let window = Window::new(o.warmup, o.duration);
     let rec = Arc::new(Recorder::new(window));
     let srec = Arc::new(StreamRecorder::new(window));
+    let own_task = tokio::spawn(watch_own_cpu(window, stop.clone()));
     let proc_task = o.server_pid.map(|pid| {
         let stop = stop.clone();
         tokio::spawn(watch_process(pid, window, stop))
@@ -147,6 +148,7 @@ pub async fn run(o: Options, stop: CancellationToken, progress: bool) -> Result<
         Some(t) => t.await.ok().flatten(),
         None => None,
     };
+    let tool_cpu_cores = own_task.await.ok().flatten();
     let requests = (o.mode != Mode::Stream).then(|| rec.summary(measured_time));
     let stream = (o.subscribers > 0).then(|| {
         srec.summary(
@@ -179,6 +181,7 @@ pub async fn run(o: Options, stop: CancellationToken, progress: bool) -> Result<
         stream,
         ceiling,
         server,
+        tool_cpu_cores,
         options: o,
     })
 }
@@ -258,6 +261,20 @@ async fn watch_process(pid: u32, window: Window, stop: CancellationToken) -> Opt
     }
     let b = ProcSample::read(pid).ok()?;
     Some(ServerProcess::between(pid, a, b))
+}
+
+/// This process's CPU over the window.
+async fn watch_own_cpu(window: Window, stop: CancellationToken) -> Option<f64> {
+    tokio::select! {
+        _ = tokio::time::sleep_until(window.start.into()) => {}
+        _ = stop.cancelled() => return None,
+    }
+    let a = ProcSample::read(std::process::id()).ok();
+    tokio::select! {
+        _ = tokio::time::sleep_until(window.end.into()) => {}
+        _ = stop.cancelled() => {}
+    }
+    server::own_cpu_cores(a, ProcSample::read(std::process::id()).ok())
 }
 
 fn note(progress: bool, what: &str) {

@@ -258,6 +258,14 @@ impl ProcSample {
     }
 }
 
+/// This process's CPU over the window, in cores (1.0 = one core busy): on a machine shared with
+/// the server, a load tool near a full core is itself a bottleneck and the figures say so.
+pub fn own_cpu_cores(a: Option<ProcSample>, b: Option<ProcSample>) -> Option<f64> {
+    let (a, b) = (a?, b?);
+    let wall = b.at.duration_since(a.at).as_secs_f64();
+    (wall > 0.0).then(|| (b.cpu_s - a.cpu_s) / wall)
+}
+
 /// The server process over the run.
 #[derive(Debug, Clone, Serialize)]
 pub struct ServerProcess {
