@@ -234,7 +234,7 @@ mod tests {
             velocity: [1.5, 0.0, -k],
             angular_velocity: [0.0, 0.0, 0.25],
             submerged: 0.3,
-            quarantined: id % 2 == 0,
+            quarantined: id.is_multiple_of(2),
         }
     }
 
