@@ -245,6 +245,88 @@ async fn tick_frames_carry_body_states_and_the_filter_applies() {
     s.stop().await;
 }
 
+/// Interest by area: `subscribe.region` carries only the bodies inside the rectangle (with listed
+/// ids added to them), and a malformed region is an error naming `region`.
+#[tokio::test]
+async fn subscribe_region_carries_only_the_bodies_inside_it() {
+    use futures_util::SinkExt;
+    use tokio_tungstenite::tungstenite::Message;
+
+    let s = TestServer::start(config()).await;
+    let (_, near) = spawn(&s, "calm", &boat(0.6)).await; // at x = 5, z = -3
+    let mut far = boat(0.6);
+    far["position"] = json!([60.0, 0.6, 40.0]);
+    let (_, far) = spawn(&s, "calm", &far).await;
+    let (near, far) = (near["id"].as_u64().unwrap(), far["id"].as_u64().unwrap());
+    let mut ws = common::ws_connect(s.addr, "calm", None).await;
+    let ids = |f: &Value| -> Vec<u64> {
+        f["bodies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|b| b["id"].as_u64().unwrap())
+            .collect()
+    };
+    ws.send(Message::Text(
+        json!({"type": "subscribe", "ticks": true, "region": [0, -10, 10, 10]})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    for _ in 0..5 {
+        assert_eq!(ids(&next_tick(&mut ws).await), [near]);
+    }
+    // Region plus a listed id: both.
+    ws.send(Message::Text(
+        json!({"type": "subscribe", "ticks": true, "region": [0, -10, 10, 10], "bodies": [far]})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    let mut both = false;
+    for _ in 0..30 {
+        if ids(&next_tick(&mut ws).await) == [near, far] {
+            both = true;
+            break;
+        }
+    }
+    assert!(both, "region and ids were not combined");
+    // A region with x0 > x1 is refused, naming the field; the socket stays open.
+    ws.send(Message::Text(
+        json!({"type": "subscribe", "id": 9, "ticks": true, "region": [10, 0, 0, 5]})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    let err = next_of_type(&mut ws, "error").await;
+    assert_eq!(err["id"], 9);
+    assert_eq!(err["code"], "invalid_value");
+    assert_eq!(err["field"], "region");
+    s.stop().await;
+}
+
+/// The next frame of `ty` on the socket.
+async fn next_of_type(ws: &mut common::Ws, ty: &str) -> Value {
+    use futures_util::StreamExt;
+    use tokio_tungstenite::tungstenite::Message;
+    loop {
+        let m = tokio::time::timeout(Duration::from_secs(10), ws.next())
+            .await
+            .expect("a frame within 10 s")
+            .expect("open")
+            .expect("frame");
+        if let Message::Text(t) = m {
+            let v: Value = serde_json::from_str(t.as_str()).unwrap();
+            if v["type"] == ty {
+                return v;
+            }
+        }
+    }
+}
+
 /// The next `tick` frame on the socket.
 async fn next_tick(ws: &mut common::Ws) -> Value {
     use futures_util::StreamExt;

@@ -27,7 +27,39 @@ use crate::api::finite::ensure_finite;
 use crate::api::types::{BodyState, Tick};
 use crate::wire::v1;
 
-use super::messages::{self, Codec, Event, Outgoing};
+use super::messages::{self, Codec, Event, Outgoing, Region};
+
+/// A subscriber's interest set: the bodies a frame carries for it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Interest {
+    /// Body ids, sorted, without repeats.
+    bodies: Vec<u64>,
+    /// Bodies whose position (x, z) lies in this rectangle, re-evaluated every frame.
+    region: Option<Region>,
+}
+
+impl Interest {
+    /// Bodies listed in `bodies` or inside `region`; neither given: every body.
+    pub fn new(mut bodies: Vec<u64>, region: Option<Region>) -> Self {
+        bodies.sort_unstable();
+        bodies.dedup();
+        Self { bodies, region }
+    }
+
+    /// Whether this is every body of the scene.
+    pub fn is_all(&self) -> bool {
+        self.bodies.is_empty() && self.region.is_none()
+    }
+
+    /// Whether the frame carries `b` for this subscriber.
+    pub fn wants(&self, b: &BodyState) -> bool {
+        self.is_all()
+            || self.bodies.binary_search(&b.id).is_ok()
+            || self
+                .region
+                .is_some_and(|r| r.contains(b.position[0], b.position[2]))
+    }
+}
 
 /// `swell.v1.ServerMessage.tick` and `swell.v1.Tick.bodies` field numbers.
 const SERVER_MESSAGE_TICK: u32 = 5;
@@ -104,26 +136,23 @@ impl SharedTick {
         })
     }
 
-    /// The message for a subscriber of `codec` following `interest` (sorted body ids; empty: all
-    /// bodies). A frame whose chosen states hold a non-finite number becomes an error message,
-    /// as every outgoing message does ([`Outgoing::finite_or_error`]).
-    pub fn message(&self, codec: Codec, interest: &[u64]) -> Message {
+    /// The message for a subscriber of `codec` following `interest`. A frame whose chosen
+    /// states hold a non-finite number becomes an error message, as every outgoing message does
+    /// ([`Outgoing::finite_or_error`]).
+    pub fn message(&self, codec: Codec, interest: &Interest) -> Message {
         let finite = self.finite();
-        let chosen: Vec<usize> = if interest.is_empty() {
-            (0..self.tick.bodies.len()).collect()
-        } else {
-            self.tick
-                .bodies
-                .iter()
-                .enumerate()
-                .filter(|(_, b)| interest.binary_search(&b.id).is_ok())
-                .map(|(i, _)| i)
-                .collect()
-        };
+        let chosen: Vec<usize> = self
+            .tick
+            .bodies
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| interest.wants(b))
+            .map(|(i, _)| i)
+            .collect();
         if !self.tick.t.is_finite() || chosen.iter().any(|&i| !finite[i]) {
             return self.checked_slow_path(codec, &chosen);
         }
-        let bytes = if interest.is_empty() {
+        let bytes = if interest.is_all() {
             self.encoded(codec)
                 .full
                 .get_or_init(|| self.assemble(codec, &chosen))
@@ -269,7 +298,8 @@ mod tests {
             for codec in [Codec::Json, Codec::Protobuf] {
                 // Everything, twice (the second from the shared bytes).
                 for _ in 0..2 {
-                    assert_eq!(bytes(shared.message(codec, &[])), expected(codec, &tick));
+                    let all = Interest::default();
+                    assert_eq!(bytes(shared.message(codec, &all)), expected(codec, &tick));
                 }
                 // Interest sets: some, none present, one.
                 for interest in [&[0u64, 6, 18][..], &[1, 2], &[9]] {
@@ -282,14 +312,43 @@ mod tests {
                             .collect(),
                         ..tick.clone()
                     };
+                    let set = Interest::new(interest.to_vec(), None);
                     assert_eq!(
-                        bytes(shared.message(codec, interest)),
+                        bytes(shared.message(codec, &set)),
                         expected(codec, &filtered),
                         "{codec:?} {interest:?}"
                     );
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_region_picks_the_bodies_inside_it_together_with_listed_ids() {
+        // Bodies i at x = i + 0.37, z = -0.125·x: a region over x in [2, 4] holds ids 6 and 9.
+        let tick = Tick {
+            tick: 1,
+            t: 0.5,
+            bodies: (0..7).map(|i| body(i * 3, i as f64 + 0.37)).collect(),
+        };
+        let shared = SharedTick::new(tick.clone());
+        let ids = |i: &Interest| -> Vec<u64> {
+            let v: serde_json::Value =
+                serde_json::from_slice(&bytes(shared.message(Codec::Json, i))).unwrap();
+            v["bodies"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|b| b["id"].as_u64().unwrap())
+                .collect()
+        };
+        let region = Region::new([2.0, -10.0, 4.0, 10.0]).unwrap();
+        assert_eq!(ids(&Interest::new(vec![], Some(region))), [6, 9]);
+        assert_eq!(ids(&Interest::new(vec![0, 9], Some(region))), [0, 6, 9]);
+        let far = Region::new([100.0, 100.0, 200.0, 200.0]).unwrap();
+        assert_eq!(ids(&Interest::new(vec![], Some(far))), Vec::<u64>::new());
+        assert!(Region::new([1.0, 0.0, 0.0, 1.0]).is_err());
+        assert!(Region::new([0.0, 0.0, f64::NAN, 1.0]).is_err());
     }
 
     #[test]
@@ -301,9 +360,11 @@ mod tests {
             t: 0.1,
             bodies: vec![body(1, 2.0), bad],
         });
-        let text = String::from_utf8(bytes(shared.message(Codec::Json, &[]))).unwrap();
+        let all = Interest::default();
+        let text = String::from_utf8(bytes(shared.message(Codec::Json, &all))).unwrap();
         assert!(text.contains("\"type\":\"error\""), "{text}");
-        let text = String::from_utf8(bytes(shared.message(Codec::Json, &[1]))).unwrap();
+        let one = Interest::new(vec![1], None);
+        let text = String::from_utf8(bytes(shared.message(Codec::Json, &one))).unwrap();
         assert!(text.contains("\"type\":\"tick\""), "{text}");
     }
 }

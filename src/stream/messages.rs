@@ -54,9 +54,51 @@ pub enum Request {
     Subscribe {
         /// Whether to receive tick frames.
         ticks: bool,
-        /// Body ids to carry in tick frames (empty: all).
+        /// Body ids to carry in tick frames.
         bodies: Vec<u64>,
+        /// Also carry the bodies inside this rectangle (with `bodies` empty: only those).
+        region: Option<Region>,
     },
+}
+
+/// An axis-aligned rectangle of the sea surface, world metres (bounds included).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Region {
+    /// Smallest x.
+    pub x0: f64,
+    /// Smallest z.
+    pub z0: f64,
+    /// Largest x.
+    pub x1: f64,
+    /// Largest z.
+    pub z1: f64,
+}
+
+impl Region {
+    /// Checks `[x0, z0, x1, z1]`: finite, `x0 <= x1`, `z0 <= z1`.
+    ///
+    /// # Errors
+    /// 400 `invalid_value` naming `region`.
+    pub fn new([x0, z0, x1, z1]: [f64; 4]) -> Result<Region, ApiError> {
+        if ![x0, z0, x1, z1].iter().all(|v| v.is_finite()) {
+            return Err(ApiError::invalid(
+                "region",
+                "region must be four finite numbers [x0, z0, x1, z1] (metres)",
+            ));
+        }
+        if x0 > x1 || z0 > z1 {
+            return Err(ApiError::invalid(
+                "region",
+                format!("region [{x0}, {z0}, {x1}, {z1}] needs x0 <= x1 and z0 <= z1"),
+            ));
+        }
+        Ok(Region { x0, z0, x1, z1 })
+    }
+
+    /// Whether the world point `(x, z)` lies inside (bounds included).
+    pub fn contains(&self, x: f64, z: f64) -> bool {
+        x >= self.x0 && x <= self.x1 && z >= self.z0 && z <= self.z1
+    }
 }
 
 /// A decoded client message.
@@ -161,6 +203,8 @@ struct SubscribeBody {
     ticks: bool,
     #[serde(default)]
     bodies: Option<Vec<u64>>,
+    #[serde(default)]
+    region: Option<[f64; 4]>,
 }
 
 /// Decodes a JSON text frame.
@@ -208,9 +252,12 @@ pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
         }),
         "sample" => json::from_value(rest).map(Request::Sample),
         "orientation" => json::from_value(rest).map(Request::Orientation),
-        "subscribe" => json::from_value::<SubscribeBody>(rest).map(|s| Request::Subscribe {
-            ticks: s.ticks,
-            bodies: s.bodies.unwrap_or_default(),
+        "subscribe" => json::from_value::<SubscribeBody>(rest).and_then(|s| {
+            Ok(Request::Subscribe {
+                ticks: s.ticks,
+                bodies: s.bodies.unwrap_or_default(),
+                region: s.region.map(Region::new).transpose()?,
+            })
         }),
         other => Err(ApiError::new(
             StatusCode::BAD_REQUEST,
@@ -254,10 +301,15 @@ pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
         }),
         Some(client_message::Msg::Sample(s)) => s.try_into().map(Request::Sample),
         Some(client_message::Msg::Orientation(o)) => o.try_into().map(Request::Orientation),
-        Some(client_message::Msg::Subscribe(s)) => Ok(Request::Subscribe {
-            ticks: s.ticks,
-            bodies: s.bodies,
-        }),
+        Some(client_message::Msg::Subscribe(s)) => s
+            .region
+            .map(|r| Region::new([r.x0, r.z0, r.x1, r.z1]))
+            .transpose()
+            .map(|region| Request::Subscribe {
+                ticks: s.ticks,
+                bodies: s.bodies,
+                region,
+            }),
         None => Err(ApiError::new(
             StatusCode::BAD_REQUEST,
             "bad_protobuf",

@@ -52,7 +52,7 @@ use crate::api::query::{
 };
 use crate::error::ApiError;
 use crate::state::AppState;
-use frame::SharedTick;
+use frame::{Interest, SharedTick};
 use messages::{
     Codec, DecodeError, Event, Incoming, JSON_PROTOCOL, Outgoing, PROTOBUF_PROTOCOL, Request,
 };
@@ -204,11 +204,10 @@ where
     let _ = sink.close().await;
 }
 
-/// The scene's tick frames, and the bodies this subscriber follows (sorted, no repeats; empty:
-/// all).
+/// The scene's tick frames, and the bodies this subscriber follows.
 struct Subscription {
     rx: broadcast::Receiver<Arc<SharedTick>>,
-    bodies: Vec<u64>,
+    interest: Interest,
 }
 
 /// The next frame of the subscription; pending forever without one. `None` when the loop ended
@@ -279,7 +278,8 @@ where
                 // Encoded once per frame and shared (see `frame`): only the subscriber's own
                 // selection of pre-encoded body states is assembled here.
                 Some(t) => {
-                    let interest = sub.as_ref().map_or(&[][..], |s| s.bodies.as_slice());
+                    let all = Interest::default();
+                    let interest = sub.as_ref().map_or(&all, |s| &s.interest);
                     queue.push_message(t.message(codec, interest));
                 }
                 None => {
@@ -388,17 +388,21 @@ fn handle(
             }
             Err(e) => queue.error(id, e),
         },
-        Request::Subscribe { ticks, bodies } => {
+        Request::Subscribe {
+            ticks,
+            bodies,
+            region,
+        } => {
             if !ticks {
                 *sub = None;
             } else if let Some(s) = sub {
-                s.bodies = interest_set(bodies);
+                s.interest = Interest::new(bodies, region);
             } else if let Err(e) = state.scene(scene_id) {
                 queue.error(id, e);
             } else {
                 *sub = Some(Subscription {
                     rx: state.tickers.subscribe(state, scene_id),
-                    bodies: interest_set(bodies),
+                    interest: Interest::new(bodies, region),
                 });
             }
         }
@@ -493,11 +497,4 @@ fn query(
             Err(e) => queue.error(id, e),
         }
     });
-}
-
-/// A subscriber's body ids, sorted and without repeats (what [`SharedTick::message`] takes).
-fn interest_set(mut ids: Vec<u64>) -> Vec<u64> {
-    ids.sort_unstable();
-    ids.dedup();
-    ids
 }

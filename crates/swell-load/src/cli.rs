@@ -162,6 +162,10 @@ pub struct Args {
     /// Bodies each subscriber follows (its interest set; 0 = all of the scene's bodies).
     #[arg(long, default_value_t = 0)]
     pub bodies_per_subscriber: usize,
+    /// Subscribers also follow the bodies inside this rectangle, `x0,z0,x1,z1` (interest by
+    /// area, re-evaluated by the server every tick).
+    #[arg(long, value_parser = parse_area, allow_hyphen_values = true)]
+    pub region: Option<Area>,
     /// `mixed`: weights, e.g. `height=90,sample=9,orientation=1`.
     #[arg(long, default_value = "height=90,sample=9,orientation=1", value_parser = parse_mix)]
     pub mix: Mix,
@@ -234,6 +238,8 @@ pub struct Options {
     pub subscribers: usize,
     /// Interest set size per subscriber (0 = all).
     pub bodies_per_subscriber: usize,
+    /// Interest by area.
+    pub region: Option<Area>,
     /// `mixed` weights.
     pub mix: Mix,
     /// Bodies to spawn first.
@@ -412,6 +418,9 @@ impl Args {
                 "stream sends no requests: the scene's tick rate sets the frame rate",
             ));
         }
+        if self.region.is_some() && subscribers == 0 {
+            return Err(bad("--region", "applies to stream subscribers only"));
+        }
         if self.spawn_bodies > MAX_SPAWN {
             return Err(bad(
                 "--spawn-bodies",
@@ -452,6 +461,7 @@ impl Args {
             seed: self.seed,
             subscribers,
             bodies_per_subscriber: self.bodies_per_subscriber,
+            region: self.region,
             mix: self.mix,
             spawn_bodies: self.spawn_bodies,
             admin_token: self.admin_token,

@@ -222,20 +222,30 @@ pub fn ping(wire: Wire, id: u64, client_time: f64) -> Message {
     )
 }
 
-/// `subscribe {ticks: true, bodies}`.
-pub fn subscribe(wire: Wire, bodies: &[u64]) -> Message {
+/// `subscribe {ticks: true, bodies, region?}`.
+pub fn subscribe(wire: Wire, bodies: &[u64], region: Option<crate::cli::Area>) -> Message {
     frame(
         wire,
         match wire {
-            Wire::Json => serde_json::to_vec(
-                &serde_json::json!({"type": "subscribe", "ticks": true, "bodies": bodies}),
-            )
-            .expect("serialises"),
+            Wire::Json => {
+                let mut m =
+                    serde_json::json!({"type": "subscribe", "ticks": true, "bodies": bodies});
+                if let Some(r) = region {
+                    m["region"] = serde_json::json!([r.x0, r.z0, r.x1, r.z1]);
+                }
+                serde_json::to_vec(&m).expect("serialises")
+            }
             Wire::Protobuf => v1::ClientMessage {
                 id: None,
                 msg: Some(v1::client_message::Msg::Subscribe(v1::Subscribe {
                     ticks: true,
                     bodies: bodies.to_vec(),
+                    region: region.map(|r| v1::Region {
+                        x0: r.x0,
+                        z0: r.z0,
+                        x1: r.x1,
+                        z1: r.z1,
+                    }),
                 })),
             }
             .encode_to_vec(),

@@ -323,6 +323,48 @@ async fn stream_subscribers_get_every_tick_with_their_interest_set() {
     );
     assert_eq!(st.frames_with_unexpected_bodies, 0);
     assert!(st.frames >= 50, "{}", st.frames);
+
+    // Interest by area: the 4 bodies sit on a 20 m grid around the origin (x, z in -20..0), so
+    // a region over x, z in [-25, 5] holds all of them and one far away holds none.
+    let r = s
+        .run(&[
+            "stream",
+            "--scene",
+            "calm",
+            "--subscribers",
+            "2",
+            "--region",
+            "-25,-25,5,5",
+            "--duration",
+            "1s",
+            "--warmup",
+            "200ms",
+        ])
+        .await;
+    let st = r.stream.as_ref().unwrap();
+    assert!(
+        (st.bodies_per_frame - 4.0).abs() < 1e-9,
+        "{}",
+        st.bodies_per_frame
+    );
+    let r = s
+        .run(&[
+            "stream",
+            "--scene",
+            "calm",
+            "--subscribers",
+            "2",
+            "--region",
+            "500,500,600,600",
+            "--wire",
+            "protobuf",
+            "--duration",
+            "1s",
+            "--warmup",
+            "200ms",
+        ])
+        .await;
+    assert_eq!(r.stream.as_ref().unwrap().bodies_per_frame, 0.0);
     s.stop().await;
 }
 
