@@ -150,9 +150,7 @@ pub async fn connect_all(o: &Options, n: usize, ids: &[u64]) -> Result<Vec<Subsc
     let mut rng = Rng::new(o.seed ^ 0x0005_EED0_F5E7);
     let interests: Vec<Vec<u64>> = (0..n)
         .map(|_| {
-            if region.is_some() && per == 0 {
-                Vec::new()
-            } else if per == 0 || per >= ids.len() {
+            if per == 0 || per >= ids.len() {
                 Vec::new()
             } else {
                 let mut pool = ids.to_vec();
