@@ -1,43 +1,98 @@
 //! The shared FFT frame cache.
 //!
 //! An FFT frame (the grids of one FFT layer at one time) costs one inverse 2-D FFT per field and
-//! is the same for every request at that time, so it is computed once and shared. Entries are
-//! keyed by `(scene id, spec hash, layer, t bits, fields)`; each holds a `OnceLock`, so requests
-//! that arrive together while the frame is being computed wait for that one computation instead
-//! of repeating it. A request may use a cached frame holding more fields than it needs.
+//! is the same for every request that reads it, so it is computed once and shared. With the
+//! model's default time sampling ([`TimeSampling::Grid`]) a query at any t reads the frames of
+//! the one or two grid times around t, so every query between the same two grid times — in
+//! particular every query at the scene's *now* — shares the same frames; entries are keyed by
+//! grid index. Queries with `accuracy.time = "exact"` key their frame by the bits of t.
 //!
-//! The cache is bounded (least recently used entries go first). Computing happens in the caller's
-//! thread, which must be a blocking one (`spawn_blocking`): `OnceLock::get_or_init` blocks the
-//! waiters.
+//! Entries are keyed by `(scene, layer, grid index or t)`; each holds a `OnceLock`, so requests
+//! that arrive together while a frame is being computed wait for that one computation instead of
+//! repeating it. An entry holds the fields it was computed with; a request needing more replaces
+//! it with a frame of the union.
+//!
+//! # Two pools: near now, and everything else
+//! A grid frame within [`NEAR_STEPS`] grid steps of the scene's clock *now* is a **near** frame;
+//! every other frame (far-off times, exact times) is a **far** frame. Far frames live in a
+//! least-recently-used pool of `capacity` entries and evict only each other, so a client asking
+//! for many distant times cannot evict the frames every player at *now* reads. Near frames are
+//! dropped when the clock has left them behind (more than [`NEAR_STEPS`] steps away) or when
+//! unused for [`NEAR_IDLE`], so they are bounded by `2·NEAR_STEPS + 1` per FFT layer of each
+//! scene in use.
+//!
+//! # Computing ahead
+//! While a scene is queried ([`FrameCache::active_scenes`]), [`run_ahead`] computes the grid
+//! frames the clock is about to reach, so a query at now finds its frames ready and answers
+//! without waiting for an FFT (on the reactor, see `api::query`).
+//!
+//! Computing happens in the caller's thread, which must be a blocking one (`spawn_blocking`):
+//! `OnceLock::get_or_init` blocks the waiters.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use swell_waves::fft::{FftFields, FftFrame};
-use swell_waves::{Layer, QueryFields, QueryOptions, SpecError, SurfaceAt};
+use swell_waves::fft::{FftFields, FftFrame, FftLayer};
+use swell_waves::{
+    Layer, LayerFrames, QueryFields, QueryOptions, SpecError, SurfaceAt, TimeSampling,
+};
 
 use crate::scene::Scene;
 
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-struct Key {
-    scene: String,
-    spec_hash: String,
-    layer: usize,
-    t_bits: u64,
-    fields: [bool; 4],
+/// Grid steps either side of the clock's now whose frames are protected from far-off requests:
+/// 6 steps (100 ms at the default 1/60 s) covers clients whose own synchronised clocks, or
+/// request latency, put their `t` a little before or after the server's now.
+pub const NEAR_STEPS: u64 = 6;
+
+/// A near frame unused this long is dropped (its scene has gone quiet, or been replaced).
+pub const NEAR_IDLE: Duration = Duration::from_secs(5);
+
+/// A scene counts as in use (its frames are computed ahead) this long after its last query.
+pub const ACTIVE_FOR: Duration = Duration::from_secs(2);
+
+/// Which frame of a layer an entry holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum When {
+    /// Grid index.
+    Grid(u64),
+    /// The bits of an exact query time.
+    Exact(u64),
 }
 
-fn field_bits(f: FftFields) -> [bool; 4] {
-    [f.height, f.displacement, f.slopes, f.jacobian]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+struct Key {
+    /// [`Scene::uid`]: one per built scene, so a replaced scene never reads the old frames.
+    scene: u64,
+    layer: usize,
+    when: When,
 }
 
 type Slot = Arc<OnceLock<Arc<FftFrame>>>;
 
+#[derive(Debug)]
+struct Entry {
+    slot: Slot,
+    fields: FftFields,
+    near: bool,
+    used: u64,
+    used_at: Instant,
+}
+
+/// What the cache knows of a scene's recent queries.
+#[derive(Debug, Clone, Copy)]
+struct Activity {
+    last: Instant,
+    /// Union of the FFT fields recent queries needed, per layer (computed ahead with these).
+    wanted: [FftFields; swell_waves::surface::MAX_LAYERS],
+}
+
 #[derive(Debug, Default)]
 struct Inner {
-    entries: HashMap<Key, (Slot, u64)>,
+    entries: HashMap<Key, Entry>,
+    activity: HashMap<u64, Activity>,
     clock: u64,
+    far: usize,
 }
 
 /// A bounded cache of FFT frames shared by all requests.
@@ -47,8 +102,14 @@ pub struct FrameCache {
     inner: Mutex<Inner>,
 }
 
+/// Circular distance between two grid indices of a grid of `m` steps.
+fn grid_distance(a: u64, b: u64, m: u64) -> u64 {
+    let d = a.abs_diff(b) % m;
+    d.min(m - d)
+}
+
 impl FrameCache {
-    /// A cache holding at most `capacity` frames (at least 1).
+    /// A cache holding at most `capacity` far frames (at least 1), plus the near frames.
     pub fn new(capacity: usize) -> FrameCache {
         FrameCache {
             capacity: capacity.max(1),
@@ -56,7 +117,7 @@ impl FrameCache {
         }
     }
 
-    /// Number of frames held (computed or being computed).
+    /// Number of frames held (computed or being computed), near and far.
     pub fn len(&self) -> usize {
         self.lock().entries.len()
     }
@@ -66,61 +127,178 @@ impl FrameCache {
         self.len() == 0
     }
 
+    /// Number of near frames held.
+    pub fn near_len(&self) -> usize {
+        self.lock().entries.values().filter(|e| e.near).count()
+    }
+
     fn lock(&self) -> std::sync::MutexGuard<'_, Inner> {
         // A panic while holding this lock cannot leave the map inconsistent (each operation is a
         // single insert/remove), so a poisoned lock is still usable.
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// The slot for a frame: an existing ready frame with at least `fields`, or the slot keyed
-    /// by exactly `fields` (created if absent). Evicts the least recently used entry when full.
-    fn slot(&self, scene: &Scene, layer: usize, t: f64, fields: FftFields) -> Slot {
-        let mut g = self.lock();
-        g.clock += 1;
-        let stamp = g.clock;
-        let key = Key {
-            scene: scene.id.clone(),
-            spec_hash: scene.spec_hash.clone(),
-            layer,
-            t_bits: t.to_bits(),
-            fields: field_bits(fields),
-        };
-        if let Some((slot, used)) = g.entries.get_mut(&key) {
-            *used = stamp;
-            return slot.clone();
-        }
-        // A ready frame with more fields serves as well.
-        let wider = g.entries.iter_mut().find(|(k, (slot, _))| {
-            k.scene == key.scene
-                && k.spec_hash == key.spec_hash
-                && k.layer == layer
-                && k.t_bits == key.t_bits
-                && slot.get().is_some_and(|f| f.fields().contains(fields))
-        });
-        if let Some((_, (slot, used))) = wider {
-            *used = stamp;
-            return slot.clone();
-        }
-        while g.entries.len() >= self.capacity {
-            let oldest = g
-                .entries
-                .iter()
-                .min_by_key(|(_, (_, used))| *used)
-                .map(|(k, _)| k.clone());
-            match oldest {
-                Some(k) => {
-                    g.entries.remove(&k);
-                }
-                None => break,
+    /// The frame times one layer reads at `t`: one or two keys.
+    fn whens(layer: &FftLayer, t: f64, time: TimeSampling) -> (When, Option<When>) {
+        match time {
+            TimeSampling::Exact => (When::Exact(t.to_bits()), None),
+            TimeSampling::Grid => {
+                let p = layer.grid_position(t);
+                (
+                    When::Grid(p.index),
+                    (p.weight > 0.0).then_some(When::Grid(p.next)),
+                )
             }
         }
+    }
+
+    /// Whether `when` is a near frame of `layer` given the clock's `now`.
+    fn is_near(layer: &FftLayer, when: When, now: f64) -> bool {
+        match when {
+            When::Exact(_) => false,
+            When::Grid(n) => {
+                let at = layer.grid_position(now).index;
+                grid_distance(n, at, layer.grid_steps()) <= NEAR_STEPS
+            }
+        }
+    }
+
+    /// Notes a query of `scene` needing `need` from each FFT layer.
+    fn note_activity(g: &mut Inner, scene: &Scene, need: &[FftFields]) {
+        let now = Instant::now();
+        let a = g.activity.entry(scene.uid).or_insert(Activity {
+            last: now,
+            wanted: [FftFields::NONE; swell_waves::surface::MAX_LAYERS],
+        });
+        a.last = now;
+        for (w, n) in a.wanted.iter_mut().zip(need) {
+            *w = w.union(*n);
+        }
+    }
+
+    /// The slot holding `key` with at least `need`, creating (or widening) it if absent, and
+    /// evicting as the pools require.
+    fn slot(&self, key: Key, need: FftFields, near: bool) -> (Slot, FftFields) {
+        let mut guard = self.lock();
+        let g = &mut *guard;
+        g.clock += 1;
+        let stamp = g.clock;
+        let now = Instant::now();
+        if let Some(e) = g.entries.get_mut(&key)
+            && e.fields.contains(need)
+        {
+            e.used = stamp;
+            e.used_at = now;
+            if near && !e.near {
+                // A far frame the clock has come close to joins the near pool.
+                e.near = true;
+                g.far -= 1;
+            }
+            return (e.slot.clone(), e.fields);
+        }
+        // Absent, or too few fields: a new slot with the union (waiters on an old slot still
+        // get the frame they asked for).
+        let fields = g.entries.get(&key).map_or(need, |e| e.fields.union(need));
+        if let Some(old) = g.entries.remove(&key)
+            && !old.near
+        {
+            g.far -= 1;
+        }
+        if near {
+            // Near frames the clock has left behind or nobody reads go first.
+            g.entries
+                .retain(|_, e| !e.near || now.duration_since(e.used_at) < NEAR_IDLE);
+        } else {
+            while g.far >= self.capacity {
+                let oldest = g
+                    .entries
+                    .iter()
+                    .filter(|(_, e)| !e.near)
+                    .min_by_key(|(_, e)| e.used)
+                    .map(|(k, _)| *k);
+                match oldest {
+                    Some(k) => {
+                        g.entries.remove(&k);
+                        g.far -= 1;
+                    }
+                    None => break,
+                }
+            }
+            g.far += 1;
+        }
         let slot: Slot = Arc::new(OnceLock::new());
-        g.entries.insert(key, (slot.clone(), stamp));
-        slot
+        g.entries.insert(
+            key,
+            Entry {
+                slot: slot.clone(),
+                fields,
+                near,
+                used: stamp,
+                used_at: now,
+            },
+        );
+        (slot, fields)
+    }
+
+    /// Drops near frames of `scene` that are now more than [`NEAR_STEPS`] from the clock.
+    fn prune_near(&self, scene: &Scene, now: f64) {
+        self.lock().entries.retain(|k, e| {
+            !e.near
+                || k.scene != scene.uid
+                || match scene.surface.layers().get(k.layer) {
+                    Some(Layer::Fft(f)) => Self::is_near(f, k.when, now),
+                    _ => false,
+                }
+        });
+    }
+
+    /// One frame of `layer` (index `i` of `scene`) at `when`, from the cache or computed now.
+    fn frame(
+        &self,
+        scene: &Scene,
+        i: usize,
+        layer: &FftLayer,
+        when: When,
+        need: FftFields,
+        now: f64,
+    ) -> Arc<FftFrame> {
+        let near = Self::is_near(layer, when, now);
+        let key = Key {
+            scene: scene.uid,
+            layer: i,
+            when,
+        };
+        let (slot, fields) = self.slot(key, need, near);
+        slot.get_or_init(|| {
+            let start = Instant::now();
+            let frame = Arc::new(match when {
+                When::Grid(n) => layer.grid_frame(n, fields),
+                When::Exact(bits) => layer.frame(f64::from_bits(bits), fields),
+            });
+            metrics::counter!("swell_fft_frames_total").increment(1);
+            metrics::histogram!("swell_fft_frame_seconds").record(start.elapsed().as_secs_f64());
+            frame
+        })
+        .clone()
+    }
+
+    /// The FFT fields queries of `fields` with `options` need from every layer.
+    fn needs(scene: &Scene, fields: QueryFields, options: &QueryOptions) -> Vec<FftFields> {
+        scene
+            .surface
+            .layers()
+            .iter()
+            .map(|l| match l {
+                Layer::Fft(f) => scene.surface.fft_fields_for(f, fields, options),
+                _ => FftFields::NONE,
+            })
+            .collect()
     }
 
     /// The scene's surface at `t`, ready for queries of `fields` with `options`, with every FFT
-    /// frame taken from (or computed into) the cache. Blocking: call from `spawn_blocking`.
+    /// frame taken from (or computed into) the cache; `now` is the scene clock's time now (it
+    /// decides which frames are near). Blocking when a frame must be computed: call from
+    /// `spawn_blocking` unless [`FrameCache::has_frames`] said yes.
     ///
     /// # Errors
     /// `t` not finite or invalid `options` (the model's error).
@@ -128,11 +306,12 @@ impl FrameCache {
         &self,
         scene: &'s Scene,
         t: f64,
+        now: f64,
         fields: QueryFields,
         options: &QueryOptions,
     ) -> Result<SurfaceAt<'s>, SpecError> {
         let surface = &scene.surface;
-        if !surface.has_fft() {
+        if !surface.has_fft() || options.reference {
             return surface.at(t, fields, options);
         }
         // Check before computing anything: a bad t or option must not cost a frame.
@@ -140,27 +319,275 @@ impl FrameCache {
             return surface.at_with_frames(t, Vec::new(), options);
         }
         options.validate()?;
+        let needs = Self::needs(scene, fields, options);
+        Self::note_activity(&mut self.lock(), scene, &needs);
         let frames = surface
             .layers()
             .iter()
             .enumerate()
             .map(|(i, layer)| match layer {
                 Layer::Fft(f) => {
-                    let need = surface.fft_fields_for(f, fields, options);
-                    let slot = self.slot(scene, i, t, need);
-                    let frame = slot.get_or_init(|| {
-                        let start = Instant::now();
-                        let frame = Arc::new(f.frame(t, need));
-                        let secs = start.elapsed().as_secs_f64();
-                        metrics::counter!("swell_fft_frames_total").increment(1);
-                        metrics::histogram!("swell_fft_frame_seconds").record(secs);
-                        frame
-                    });
-                    Some(frame.clone())
+                    let (a, b) = Self::whens(f, t, options.time);
+                    let frame = self.frame(scene, i, f, a, needs[i], now);
+                    let next = b.map(|b| self.frame(scene, i, f, b, needs[i], now));
+                    Some(LayerFrames { frame, next })
                 }
                 _ => None,
             })
             .collect();
         surface.at_with_frames(t, frames, options)
+    }
+
+    /// Whether [`FrameCache::surface_at`] would find every frame it needs already computed
+    /// (always true without FFT layers): then it costs microseconds and cannot block.
+    pub fn has_frames(
+        &self,
+        scene: &Scene,
+        t: f64,
+        fields: QueryFields,
+        options: &QueryOptions,
+    ) -> bool {
+        if !scene.surface.has_fft() {
+            return true;
+        }
+        if !t.is_finite() || options.reference {
+            return false;
+        }
+        let needs = Self::needs(scene, fields, options);
+        let g = self.lock();
+        scene
+            .surface
+            .layers()
+            .iter()
+            .enumerate()
+            .all(|(i, layer)| match layer {
+                Layer::Fft(f) => {
+                    let (a, b) = Self::whens(f, t, options.time);
+                    [Some(a), b].into_iter().flatten().all(|when| {
+                        let key = Key {
+                            scene: scene.uid,
+                            layer: i,
+                            when,
+                        };
+                        g.entries
+                            .get(&key)
+                            .is_some_and(|e| e.fields.contains(needs[i]) && e.slot.get().is_some())
+                    })
+                }
+                _ => true,
+            })
+    }
+
+    /// Uids of the scenes queried within [`ACTIVE_FOR`].
+    pub fn active_scenes(&self) -> Vec<u64> {
+        let now = Instant::now();
+        let mut g = self.lock();
+        g.activity
+            .retain(|_, a| now.duration_since(a.last) < ACTIVE_FOR);
+        g.activity.keys().copied().collect()
+    }
+
+    /// Computes the grid frames the clock reaches next: those read at `now` and one and two
+    /// grid steps later in the clock's direction (`rate` scene seconds per second; paused: 0),
+    /// with the fields recent queries wanted (height, at least). Frames already held cost
+    /// nothing. Blocking: call from `spawn_blocking`. Returns the number of frames computed.
+    pub fn compute_ahead(&self, scene: &Scene, now: f64, rate: f64) -> usize {
+        let wanted = self.lock().activity.get(&scene.uid).map(|a| a.wanted);
+        self.prune_near(scene, now);
+        let mut computed = 0;
+        for (i, layer) in scene.surface.layers().iter().enumerate() {
+            let Layer::Fft(f) = layer else { continue };
+            let need = wanted.map_or(FftFields::HEIGHT, |w| w[i].union(FftFields::HEIGHT));
+            // f64::signum(0.0) is 1: a paused clock stays where it is.
+            let direction = if rate > 0.0 {
+                1.0
+            } else if rate < 0.0 {
+                -1.0
+            } else {
+                0.0
+            };
+            let step = f.time_step() * direction;
+            let mut whens = Vec::with_capacity(4);
+            for k in 0..3 {
+                let (a, b) = Self::whens(f, now + step * f64::from(k), TimeSampling::Grid);
+                for w in [Some(a), b].into_iter().flatten() {
+                    if !whens.contains(&w) {
+                        whens.push(w);
+                    }
+                }
+            }
+            for when in whens {
+                let key = Key {
+                    scene: scene.uid,
+                    layer: i,
+                    when,
+                };
+                let held = self
+                    .lock()
+                    .entries
+                    .get(&key)
+                    .is_some_and(|e| e.fields.contains(need));
+                if !held {
+                    self.frame(scene, i, f, when, need, now);
+                    computed += 1;
+                }
+            }
+        }
+        computed
+    }
+}
+
+/// How often [`run_ahead`] looks at the clocks: well inside one grid step (17 ms by default),
+/// so the next frames are ready long before the clock reaches them.
+pub const AHEAD_PERIOD: Duration = Duration::from_millis(5);
+
+/// The frame-ahead loop: every [`AHEAD_PERIOD`], for each FFT scene queried within
+/// [`ACTIVE_FOR`], computes the grid frames its clock reaches next
+/// ([`FrameCache::compute_ahead`], on the blocking pool). Ends when `state.shutdown` fires.
+pub async fn run_ahead(state: crate::state::AppState) {
+    let mut interval = tokio::time::interval(AHEAD_PERIOD);
+    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        tokio::select! {
+            () = state.shutdown.cancelled() => return,
+            _ = interval.tick() => {}
+        }
+        let active = state.frames.active_scenes();
+        if active.is_empty() {
+            continue;
+        }
+        for entry in state.scenes() {
+            if !active.contains(&entry.scene.uid) || !entry.scene.has_fft() {
+                continue;
+            }
+            let reading = state.read_clock(&entry);
+            let rate = if reading.paused { 0.0 } else { reading.rate };
+            let st = state.clone();
+            let scene = Arc::clone(&entry.scene);
+            let done = tokio::task::spawn_blocking(move || {
+                st.frames.compute_ahead(&scene, reading.t, rate)
+            })
+            .await;
+            if let Err(e) = done {
+                tracing::error!(error = %e, "computing frames ahead failed");
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn builtin(id: &str) -> Scene {
+        let (_, spec) = crate::scene::builtin::specs()
+            .into_iter()
+            .find(|(i, _)| i == id)
+            .expect("a built-in scene");
+        Scene::build(id, spec).expect("builds")
+    }
+
+    fn fft(scene: &Scene) -> &FftLayer {
+        match &scene.surface.layers()[0] {
+            Layer::Fft(f) => f,
+            _ => panic!("layer 0 is FFT"),
+        }
+    }
+
+    #[test]
+    fn grid_distance_wraps() {
+        assert_eq!(grid_distance(0, 5999, 6000), 1);
+        assert_eq!(grid_distance(10, 13, 6000), 3);
+        assert_eq!(grid_distance(13, 10, 6000), 3);
+        assert_eq!(grid_distance(0, 3000, 6000), 3000);
+    }
+
+    /// The cache's promise: any number of far-off times cannot evict the frames around the
+    /// clock's now, which every query at now reads.
+    #[test]
+    fn far_off_times_cannot_evict_the_frames_around_now() {
+        let scene = builtin("storm");
+        let cache = FrameCache::new(2);
+        let o = QueryOptions::default();
+        let now = 100.01;
+        let f = fft(&scene);
+        let p = f.grid_position(now);
+        cache
+            .surface_at(&scene, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert!(cache.has_frames(&scene, now, QueryFields::HEIGHT, &o));
+        assert_eq!(cache.near_len(), 2, "frames {} and {}", p.index, p.next);
+        // Far-off times, more than the far pool holds.
+        for k in 0..6 {
+            let t = 5.0 + 7.3 * f64::from(k);
+            cache
+                .surface_at(&scene, t, now, QueryFields::HEIGHT, &o)
+                .unwrap();
+        }
+        assert!(
+            cache.has_frames(&scene, now, QueryFields::HEIGHT, &o),
+            "the frames at now were evicted"
+        );
+        assert_eq!(cache.near_len(), 2);
+        assert!(cache.len() <= 2 + 2, "far pool bounded: {}", cache.len());
+        // An exact time is a far frame too.
+        let exact = QueryOptions {
+            time: TimeSampling::Exact,
+            ..o
+        };
+        cache
+            .surface_at(&scene, now, now, QueryFields::HEIGHT, &exact)
+            .unwrap();
+        assert!(cache.has_frames(&scene, now, QueryFields::HEIGHT, &o));
+    }
+
+    /// Every query between the same two grid times reads the same two frames: one computation.
+    #[test]
+    fn queries_between_two_grid_times_share_their_frames() {
+        let scene = builtin("open-sea");
+        let cache = FrameCache::new(8);
+        let o = QueryOptions::default();
+        let f = fft(&scene);
+        let t0 = f.grid_time(3000);
+        for k in 1..10 {
+            let t = t0 + f.time_step() * f64::from(k) / 10.0;
+            cache
+                .surface_at(&scene, t, t, QueryFields::HEIGHT, &o)
+                .unwrap();
+        }
+        assert_eq!(cache.len(), 2);
+        // A query needing more fields widens the frames in place.
+        let dt = f.time_step();
+        cache
+            .surface_at(&scene, t0 + 0.3 * dt, t0, QueryFields::ALL, &o)
+            .unwrap();
+        assert_eq!(cache.len(), 2);
+        assert!(cache.has_frames(&scene, t0 + 0.6 * dt, QueryFields::ALL, &o));
+    }
+
+    /// The frame-ahead step computes the frames the clock reaches in the next two grid steps,
+    /// with the fields queries asked for, and nothing twice.
+    #[test]
+    fn compute_ahead_prepares_the_next_grid_frames() {
+        let scene = builtin("storm");
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&scene);
+        let now = f.grid_time(500) + 0.25 * f.time_step();
+        cache
+            .surface_at(&scene, now, now, QueryFields::ALL, &o)
+            .unwrap();
+        // Index 500 and 501 held; 502 and 503 are computed.
+        assert_eq!(cache.compute_ahead(&scene, now, 1.0), 2);
+        assert_eq!(cache.compute_ahead(&scene, now, 1.0), 0);
+        let later = now + 2.0 * f.time_step();
+        assert!(cache.has_frames(&scene, later, QueryFields::ALL, &o));
+        // Running backwards, the frames before now.
+        assert_eq!(cache.compute_ahead(&scene, now, -1.0), 2);
+        // The clock moves on: near frames it left behind are dropped.
+        let far_later = now + 40.0 * f.time_step();
+        cache.compute_ahead(&scene, far_later, 1.0);
+        assert!(!cache.has_frames(&scene, now, QueryFields::HEIGHT, &o));
+        assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
     }
 }

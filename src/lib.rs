@@ -181,6 +181,8 @@ impl Server {
                 upkeep_handle.run_upkeep();
             }
         });
+        // FFT frames the scene clocks are about to reach, computed before queries ask.
+        let ahead = tokio::spawn(crate::frames::run_ahead(state.clone()));
         // Bodies restored from the data dir resume stepping.
         state.bodies.start_all(&state);
         state.set_ready(true);
@@ -204,6 +206,8 @@ impl Server {
             })
             .await;
         upkeep.abort();
+        // The frame-ahead loop ends on the shutdown token; it holds no state worth waiting for.
+        ahead.abort();
         // Stop the body loops and save the bodies' last states (restored at the next start).
         let saving = state.clone();
         if let Err(e) = tokio::task::spawn_blocking(move || saving.persist_bodies()).await {

@@ -112,6 +112,7 @@ async fn sample_protobuf_accuracy_matches_json_accuracy() {
             tolerance: Some(0.001),
             filter: v1::Filter::Bilinear as i32,
             precision: v1::Precision::Unspecified as i32,
+            time: v1::TimeSampling::Unspecified as i32,
         }),
         origin: None,
     };
@@ -119,6 +120,35 @@ async fn sample_protobuf_accuracy_matches_json_accuracy() {
     assert_eq!(st, 200);
     let r = v1::SampleResponse::decode(bytes.as_slice()).unwrap();
     assert_eq!(r.height[0].to_bits(), bits(&j["height"][0]));
+
+    // Exact time sampling (a frame at t itself, between two grid times): JSON and protobuf
+    // agree, and differ from the grid's interpolated answer by well under a millimetre.
+    let body = json!({"t": 5.01, "points": [[3, 4]], "accuracy": {"time": "exact"}});
+    let (_, exact) = s.post_json("/v1/scenes/storm/sample", &body).await;
+    let (_, grid) = s
+        .post_json(
+            "/v1/scenes/storm/sample",
+            &json!({"t": 5.01, "points": [[3, 4]]}),
+        )
+        .await;
+    let req = v1::SampleRequest {
+        t: Some(5.01),
+        points: vec![p2(3.0, 4.0)],
+        accuracy: Some(v1::Accuracy {
+            time: v1::TimeSampling::Exact as i32,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let (st, _, bytes) = post_pb(&s, "/v1/scenes/storm/sample", req.encode_to_vec()).await;
+    assert_eq!(st, 200);
+    let r = v1::SampleResponse::decode(bytes.as_slice()).unwrap();
+    assert_eq!(r.height[0].to_bits(), bits(&exact["height"][0]));
+    let (e, g) = (
+        exact["height"][0].as_f64().unwrap(),
+        grid["height"][0].as_f64().unwrap(),
+    );
+    assert!(e != g && (e - g).abs() < 1e-3, "exact {e} vs grid {g}");
 
     // The f32 fast path, on a scene with analytic layers: JSON and protobuf twins agree.
     let body = json!({"t": 5, "points": [[3, 4], [-70.5, 12.25]], "fields": ["height", "normal"],

@@ -519,3 +519,79 @@ async fn graceful_shutdown_sends_close_to_open_sockets() {
         .expect("task")
         .expect("clean");
 }
+
+/// Issue 10's pin: on an FFT scene, the same `t` gives the same bits from `/height`, `/sample`
+/// and the WebSocket, asked at the clock's now (no `t`) or with that time written out, whether
+/// the grid frames are computed by the query or were cached by an earlier one; and `"exact"`
+/// time sampling is a different (sub-millimetre) answer, not a cached grid one.
+#[tokio::test]
+async fn now_and_the_same_explicit_t_give_the_same_bits_on_every_path() {
+    let s = TestServer::start(config()).await;
+    for scene in ["storm", "open-sea"] {
+        // A paused clock between two grid times: now is one fixed number.
+        let (st, c) = s
+            .put_clock(scene, &json!({"t": 1234.5678, "paused": true}))
+            .await;
+        assert_eq!(st, 200, "{c}");
+        let now = c["t"].as_f64().unwrap();
+        let (x, z) = (12.5, -3.25);
+        let mut answers = Vec::new();
+        for q in [
+            format!("/v1/scenes/{scene}/height?x={x}&z={z}"),
+            format!("/v1/scenes/{scene}/height?x={x}&z={z}&t={now}"),
+        ] {
+            let (st, v) = s.get_json(&q).await;
+            assert_eq!(st, 200, "{v}");
+            assert_eq!(bits(&v["t"]), now.to_bits());
+            answers.push((q, bits(&v["height"])));
+        }
+        for body in [
+            json!({"points": [[x, z]]}),
+            json!({"t": now, "points": [[x, z]]}),
+        ] {
+            let (st, v) = s
+                .post_json(&format!("/v1/scenes/{scene}/sample"), &body)
+                .await;
+            assert_eq!(st, 200, "{v}");
+            answers.push((format!("sample {body}"), bits(&v["height"][0])));
+        }
+        let mut ws = ws_connect(s.addr, scene, None).await;
+        for (i, body) in [
+            json!({"type": "sample", "id": 1, "points": [[x, z]]}),
+            json!({"type": "sample", "id": 2, "t": now, "points": [[x, z]]}),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            send_json(&mut ws, body.clone()).await;
+            let v = recv_json(&mut ws, false).await;
+            assert_eq!(v["id"], i + 1, "{v}");
+            answers.push((format!("ws {body}"), bits(&v["height"][0])));
+        }
+        let first = answers[0].1;
+        for (how, b) in &answers {
+            assert_eq!(*b, first, "{scene}: {how} differs from {}", answers[0].0);
+        }
+        let (_, exact) = s
+            .post_json(
+                &format!("/v1/scenes/{scene}/sample"),
+                &json!({"points": [[x, z]], "accuracy": {"time": "exact"}}),
+            )
+            .await;
+        let (e, g) = (exact["height"][0].as_f64().unwrap(), f64::from_bits(first));
+        assert!(
+            e != g && (e - g).abs() < 1e-3,
+            "{scene}: exact {e} vs grid {g}"
+        );
+        // The scene description states the grid clients must use to get these bits.
+        let (_, d) = s.get_json(&format!("/v1/scenes/{scene}")).await;
+        let layer = &d["derived"]["layers"][0];
+        let (period, steps) = (
+            layer["repeat_period"].as_f64().unwrap(),
+            layer["grid_steps"].as_u64().unwrap(),
+        );
+        assert_eq!(steps as f64, period * 60.0, "{layer}");
+        assert_eq!(bits(&layer["time_step"]), (period / steps as f64).to_bits());
+    }
+    s.stop().await;
+}

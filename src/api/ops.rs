@@ -226,7 +226,8 @@ pub fn openapi_document() -> Value {
                     "accuracy": {"type": "object", "properties": {
                         "method": {"enum": ["newton", "fixed_point"]}, "iterations": {"type": "integer"},
                         "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]},
-                        "precision": {"enum": ["f64", "f32"]}}}}},
+                        "precision": {"enum": ["f64", "f32"]},
+                        "time": {"enum": ["grid", "exact"]}}}}},
                 "OrientationRequest": {"type": "object", "required": ["bodies"], "properties": {
                     "t": num, "bodies": {"type": "array", "items": {"type": "object",
                         "required": ["position", "length", "beam"], "properties": {

@@ -3,9 +3,9 @@
 //! The `run_*` functions are plain, blocking and transport-free: they take a scene, a resolved
 //! time and a decoded request and return the response type, so the HTTP handlers here and the
 //! WebSocket session ([`crate::stream`]) share them. Handlers resolve the scene and its time,
-//! then run the query: inline on the reactor when it is cheap (a few points on a scene without
-//! FFT layers, [`runs_inline`]), else in `spawn_blocking` (FFT frames and big batches are CPU
-//! work). Answers are
+//! then run the query: inline on the reactor when it is cheap (a few points whose FFT frames, if
+//! any, are already cached, [`runs_inline`]), else in `spawn_blocking` (a frame to compute and
+//! big batches are CPU work). Answers are
 //! checked for non-finite numbers where they are encoded ([`crate::api::finite`]), not here.
 
 use std::sync::Arc;
@@ -63,14 +63,28 @@ fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f6
     }
 }
 
+/// When a query runs: its time and the scene clock's now (which decides the frames the cache
+/// keeps near, see [`crate::frames`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct At {
+    /// The query's time, s: the client's `t`, or now.
+    pub t: f64,
+    /// The scene clock's time when the query arrived, s.
+    pub now: f64,
+}
+
 /// The time a query runs at: the client's `t` (checked) or the scene clock's now.
 ///
 /// # Errors
 /// As [`check_time`].
-pub fn resolve_time(state: &AppState, entry: &SceneEntry, t: Option<f64>) -> Result<f64, ApiError> {
+pub fn resolve_time(state: &AppState, entry: &SceneEntry, t: Option<f64>) -> Result<At, ApiError> {
+    let now = state.read_clock(entry).t;
     match t {
-        Some(t) => check_time(&state.limits, t, "t"),
-        None => Ok(state.read_clock(entry).t),
+        Some(t) => Ok(At {
+            t: check_time(&state.limits, t, "t")?,
+            now,
+        }),
+        None => Ok(At { t: now, now }),
     }
 }
 
@@ -125,12 +139,16 @@ pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
         if let Some(p) = a.precision {
             o.precision = p.into();
         }
+        if let Some(t) = a.time {
+            o.time = t;
+        }
     }
     o.validate().map_err(|e| ApiError::invalid_query(&e))?;
     Ok(o)
 }
 
-/// Answers a sample request at time `t` (already resolved and checked). Blocking.
+/// Answers a sample request at `at` (already resolved and checked). Blocking unless
+/// [`runs_inline`] said otherwise.
 ///
 /// World point = `origin + point`, added in f64 (and not at all when there is no origin).
 ///
@@ -141,7 +159,7 @@ pub fn run_sample(
     frames: &FrameCache,
     limits: &Limits,
     scene: &Scene,
-    t: f64,
+    At { t, now }: At,
     req: &SampleRequest,
 ) -> Result<SampleResponse, ApiError> {
     if req.points.len() > limits.max_points {
@@ -181,7 +199,7 @@ pub fn run_sample(
     } else {
         Some(
             frames
-                .surface_at(scene, t, fields, &options)
+                .surface_at(scene, t, now, fields, &options)
                 .map_err(|e| ApiError::invalid_query(&e))?,
         )
     };
@@ -216,8 +234,8 @@ pub fn run_sample(
     Ok(out)
 }
 
-/// Height at one world point, with the default accuracy. Blocking. Bit-identical to the same
-/// point in [`run_sample`] with default accuracy.
+/// Height at one world point, with the default accuracy. Blocking unless [`runs_inline`] said
+/// otherwise. Bit-identical to the same point in [`run_sample`] with default accuracy.
 ///
 /// # Errors
 /// 400 for a non-finite or out-of-range coordinate.
@@ -225,14 +243,14 @@ pub fn run_height(
     frames: &FrameCache,
     limits: &Limits,
     scene: &Scene,
-    t: f64,
+    At { t, now }: At,
     x: f64,
     z: f64,
 ) -> Result<HeightResponse, ApiError> {
     let x = check_coord(limits, x, || "x".into())?;
     let z = check_coord(limits, z, || "z".into())?;
     let sea = frames
-        .surface_at(scene, t, QueryFields::HEIGHT, &QueryOptions::default())
+        .surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())
         .map_err(|e| ApiError::invalid_query(&e))?;
     let r = sea.query(DVec2::new(x, z), QueryFields::HEIGHT);
     metrics::counter!("swell_points_sampled_total").increment(1);
@@ -242,7 +260,7 @@ pub fn run_height(
     })
 }
 
-/// Orientation of every body at time `t`. Blocking.
+/// Orientation of every body at `at`. Blocking unless [`runs_inline`] said otherwise.
 ///
 /// # Errors
 /// 413 too many bodies or probes in total; 400 naming `bodies[i].…` for a bad body.
@@ -250,7 +268,7 @@ pub fn run_orientation(
     frames: &FrameCache,
     limits: &Limits,
     scene: &Scene,
-    t: f64,
+    At { t, now }: At,
     req: &OrientationRequest,
 ) -> Result<OrientationResponse, ApiError> {
     if req.bodies.len() > limits.max_bodies {
@@ -295,7 +313,7 @@ pub fn run_orientation(
         bodies.push(fp);
     }
     let sea = frames
-        .surface_at(scene, t, QueryFields::HEIGHT, &QueryOptions::default())
+        .surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())
         .map_err(|e| ApiError::invalid_query(&e))?;
     let mut out = Vec::with_capacity(bodies.len());
     for (i, fp) in bodies.iter().enumerate() {
@@ -314,17 +332,41 @@ pub fn run_orientation(
     Ok(OrientationResponse { t, bodies: out })
 }
 
-/// Points (sample points, or orientation probes) a query on a scene without FFT layers may have
-/// and still run on the reactor thread. 64 Gerstner points with height inversion take ~35 µs
-/// here (0.56 µs a point on `lake`), about what the hop to the blocking pool and back costs in
-/// latency and context switches on a loaded 2-core machine; past that, a query could hold a
-/// reactor thread long enough to delay other connections, so it moves to the pool. An FFT scene
-/// always goes to the pool: its query may compute a frame (milliseconds).
+/// Points (sample points, or orientation probes) a query may have and still run on the reactor
+/// thread. 64 Gerstner points with height inversion take ~35 µs here (0.56 µs a point on
+/// `lake`), about what the hop to the blocking pool and back costs in latency and context
+/// switches on a loaded 2-core machine; past that, a query could hold a reactor thread long
+/// enough to delay other connections, so it moves to the pool.
 pub const INLINE_POINTS: usize = 64;
 
-/// Whether a query of `points` points on `scene` is cheap enough to answer on the reactor.
-pub fn runs_inline(scene: &Scene, points: usize) -> bool {
-    points <= INLINE_POINTS && !scene.has_fft()
+/// Whether a query of `points` points asking `fields` with `options` at `at.t` is cheap enough
+/// to answer on the reactor: few points, and every FFT frame it reads already in the cache (a
+/// frame to compute takes milliseconds; at the scene's now the frame-ahead loop has them ready).
+/// A frame could in principle be evicted between this check and its use (far frames only);
+/// then that one query computes it where it runs.
+pub fn runs_inline(
+    frames: &FrameCache,
+    scene: &Scene,
+    at: At,
+    points: usize,
+    fields: QueryFields,
+    options: &QueryOptions,
+) -> bool {
+    points <= INLINE_POINTS && frames.has_frames(scene, at.t, fields, options)
+}
+
+/// [`runs_inline`] for a sample request: its fields and accuracy (a request whose fields or
+/// accuracy do not parse runs inline: it answers with an error at once).
+pub fn sample_runs_inline(frames: &FrameCache, scene: &Scene, at: At, req: &SampleRequest) -> bool {
+    match (
+        parse_fields(req.fields.as_deref()),
+        query_options(req.accuracy.as_ref()),
+    ) {
+        (Ok(fields), Ok(options)) => {
+            runs_inline(frames, scene, at, req.points.len(), fields, &options)
+        }
+        _ => true,
+    }
 }
 
 /// Runs query work: at once when it is cheap (`inline`), else on the blocking pool, off the
@@ -350,12 +392,19 @@ pub async fn height(
 ) -> Result<Reply<HeightResponse>, ApiError> {
     let entry = state.scene(&id)?;
     let Query(q) = query.map_err(|r| ApiError::invalid("", r.body_text()))?;
-    let t = resolve_time(&state, &entry, q.t)?;
+    let at = resolve_time(&state, &entry, q.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
-    let inline = runs_inline(&scene, 1);
+    let inline = runs_inline(
+        &state.frames,
+        &scene,
+        at,
+        1,
+        QueryFields::HEIGHT,
+        &QueryOptions::default(),
+    );
     run_query(inline, move || {
-        run_height(&st.frames, &st.limits, &scene, t, q.x, q.z)
+        run_height(&st.frames, &st.limits, &scene, at, q.x, q.z)
     })
     .await
     .map(|r| Reply(format, r))
@@ -369,12 +418,12 @@ pub async fn sample(
     Body(req): Body<SampleRequest>,
 ) -> Result<Reply<SampleResponse>, ApiError> {
     let entry = state.scene(&id)?;
-    let t = resolve_time(&state, &entry, req.t)?;
+    let at = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
-    let inline = runs_inline(&scene, req.points.len());
+    let inline = sample_runs_inline(&state.frames, &scene, at, &req);
     run_query(inline, move || {
-        run_sample(&st.frames, &st.limits, &scene, t, &req)
+        run_sample(&st.frames, &st.limits, &scene, at, &req)
     })
     .await
     .map(|r| Reply(format, r))
@@ -388,12 +437,19 @@ pub async fn orientation(
     Body(req): Body<OrientationRequest>,
 ) -> Result<Reply<OrientationResponse>, ApiError> {
     let entry = state.scene(&id)?;
-    let t = resolve_time(&state, &entry, req.t)?;
+    let at = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
-    let inline = runs_inline(&scene, orientation_probes(&req));
+    let inline = runs_inline(
+        &state.frames,
+        &scene,
+        at,
+        orientation_probes(&req),
+        QueryFields::HEIGHT,
+        &QueryOptions::default(),
+    );
     run_query(inline, move || {
-        run_orientation(&st.frames, &st.limits, &scene, t, &req)
+        run_orientation(&st.frames, &st.limits, &scene, at, &req)
     })
     .await
     .map(|r| Reply(format, r))
@@ -420,13 +476,22 @@ mod tests {
     }
 
     #[test]
-    fn only_small_queries_on_analytic_scenes_run_inline() {
+    fn small_queries_run_inline_unless_they_need_a_frame_computed() {
         let (lake, calm, storm) = (builtin("lake"), builtin("calm"), builtin("storm"));
-        assert!(runs_inline(&lake, 1));
-        assert!(runs_inline(&calm, INLINE_POINTS));
-        assert!(!runs_inline(&calm, INLINE_POINTS + 1));
-        // An FFT scene may need a frame computed: always the blocking pool.
-        assert!(!runs_inline(&storm, 1));
+        let frames = FrameCache::new(4);
+        let at = At { t: 12.3, now: 12.3 };
+        let (h, o) = (QueryFields::HEIGHT, QueryOptions::default());
+        assert!(runs_inline(&frames, &lake, at, 1, h, &o));
+        assert!(runs_inline(&frames, &calm, at, INLINE_POINTS, h, &o));
+        assert!(!runs_inline(&frames, &calm, at, INLINE_POINTS + 1, h, &o));
+        // An FFT scene whose frames are not computed yet: the blocking pool.
+        assert!(!runs_inline(&frames, &storm, at, 1, h, &o));
+        // Once they are (the frame-ahead loop's job at now), on the reactor.
+        frames.surface_at(&storm, at.t, at.now, h, &o).unwrap();
+        assert!(runs_inline(&frames, &storm, at, 1, h, &o));
+        // Normals need slopes the cached frames lack.
+        let n = QueryFields { normal: true, ..h };
+        assert!(!runs_inline(&frames, &storm, at, 1, n, &o));
         let req: OrientationRequest = serde_json::from_value(serde_json::json!({
             "bodies": [{"position": [0, 0], "length": 5, "beam": 2},
                        {"position": [0, 0], "length": 5, "beam": 2, "probes": [[0, 0], [1, 0]]}]

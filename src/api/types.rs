@@ -129,6 +129,10 @@ pub struct Accuracy {
     /// single-precision fast path: a few µm off, several times cheaper).
     #[serde(default)]
     pub precision: Option<Precision>,
+    /// FFT time sampling: `grid` (the default: linear between the layer's grid frames, shared
+    /// by every query between two grid times) or `exact` (a frame at exactly t).
+    #[serde(default)]
+    pub time: Option<swell_waves::TimeSampling>,
 }
 
 /// Evaluation precision on the wire.

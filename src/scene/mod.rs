@@ -165,7 +165,13 @@ pub struct Scene {
     pub surface: Surface,
     /// [`fnv1a64_hex`] of [`SceneSpec::canonical_json`].
     pub spec_hash: String,
+    /// This build's identity in the process (a counter): caches key on it, so frames of a
+    /// replaced scene are never read for its successor, even one with the same spec.
+    pub uid: u64,
 }
+
+/// Source of [`Scene::uid`].
+static NEXT_UID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 impl Scene {
     /// Validates and builds a scene. CPU work (an FFT layer's spectrum): call off the reactor.
@@ -181,6 +187,7 @@ impl Scene {
             spec,
             surface,
             spec_hash,
+            uid: NEXT_UID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         })
     }
 
@@ -227,6 +234,8 @@ impl Scene {
                         "tile_size": f.tile_size(),
                         "choppiness": f.choppiness(),
                         "repeat_period": f.repeat_period(),
+                        "time_step": f.time_step(),
+                        "grid_steps": f.grid_steps(),
                         "seed": s.seed.unwrap_or(default_seed),
                         "backend": f.backend(),
                         "modes": f.modes(),

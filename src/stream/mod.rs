@@ -48,7 +48,7 @@ use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
 use crate::api::query::{
-    orientation_probes, resolve_time, run_orientation, run_sample, runs_inline,
+    At, orientation_probes, resolve_time, run_orientation, run_sample, runs_inline,
 };
 use crate::error::ApiError;
 use crate::state::AppState;
@@ -411,13 +411,18 @@ fn handle(
             scene_id,
             queue,
             permits,
-            Asked {
-                id,
-                t: req.t,
-                points: req.points.len(),
+            Asked { id, t: req.t },
+            {
+                let points = req.points.len();
+                let fields = crate::api::query::parse_fields(req.fields.as_deref());
+                let options = crate::api::query::query_options(req.accuracy.as_ref());
+                move |st, scene, at| match (fields, options) {
+                    (Ok(f), Ok(o)) => runs_inline(&st.frames, scene, at, points, f, &o),
+                    _ => true,
+                }
             },
-            move |st, scene, t| {
-                run_sample(&st.frames, &st.limits, scene, t, &req).map(Event::SampleResult)
+            move |st, scene, at| {
+                run_sample(&st.frames, &st.limits, scene, at, &req).map(Event::SampleResult)
             },
         ),
         Request::Orientation(req) => {
@@ -426,13 +431,22 @@ fn handle(
                 scene_id,
                 queue,
                 permits,
-                Asked {
-                    id,
-                    t: req.t,
-                    points: orientation_probes(&req),
+                Asked { id, t: req.t },
+                {
+                    let probes = orientation_probes(&req);
+                    move |st, scene, at| {
+                        runs_inline(
+                            &st.frames,
+                            scene,
+                            at,
+                            probes,
+                            swell_waves::QueryFields::HEIGHT,
+                            &swell_waves::QueryOptions::default(),
+                        )
+                    }
                 },
-                move |st, scene, t| {
-                    run_orientation(&st.frames, &st.limits, scene, t, &req)
+                move |st, scene, at| {
+                    run_orientation(&st.frames, &st.limits, scene, at, &req)
                         .map(Event::OrientationResult)
                 },
             );
@@ -446,8 +460,6 @@ struct Asked {
     id: Option<u64>,
     /// Its time (`None`: now).
     t: Option<f64>,
-    /// Points (or probes) it samples: decides whether it runs inline.
-    points: usize,
 }
 
 /// Runs a query as HTTP does (scene lookup, time resolution, the same `run_*` function, inline
@@ -457,8 +469,9 @@ fn query(
     scene_id: &str,
     queue: &Queue,
     permits: &Arc<Semaphore>,
-    Asked { id, t, points }: Asked,
-    run: impl FnOnce(&AppState, &crate::scene::Scene, f64) -> Result<Event, ApiError> + Send + 'static,
+    Asked { id, t }: Asked,
+    inline: impl FnOnce(&AppState, &crate::scene::Scene, At) -> bool,
+    run: impl FnOnce(&AppState, &crate::scene::Scene, At) -> Result<Event, ApiError> + Send + 'static,
 ) {
     let Ok(permit) = Arc::clone(permits).try_acquire_owned() else {
         queue.error(
@@ -472,13 +485,13 @@ fn query(
     let resolved = state
         .scene(scene_id)
         .and_then(|entry| Ok((resolve_time(state, &entry, t)?, Arc::clone(&entry.scene))));
-    let (t, scene) = match resolved {
+    let (at, scene) = match resolved {
         Ok(v) => v,
         Err(e) => return queue.error(id, e),
     };
-    if runs_inline(&scene, points) {
+    if inline(state, &scene, at) {
         drop(permit);
-        match run(state, &scene, t) {
+        match run(state, &scene, at) {
             Ok(event) => queue.push(Outgoing { id, event }),
             Err(e) => queue.error(id, e),
         }
@@ -487,7 +500,7 @@ fn query(
     let st = state.clone();
     let queue = queue.clone();
     tokio::spawn(async move {
-        let result = tokio::task::spawn_blocking(move || run(&st, &scene, t))
+        let result = tokio::task::spawn_blocking(move || run(&st, &scene, at))
             .await
             .map_err(ApiError::internal)
             .and_then(|r| r);

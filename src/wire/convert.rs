@@ -104,12 +104,25 @@ impl TryFrom<v1::Accuracy> for Accuracy {
                 ));
             }
         };
+        let time = match v1::TimeSampling::try_from(a.time) {
+            Ok(v1::TimeSampling::Unspecified) => None,
+            Ok(v1::TimeSampling::Grid) => Some(swell_waves::TimeSampling::Grid),
+            Ok(v1::TimeSampling::Exact) => Some(swell_waves::TimeSampling::Exact),
+            Err(_) => {
+                return Err(bad_enum(
+                    "accuracy.time",
+                    a.time,
+                    "is not a TimeSampling value",
+                ));
+            }
+        };
         Ok(Accuracy {
             method,
             iterations: a.iterations,
             tolerance: a.tolerance,
             filter,
             precision,
+            time,
         })
     }
 }

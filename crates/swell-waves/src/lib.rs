@@ -102,9 +102,18 @@ pub mod velocity;
 pub mod wave;
 
 pub use error::SpecError;
-pub use query::{Inversion, InversionMethod, PointResult, Precision, QueryFields, QueryOptions};
-pub use surface::{Layer, LayerSpec, Surface, SurfaceAt, SurfacePointF32, SurfaceSpec};
+pub use query::{
+    Inversion, InversionMethod, PointResult, Precision, QueryFields, QueryOptions, TimeSampling,
+};
+pub use surface::{
+    Layer, LayerFrames, LayerSpec, Surface, SurfaceAt, SurfacePointF32, SurfaceSpec,
+};
 
 /// Version of the model's numbers. Bumped whenever the golden vectors in `proto/vectors/` have to
 /// be re-minted: clients compare it to know they render the same sea as the server.
-pub const MODEL_VERSION: u32 = 1;
+///
+/// - 1: the first published model.
+/// - 2: FFT layers are read from their time grid by default (frames at `n·Δ`, Δ = 1/60 s,
+///   linear in between; [`TimeSampling`]), so FFT answers between grid times moved by up to a
+///   few tenths of a millimetre. `accuracy.time = "exact"` gives version 1's FFT numbers.
+pub const MODEL_VERSION: u32 = 2;

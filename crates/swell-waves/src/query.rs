@@ -103,6 +103,26 @@ pub struct QueryOptions {
     /// Arithmetic of the surface evaluation behind every query. Default [`Precision::F64`], the
     /// model's bits (the golden vectors pin it).
     pub precision: Precision,
+    /// How FFT layers are read at the query time. Default [`TimeSampling::Grid`].
+    pub time: TimeSampling,
+}
+
+/// How an FFT layer is read at a query time t.
+///
+/// Both are deterministic and part of the model; they differ by at most
+/// `max|∂²h/∂t²|·Δ²/8` (under 1 mm on the built-in seas at the default Δ = 1/60 s, see
+/// `docs/accuracy.md`). Analytic layers are always evaluated at t itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum TimeSampling {
+    /// Linear interpolation between the frames at the grid times around t
+    /// ([`crate::fft::FftLayer::grid_position`]): at most two frames for any t, shared by every
+    /// query between the same grid times, so a server can cache them. The default.
+    #[default]
+    Grid,
+    /// A frame computed at t itself: one FFT per distinct t (slow for many distinct times).
+    Exact,
 }
 
 /// Arithmetic precision of a surface evaluation.
@@ -130,6 +150,7 @@ impl Default for QueryOptions {
             filter: SampleFilter::Bicubic,
             reference: false,
             precision: Precision::F64,
+            time: TimeSampling::Grid,
         }
     }
 }

@@ -9,10 +9,10 @@ use std::sync::{Arc, OnceLock};
 use glam::{DVec2, DVec3, Vec3};
 
 use crate::error::{SpecError, finite, positive};
-use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec};
+use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec, lerp_samples};
 use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
 use crate::math::splitmix64;
-use crate::query::{Precision, QueryFields, QueryOptions};
+use crate::query::{Precision, QueryFields, QueryOptions, TimeSampling};
 use crate::sine::{SineLayer, SineLayerSpec};
 use crate::spectrum::Dispersion;
 use crate::wave::{Lanes, LanesF32, SurfaceSample, Wave, WaveSoA};
@@ -243,7 +243,8 @@ impl Surface {
     }
 
     /// The surface at time `t` (s), ready for queries of `fields`: computes the FFT frames
-    /// those queries need.
+    /// those queries need (with [`TimeSampling::Grid`], the one or two grid frames around `t`;
+    /// with [`TimeSampling::Exact`], the frame at `t`).
     ///
     /// # Errors
     /// `t` not finite, or invalid `options`.
@@ -261,53 +262,81 @@ impl Surface {
             self.layers
                 .iter()
                 .map(|l| match l {
-                    Layer::Fft(f) => Some(Arc::new(
-                        f.frame(t, self.fft_fields_for(f, fields, options)),
-                    )),
+                    Layer::Fft(f) => {
+                        let need = self.fft_fields_for(f, fields, options);
+                        let frame = |t| Arc::new(f.frame(t, need));
+                        Some(match options.time {
+                            TimeSampling::Exact => LayerFrames::exact(frame(t)),
+                            TimeSampling::Grid => {
+                                let p = f.grid_position(t);
+                                LayerFrames {
+                                    frame: frame(f.grid_time(p.index)),
+                                    next: (p.weight > 0.0).then(|| frame(f.grid_time(p.next))),
+                                }
+                            }
+                        })
+                    }
                     _ => None,
                 })
                 .collect()
         };
-        Ok(SurfaceAt {
-            surface: self,
-            t,
-            frames,
-            options: *options,
-            velocities: Vec::new(),
-            offsets: OnceLock::new(),
-        })
+        self.at_with_frames(t, frames, options)
     }
 
-    /// The surface at time `t` with FFT frames supplied by the caller (one entry per layer,
-    /// `Some` for each FFT layer, computed at the same `t` with at least the fields the queries
-    /// need; see [`Surface::fft_fields_for`]).
+    /// The surface at time `t` with FFT frames supplied by the caller (a cache shared between
+    /// requests): one entry per layer, `Some` for each FFT layer, with at least the fields the
+    /// queries need ([`Surface::fft_fields_for`]) and computed at the times `options.time` reads:
+    /// with [`TimeSampling::Grid`], `frame` at [`FftLayer::grid_time`] of the
+    /// [`FftLayer::grid_position`]'s `index` and `next` at its `next` (`None` when the weight is
+    /// 0); with [`TimeSampling::Exact`], `frame` at `t` and no `next`. The frames' times are
+    /// checked, so a snapshot can never mix times: the interpolation weight is computed here,
+    /// from `t`.
     ///
     /// # Errors
-    /// `t` not finite, invalid `options`, or a frame missing for an FFT layer.
+    /// `t` not finite, invalid `options`, or a frame missing, extra or at the wrong time
+    /// ([`SpecError::Inconsistent`], field `frames`).
     pub fn at_with_frames(
         &self,
         t: f64,
-        frames: Vec<Option<Arc<FftFrame>>>,
+        frames: Vec<Option<LayerFrames>>,
         options: &QueryOptions,
     ) -> Result<SurfaceAt<'_>, SpecError> {
         finite("t", t)?;
         options.validate()?;
-        let ok = frames.len() == self.layers.len()
-            && self
-                .layers
-                .iter()
-                .zip(&frames)
-                .all(|(l, f)| matches!(l, Layer::Fft(_)) == f.is_some());
-        if !ok && !options.reference {
-            return Err(SpecError::Inconsistent {
-                field: "frames".into(),
-                reason: "one frame is needed per FFT layer, and none for other layers".into(),
-            });
+        let inconsistent = |reason: &str| SpecError::Inconsistent {
+            field: "frames".into(),
+            reason: reason.into(),
+        };
+        let mut held = Vec::with_capacity(self.layers.len());
+        if options.reference {
+            held.resize(self.layers.len(), None);
+        } else {
+            if frames.len() != self.layers.len() {
+                return Err(inconsistent("one entry is needed per layer"));
+            }
+            for (layer, given) in self.layers.iter().zip(frames) {
+                held.push(match (layer, given) {
+                    (Layer::Fft(f), Some(given)) => {
+                        Some(Held::new(f, t, given, options.time).ok_or_else(|| {
+                            inconsistent(
+                                "an FFT layer's frames are not at the times this query reads",
+                            )
+                        })?)
+                    }
+                    (Layer::Fft(_), None) => {
+                        return Err(inconsistent("an FFT layer has no frame"));
+                    }
+                    (_, Some(_)) => {
+                        return Err(inconsistent("a layer that is not FFT was given a frame"));
+                    }
+                    (_, None) => None,
+                });
+            }
         }
         Ok(SurfaceAt {
             surface: self,
             t,
-            frames,
+            frames: held,
             options: *options,
             velocities: Vec::new(),
             offsets: OnceLock::new(),
@@ -320,6 +349,73 @@ impl Surface {
             .iter()
             .map(|soa| soa.as_ref().map_or_else(Vec::new, |s| s.phase_offsets(t)))
             .collect()
+    }
+}
+
+/// The frames one FFT layer is read from at a snapshot's time, as a caller supplies them to
+/// [`Surface::at_with_frames`]: the frame at the grid time at or before t (or at t itself), and
+/// the frame at the next grid time when t lies strictly between two.
+#[derive(Debug, Clone)]
+pub struct LayerFrames {
+    /// The frame at [`FftLayer::grid_time`] of the grid position's `index` (or at t, exact).
+    pub frame: Arc<FftFrame>,
+    /// The frame at the grid position's `next` time, when its weight is above 0.
+    pub next: Option<Arc<FftFrame>>,
+}
+
+impl LayerFrames {
+    /// One frame computed at exactly the query time.
+    pub fn exact(frame: Arc<FftFrame>) -> LayerFrames {
+        LayerFrames { frame, next: None }
+    }
+}
+
+/// A layer's frames in a snapshot, with the weight of `next` (checked against the time).
+#[derive(Debug, Clone)]
+pub(crate) struct Held {
+    frame: Arc<FftFrame>,
+    next: Option<(Arc<FftFrame>, f64)>,
+}
+
+impl Held {
+    /// `given` checked against what `time` reads at `t`; `None` if a frame is at another time.
+    fn new(layer: &FftLayer, t: f64, given: LayerFrames, time: TimeSampling) -> Option<Held> {
+        let same = |frame: &FftFrame, at: f64| frame.t().to_bits() == at.to_bits();
+        match time {
+            TimeSampling::Exact => (same(&given.frame, t) && given.next.is_none()).then(|| Held {
+                frame: given.frame,
+                next: None,
+            }),
+            TimeSampling::Grid => {
+                let p = layer.grid_position(t);
+                if !same(&given.frame, layer.grid_time(p.index)) {
+                    return None;
+                }
+                let next = match given.next {
+                    _ if p.weight == 0.0 => None,
+                    Some(b) if same(&b, layer.grid_time(p.next)) => Some((b, p.weight)),
+                    _ => return None,
+                };
+                Some(Held {
+                    frame: given.frame,
+                    next,
+                })
+            }
+        }
+    }
+
+    /// The layer at `p0`: the frame's sample, or `a + (b − a)·w` between the two frames.
+    #[inline]
+    fn sample(&self, p0: DVec2, filter: crate::fft::SampleFilter) -> FftSample {
+        let a = self.frame.sample(p0, filter);
+        match &self.next {
+            None => a,
+            Some((b, w)) => lerp_samples(&a, &b.sample(p0, filter), *w),
+        }
+    }
+
+    fn transforms(&self) -> usize {
+        self.frame.transforms() + self.next.as_ref().map_or(0, |(b, _)| b.transforms())
     }
 }
 
@@ -337,7 +433,9 @@ pub struct SurfacePointF32 {
 pub struct SurfaceAt<'s> {
     pub(crate) surface: &'s Surface,
     pub(crate) t: f64,
-    pub(crate) frames: Vec<Option<Arc<FftFrame>>>,
+    /// Per layer, the FFT frames it is read from (`None` for analytic layers and in reference
+    /// mode).
+    pub(crate) frames: Vec<Option<Held>>,
     pub(crate) options: QueryOptions,
     /// Orbital velocity grids per layer (`Some` for FFT layers once computed; empty until
     /// [`SurfaceAt::with_velocity`] or [`SurfaceAt::with_velocity_frames`]).
@@ -367,7 +465,7 @@ impl SurfaceAt<'_> {
 
     /// Total inverse FFTs run to build this snapshot's frames.
     pub fn transforms(&self) -> usize {
-        self.frames.iter().flatten().map(|f| f.transforms()).sum()
+        self.frames.iter().flatten().map(Held::transforms).sum()
     }
 
     /// Sum of every layer's displacement `(Dx, y, Dz)` at the undisplaced point `p0`, and its
@@ -379,12 +477,17 @@ impl SurfaceAt<'_> {
         self.sample_lanes(&[p0], derivatives).get(0)
     }
 
-    /// One FFT layer at `p0`: from its frame with the snapshot's filter, or by direct summation
-    /// when the snapshot is a reference one (or has no frame for the layer).
+    /// One FFT layer at `p0`: from its frame(s) with the snapshot's filter, or by direct
+    /// summation at t when the snapshot is a reference one (or has no frame for the layer).
     #[inline]
-    fn fft_sample(&self, layer: &FftLayer, frame: &Option<Arc<FftFrame>>, p0: DVec2) -> FftSample {
-        match frame {
-            Some(frame) if !self.options.reference => frame.sample(p0, self.options.filter),
+    pub(crate) fn fft_sample(
+        &self,
+        layer: &FftLayer,
+        frames: &Option<Held>,
+        p0: DVec2,
+    ) -> FftSample {
+        match frames {
+            Some(held) if !self.options.reference => held.sample(p0, self.options.filter),
             _ => layer.sample_reference(p0, self.t),
         }
     }

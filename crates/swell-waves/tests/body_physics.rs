@@ -261,6 +261,7 @@ fn storm_sea() -> Surface {
         band: None,
         seed: None,
         backend: FftBackend::Portable,
+        time_step: None,
     }));
     Surface::new(&spec).unwrap()
 }

@@ -24,6 +24,7 @@ fn fft_layer(choppiness: f64) -> LayerSpec {
         }),
         seed: Some(5),
         backend: FftBackend::Portable,
+        time_step: None,
     })
 }
 

@@ -45,12 +45,7 @@ impl SurfaceAt<'_> {
                     }
                 }
                 Layer::Fft(f) => {
-                    let s = match frame {
-                        Some(frame) if !self.options.reference => {
-                            frame.sample(p0, self.options.filter)
-                        }
-                        _ => f.sample_reference(p0, self.t),
-                    };
+                    let s = self.fft_sample(f, frame, p0);
                     out.displacement += s.displacement;
                     if derivatives {
                         out.d_dx += DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z);

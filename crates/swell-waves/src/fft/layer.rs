@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use super::frame::GridPool;
 use super::transform::InverseRealFft2;
-use super::{FftBackend, FftSpec};
+use super::{DEFAULT_TIME_STEP, FftBackend, FftSpec, MIN_TIME_STEP};
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
 use crate::math::{SwellRng, TAU, mode_key};
 use crate::spectrum::Dispersion;
@@ -77,6 +77,10 @@ pub struct FftLayer {
     pub(crate) tile_size: f64,
     pub(crate) choppiness: f64,
     pub(crate) repeat_period: f64,
+    /// Steps M of the time grid per repeat period (≥ 1).
+    pub(crate) grid_steps: u64,
+    /// The grid's step Δ = T/M, s.
+    pub(crate) time_step: f64,
     pub(crate) backend: FftBackend,
     /// Half plane, column-major: entry (m, n) at `m·N + (n mod N)` for m = 0 … N/2 − 1.
     pub(crate) half: Vec<Mode>,
@@ -148,6 +152,7 @@ impl FftLayer {
     /// - `{field}.resolution` is not a power of two in 16..=1024;
     /// - `{field}.tile_size` or `{field}.repeat_period` is not finite and > 0;
     /// - `{field}.choppiness` is not in [0, 10];
+    /// - `{field}.time_step` is not finite and in [[`MIN_TIME_STEP`], `repeat_period`];
     /// - `{field}.wind_direction` is not finite or is the zero vector;
     /// - `{field}.band.min_wavelength` is not finite and ≥ 0, or `{field}.band.max_wavelength` is
     ///   not finite and > min;
@@ -175,6 +180,7 @@ impl FftLayer {
             MAX_CHOPPINESS,
         )?;
         let repeat_period = positive(&format!("{field}.repeat_period"), spec.repeat_period)?;
+        let (grid_steps, time_step) = time_grid(field, spec.time_step, repeat_period)?;
         direction(&format!("{field}.wind_direction"), spec.wind_direction)?;
         let (min_wl, max_wl) = match spec.band {
             None => (0.0, f64::INFINITY),
@@ -287,6 +293,8 @@ impl FftLayer {
             tile_size,
             choppiness,
             repeat_period,
+            grid_steps,
+            time_step,
             backend: spec.backend,
             half,
             phase_omegas,
@@ -322,6 +330,58 @@ impl FftLayer {
         self.repeat_period
     }
 
+    /// Step Δ of the time grid in use, s: `T/M` (see [`FftSpec::time_step`]).
+    pub fn time_step(&self) -> f64 {
+        self.time_step
+    }
+
+    /// Steps M of the time grid per repeat period: grid indices run over `0..M`.
+    pub fn grid_steps(&self) -> u64 {
+        self.grid_steps
+    }
+
+    /// The time of grid index `index`, s: `index·Δ` (indices are taken modulo M).
+    pub fn grid_time(&self, index: u64) -> f64 {
+        (index % self.grid_steps) as f64 * self.time_step
+    }
+
+    /// Where `t` lies on the time grid: `t_r = t.rem_euclid(T)`,
+    /// `index` the largest grid index with `grid_time(index) ≤ t_r` (`floor(t_r/Δ)` up to
+    /// rounding), `next = (index + 1) mod M` and
+    /// `weight = clamp((t_r − grid_time(index))/Δ, 0, 1)`. A query at t reads the frames of
+    /// `index` and, when `weight > 0`, `next` ([`crate::SurfaceAt`] does this). `t` must be
+    /// finite (the weight is NaN otherwise).
+    pub fn grid_position(&self, t: f64) -> GridPosition {
+        let t_r = t.rem_euclid(self.repeat_period);
+        // floor(t_r/Δ) is the index up to rounding (t_r/Δ may land one ulp on the wrong side of
+        // a whole number, and reach M just below t_r = T; saturating `as` maps NaN to 0), so it
+        // is corrected against the grid times themselves: grid_time(index) ≤ t_r <
+        // grid_time(index + 1). A query at a grid time thus reads that one frame, with weight 0.
+        let mut index = ((t_r / self.time_step).floor() as u64).min(self.grid_steps - 1);
+        if index + 1 < self.grid_steps && self.grid_time(index + 1) <= t_r {
+            index += 1;
+        } else if index > 0 && self.grid_time(index) > t_r {
+            index -= 1;
+        }
+        let weight = ((t_r - self.grid_time(index)) / self.time_step).clamp(0.0, 1.0);
+        let next = if index + 1 == self.grid_steps {
+            0
+        } else {
+            index + 1
+        };
+        GridPosition {
+            index,
+            next,
+            weight,
+        }
+    }
+
+    /// The frame of grid index `index`: exactly [`FftLayer::frame`] at
+    /// [`FftLayer::grid_time`]`(index)`.
+    pub fn grid_frame(&self, index: u64, fields: super::FftFields) -> super::FftFrame {
+        self.frame(self.grid_time(index), fields)
+    }
+
     /// The FFT backend frames use.
     pub fn backend(&self) -> FftBackend {
         self.backend
@@ -354,6 +414,29 @@ impl FftLayer {
             self.half[(-m) as usize * self.n + col(-n)].h0_neg
         }
     }
+}
+
+/// A query time's place on an FFT layer's time grid ([`FftLayer::grid_position`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridPosition {
+    /// The grid index at or before the time (in `0..M`).
+    pub index: u64,
+    /// The grid index after it, `(index + 1) mod M`.
+    pub next: u64,
+    /// Weight of the `next` frame, in [0, 1]: 0 on a grid time.
+    pub weight: f64,
+}
+
+/// The time grid of a layer: `(M, T/M)` with `M = max(1, round(T/Δ))`.
+fn time_grid(field: &str, step: Option<f64>, period: f64) -> Result<(u64, f64), SpecError> {
+    let step = match step {
+        None => DEFAULT_TIME_STEP.min(period),
+        Some(dt) => in_range(&format!("{field}.time_step"), dt, MIN_TIME_STEP, period)?,
+    };
+    // period/step ≥ 1 here; a period of 10^15 s at 1 ms would overflow nothing either (as u64
+    // saturates), but keep M well inside the exactly representable integers of f64.
+    let m = (period / step).round().clamp(1.0, 9.0e15) as u64;
+    Ok((m, period / m as f64))
 }
 
 /// The distinct ω_q of `half` in ascending order, and each entry's position among them (see

@@ -191,8 +191,9 @@ impl FftFrame {
 /// it also shrinks amplitudes slightly between ticks; `docs/accuracy.md` measures it against the
 /// exact frame and against reading the nearest tick.
 ///
-/// Deterministic (plain `*`/`+`); not part of the golden vectors, which use exact frames. Both
-/// frames should have the same fields; a field missing from either reads as 0 there.
+/// Deterministic (plain `*`/`+`), with the arithmetic of [`lerp_samples`], which the layer's time
+/// grid uses ([`super::FftLayer::grid_position`]). Both frames should have the same fields; a
+/// field missing from either reads as 0 there.
 pub fn sample_between(
     a: &FftFrame,
     b: &FftFrame,
@@ -206,11 +207,18 @@ pub fn sample_between(
     } else {
         0.0
     };
-    let (sa, sb) = (a.sample(p0, filter), b.sample(p0, filter));
+    lerp_samples(&a.sample(p0, filter), &b.sample(p0, filter), w)
+}
+
+/// `a + (b − a)·w` for every field of two samples, component by component (plain `−`, `*`, `+`
+/// in that order: the time grid's interpolation, see the [module docs](super), step 7). `w = 0`
+/// gives `a`'s bits exactly.
+#[inline]
+pub fn lerp_samples(a: &FftSample, b: &FftSample, w: f64) -> FftSample {
     FftSample {
-        displacement: sa.displacement + (sb.displacement - sa.displacement) * w,
-        slope: sa.slope + (sb.slope - sa.slope) * w,
-        jacobian: sa.jacobian + (sb.jacobian - sa.jacobian) * w,
+        displacement: a.displacement + (b.displacement - a.displacement) * w,
+        slope: a.slope + (b.slope - a.slope) * w,
+        jacobian: a.jacobian + (b.jacobian - a.jacobian) * w,
     }
 }
 

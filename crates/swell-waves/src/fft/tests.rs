@@ -21,6 +21,7 @@ fn spec(resolution: u32, tile_size: f64) -> FftSpec {
         band: None,
         seed: None,
         backend: FftBackend::Portable,
+        time_step: None,
     }
 }
 
