@@ -144,7 +144,7 @@ pub struct FftSpec {
 
 /// Default step of an FFT layer's time grid, s: 1/60 s. Linear interpolation between frames
 /// this far apart is off by at most about `max|∂²h/∂t²|·Δ²/8`: a few tenths of a millimetre on
-/// the built-in seas, where 1/30 s measured 1.2 mm on the steep, choppy `storm` (see
+/// the built-in seas, where 1/30 s measured 2.7 mm on the steep, choppy `storm` (see
 /// `docs/accuracy.md`, time grid section). Halving Δ quarters the error and doubles the frames
 /// a server computes to follow its clock (60 a second per FFT layer in use).
 pub const DEFAULT_TIME_STEP: f64 = 1.0 / 60.0;
