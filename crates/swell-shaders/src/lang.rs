@@ -53,8 +53,10 @@ pub enum Entry {
     /// write it into.
     ProbeVertex,
     /// `swell_probe_fs`: evaluates the surface at the probe's local x/z and writes, to two float
-    /// targets, `(Dx, y, Dz, J)` and `(normal.x, normal.y, normal.z, height)` where `height` is
-    /// the elevation above the probe point itself (horizontal displacement inverted).
+    /// targets, `(Dx, y, Dz, J)` and `(normal.x, normal.y, normal.z, height)`: what `/sample`
+    /// answers for that world point. `(Dx, y, Dz)` is the displacement of the point taken as
+    /// undisplaced; J, the normal and the height belong to the surface point above it
+    /// (horizontal displacement inverted).
     ProbeFragment,
 }
 

@@ -13,6 +13,7 @@
 //! fn swell_sample(p_local: vec2<f32>) -> SwellSample     // (Dx, y, Dz) and ∂/∂x0, ∂/∂z0
 //! fn swell_displacement(p_local: vec2<f32>) -> vec3<f32>
 //! fn swell_height_at_undisplaced(p_local: vec2<f32>) -> f32
+//! fn swell_invert(p_local: vec2<f32>) -> vec2<f32>       // the p0 whose surface point is above p
 //! fn swell_height(p_local: vec2<f32>) -> f32             // elevation above p (inverted)
 //! fn swell_normal(s: SwellSample) -> vec3<f32>
 //! fn swell_jacobian(s: SwellSample) -> f32
@@ -261,10 +262,10 @@ fn swell_jacobian(s: SwellSample) -> f32 {
 ";
 
 const HEIGHT_NEWTON: &str = "
-// Elevation of the surface above the local point p: solves p0 + (Dx, Dz)(p0) = p by Newton's
-// method from p0 = p (NEWTON_STEPS steps; the Gerstner fold number < 1 keeps the Jacobian
-// positive), then evaluates there.
-fn swell_height(p: vec2<f32>) -> f32 {
+// The undisplaced point whose surface point lies above the local point p: solves
+// p0 + (Dx, Dz)(p0) = p by Newton's method from p0 = p (NEWTON_STEPS steps; the Gerstner fold
+// number < 1 keeps the Jacobian positive).
+fn swell_invert(p: vec2<f32>) -> vec2<f32> {
     var p0 = p;
     for (var i = 0u; i < NEWTON_STEPSu; i = i + 1u) {
         let s = swell_sample(p0);
@@ -276,12 +277,23 @@ fn swell_height(p: vec2<f32>) -> f32 {
         let det = a * d - b * c;
         p0 = p0 - vec2<f32>(d * r.x - b * r.y, a * r.y - c * r.x) / det;
     }
-    return swell_sample(p0).displacement.y;
+    return p0;
+}
+
+// Elevation of the surface above the local point p.
+fn swell_height(p: vec2<f32>) -> f32 {
+    return swell_sample(swell_invert(p)).displacement.y;
 }
 ";
 
 const HEIGHT_DIRECT: &str = "
-// Elevation of the surface above the local point p (no wave moves the surface horizontally).
+// The undisplaced point whose surface point lies above p: p itself (no wave here moves the
+// surface horizontally).
+fn swell_invert(p: vec2<f32>) -> vec2<f32> {
+    return p;
+}
+
+// Elevation of the surface above the local point p.
 fn swell_height(p: vec2<f32>) -> f32 {
     return swell_sample(p).displacement.y;
 }
@@ -319,10 +331,12 @@ struct SwellProbeOut {
     @location(1) normal: vec4<f32>,
 }
 
-// Probe fragment shader: (Dx, y, Dz, J) and (normal, height above the probe point).
+// Probe fragment shader, the answers of /sample at the probe's world point: (Dx, y, Dz) of the
+// point taken as undisplaced and the Jacobian, normal and height of the surface point above it.
 @fragment
 fn swell_probe_fs(@location(0) @interpolate(flat) p_local: vec2<f32>) -> SwellProbeOut {
-    let s = swell_sample(p_local);
-    return SwellProbeOut(vec4<f32>(s.displacement, swell_jacobian(s)), vec4<f32>(swell_normal(s), swell_height(p_local)));
+    let at = swell_sample(p_local);
+    let above = swell_sample(swell_invert(p_local));
+    return SwellProbeOut(vec4<f32>(at.displacement, swell_jacobian(above)), vec4<f32>(swell_normal(above), above.displacement.y));
 }
 ";
