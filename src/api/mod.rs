@@ -10,6 +10,7 @@
 //! - [`admin`] — bearer-token check.
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
 //! - [`wire`] — JSON/protobuf content negotiation for query bodies and answers.
+//! - [`shader`] — the generated shader, the frame's uniforms, FFT spectra (GPU clients).
 //!
 //! Middleware, outermost first: panic → 500 JSON; trace span; metrics by route and status;
 //! errors re-encoded as protobuf for clients that accept it;
@@ -22,6 +23,7 @@ pub mod json;
 pub mod ops;
 pub mod query;
 pub mod scenes;
+pub mod shader;
 pub mod types;
 pub mod wire;
 
@@ -74,6 +76,9 @@ pub fn router(state: AppState) -> Router {
             "/v1/scenes/{id}/bodies/{bid}/input",
             axum::routing::post(bodies::input),
         )
+        .route("/v1/scenes/{id}/shader", get(shader::shader))
+        .route("/v1/scenes/{id}/uniforms", get(shader::uniforms))
+        .route("/v1/scenes/{id}/spectrum", get(shader::spectrum))
         .route("/v1/scenes/{id}/stream", get(crate::stream::stream))
         .route("/healthz", get(ops::healthz))
         .route("/readyz", get(ops::readyz))

@@ -1,0 +1,41 @@
+//! [`ShaderError`]: why a surface could not be exported.
+
+/// Why a shader or an export could not be produced.
+#[derive(Debug, thiserror::Error)]
+pub enum ShaderError {
+    /// More sine and Gerstner waves than one shader carries: the phase offsets are a uniform
+    /// array of `⌈waves/4⌉` vec4s, and WebGL2 only promises 16 KiB of uniform block.
+    #[error("the surface has {waves} sine and Gerstner waves; a shader carries at most {max}")]
+    TooManyWaves {
+        /// Waves in the surface.
+        waves: usize,
+        /// The most one shader carries ([`crate::wgsl::MAX_SHADER_WAVES`]).
+        max: usize,
+    },
+    /// A wave constant does not fit in f32 (finite in f64, infinite once rounded).
+    #[error("wave {wave} has {what} = {value}, which is not a finite f32")]
+    NotRepresentable {
+        /// Index of the wave among the surface's sine and Gerstner waves.
+        wave: usize,
+        /// Which constant.
+        what: &'static str,
+        /// Its f64 value.
+        value: f64,
+    },
+    /// naga rejected the emitted module or failed to write a translation: an emitter bug.
+    #[error("naga failed at {stage}: {message}")]
+    Naga {
+        /// Which step: `parse`, `validate`, `glsl`, `hlsl`, `msl`.
+        stage: &'static str,
+        /// naga's message.
+        message: String,
+    },
+    /// A layer index that is not a layer of the surface, or not an FFT layer.
+    #[error("layer {layer}: {reason}")]
+    BadLayer {
+        /// The index asked for.
+        layer: usize,
+        /// Why it cannot be exported.
+        reason: String,
+    },
+}

@@ -1,0 +1,106 @@
+//! The output languages and the entry points of the exported shader.
+
+/// A shading language the surface can be exported in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Lang {
+    /// WGSL (WebGPU): the emitted module itself, every entry point.
+    Wgsl,
+    /// GLSL 4.50 core (desktop OpenGL, Vulkan-style GLSL toolchains): one entry point, as `main`.
+    Glsl,
+    /// GLSL ES 3.00 (WebGL2, OpenGL ES 3): one entry point, as `main`.
+    GlslEs,
+    /// HLSL, shader model 5.1 (Direct3D 11/12, Unity, Unreal).
+    Hlsl,
+    /// Metal Shading Language 2.1.
+    Msl,
+}
+
+impl Lang {
+    /// Every language, in the order the API lists them.
+    pub const ALL: [Lang; 5] = [Lang::Wgsl, Lang::Glsl, Lang::GlslEs, Lang::Hlsl, Lang::Msl];
+
+    /// The name used in the API's `lang` parameter.
+    pub fn name(self) -> &'static str {
+        match self {
+            Lang::Wgsl => "wgsl",
+            Lang::Glsl => "glsl",
+            Lang::GlslEs => "glsl_es",
+            Lang::Hlsl => "hlsl",
+            Lang::Msl => "msl",
+        }
+    }
+
+    /// Parses an API name (exact, lower case); `None` for anything else.
+    pub fn parse(name: &str) -> Option<Lang> {
+        Lang::ALL.into_iter().find(|l| l.name() == name)
+    }
+
+    /// Whether an output holds exactly one entry point (GLSL renames it `main`).
+    pub fn single_entry(self) -> bool {
+        matches!(self, Lang::Glsl | Lang::GlslEs)
+    }
+}
+
+/// An entry point of the exported shader.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Entry {
+    /// `swell_vs`: the render vertex shader. Input `@location(0)` the undisplaced local x/z of a
+    /// grid vertex; outputs the clip position `view_proj · (displaced local position, 1)`, and at
+    /// locations 0–2 the displaced local position, the unit normal and the Jacobian.
+    Vertex,
+    /// `swell_probe_vs`: a pass-through vertex shader for probes (one point per probe): input
+    /// `@location(0)` the local x/z to evaluate, `@location(1)` the clip-space x/y of the pixel to
+    /// write it into.
+    ProbeVertex,
+    /// `swell_probe_fs`: evaluates the surface at the probe's local x/z and writes, to two float
+    /// targets, `(Dx, y, Dz, J)` and `(normal.x, normal.y, normal.z, height)`: what `/sample`
+    /// answers for that world point. `(Dx, y, Dz)` is the displacement of the point taken as
+    /// undisplaced; J, the normal and the height belong to the surface point above it
+    /// (horizontal displacement inverted).
+    ProbeFragment,
+}
+
+impl Entry {
+    /// Every entry point.
+    pub const ALL: [Entry; 3] = [Entry::Vertex, Entry::ProbeVertex, Entry::ProbeFragment];
+
+    /// The function name in the WGSL module (and the API's `entry` parameter).
+    pub fn name(self) -> &'static str {
+        match self {
+            Entry::Vertex => "swell_vs",
+            Entry::ProbeVertex => "swell_probe_vs",
+            Entry::ProbeFragment => "swell_probe_fs",
+        }
+    }
+
+    /// Parses an entry point name; `None` for anything else.
+    pub fn parse(name: &str) -> Option<Entry> {
+        Entry::ALL.into_iter().find(|e| e.name() == name)
+    }
+
+    /// The pipeline stage.
+    pub fn stage(self) -> naga::ShaderStage {
+        match self {
+            Entry::Vertex | Entry::ProbeVertex => naga::ShaderStage::Vertex,
+            Entry::ProbeFragment => naga::ShaderStage::Fragment,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_unknowns_are_rejected() {
+        for l in Lang::ALL {
+            assert_eq!(Lang::parse(l.name()), Some(l));
+        }
+        for e in Entry::ALL {
+            assert_eq!(Entry::parse(e.name()), Some(e));
+        }
+        assert_eq!(Lang::parse("GLSL"), None);
+        assert_eq!(Lang::parse("spirv"), None);
+        assert_eq!(Entry::parse("main"), None);
+    }
+}

@@ -1,0 +1,35 @@
+//! Writes the GLSL outputs of every built-in scene (GLSL 4.50 and GLSL ES 3.00, every entry
+//! point) into a directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that
+//! `glslangValidator` picks the stage from the extension. `.ci/shader-check` compiles them.
+//!
+//! `cargo run --example shader_export -- DIR`
+
+use anyhow::Context;
+use swell::scene::{Scene, builtin};
+use swell_shaders::{Entry, Lang};
+
+fn main() -> anyhow::Result<()> {
+    let dir = std::env::args()
+        .nth(1)
+        .context("usage: shader_export DIR")?;
+    std::fs::create_dir_all(&dir)?;
+    let mut written = 0;
+    for (id, spec) in builtin::specs() {
+        let scene = Scene::build(&id, spec)?;
+        for lang in [Lang::Glsl, Lang::GlslEs] {
+            for entry in Entry::ALL {
+                let text = swell_shaders::export(&scene.surface, lang, Some(entry))?;
+                let ext = if entry == Entry::ProbeFragment {
+                    "frag"
+                } else {
+                    "vert"
+                };
+                let path = format!("{dir}/{id}.{}.{}.{ext}", lang.name(), entry.name());
+                std::fs::write(&path, text).with_context(|| path.clone())?;
+                written += 1;
+            }
+        }
+    }
+    println!("wrote {written} GLSL files to {dir}");
+    Ok(())
+}

@@ -1,0 +1,264 @@
+//! The GPU-client endpoints over a real socket: `/shader`, `/uniforms`, `/spectrum`.
+
+mod common;
+
+use common::{TestServer, bits, code, config, into_json};
+use serde_json::{Value, json};
+
+const LANGS: [&str; 5] = ["wgsl", "glsl", "glsl_es", "hlsl", "msl"];
+
+fn header<'a>(r: &'a reqwest::Response, name: &str) -> &'a str {
+    r.headers()
+        .get(name)
+        .unwrap_or_else(|| panic!("no {name} header"))
+        .to_str()
+        .unwrap()
+}
+
+#[tokio::test]
+async fn shader_in_every_language_for_every_builtin_scene_with_version_headers_and_etag() {
+    let s = TestServer::start(config()).await;
+    for id in ["calm", "lake", "open-sea", "storm"] {
+        let (_, detail) = s.get_json(&format!("/v1/scenes/{id}")).await;
+        let hash = detail["spec_hash"].as_str().unwrap().to_owned();
+        for lang in LANGS {
+            let path = format!("/v1/scenes/{id}/shader?lang={lang}");
+            let r = s.get(&path).await;
+            assert_eq!(r.status(), 200, "{path}");
+            assert!(header(&r, "content-type").starts_with("text/plain"));
+            assert_eq!(header(&r, "swell-spec-hash"), hash);
+            assert_eq!(
+                header(&r, "swell-model-version"),
+                swell_waves::MODEL_VERSION.to_string()
+            );
+            let tag = header(&r, "etag").to_owned();
+            let text = r.text().await.unwrap();
+            match lang {
+                "wgsl" => assert!(text.contains("fn swell_sample(p: vec2<f32>)")),
+                "glsl" => assert!(text.starts_with("#version 450")),
+                "glsl_es" => assert!(text.starts_with("#version 300 es")),
+                "hlsl" => assert!(text.contains("cbuffer swell")),
+                _ => assert!(text.contains("metal_stdlib")),
+            }
+            // Revalidation: 304, no body, same tag.
+            let r = s
+                .client
+                .get(s.url(&path))
+                .header("if-none-match", &tag)
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(r.status(), 304, "{path}");
+            assert_eq!(header(&r, "etag"), tag);
+            assert!(r.text().await.unwrap().is_empty());
+        }
+    }
+    // The lake's 17 Gerstner waves are all in the shader, with their phase slots.
+    let text = s
+        .get("/v1/scenes/lake/shader?lang=wgsl")
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert_eq!(text.matches("s = swell_wave(").count(), 17);
+    assert!(text.contains("swell.phases[4].x"));
+    // GLSL picks its entry point; the probe fragment shader writes two float targets.
+    let fs = s
+        .get("/v1/scenes/lake/shader?lang=glsl_es&entry=swell_probe_fs")
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(fs.contains("layout(location = 1) out vec4"), "{fs}");
+    // Different entry points are different texts with different tags.
+    let a = s.get("/v1/scenes/lake/shader?lang=glsl").await;
+    let b = s
+        .get("/v1/scenes/lake/shader?lang=glsl&entry=swell_probe_vs")
+        .await;
+    assert_ne!(header(&a, "etag"), header(&b, "etag"));
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn shader_errors_name_the_parameter() {
+    let s = TestServer::start(config()).await;
+    for (q, field) in [
+        ("", "lang"),
+        ("?lang=spirv", "lang"),
+        ("?lang=GLSL", "lang"),
+        ("?lang=glsl&entry=main", "entry"),
+    ] {
+        let (st, v) = s.get_json(&format!("/v1/scenes/calm/shader{q}")).await;
+        assert_eq!((st, code(&v)), (400, "invalid_value"), "{q}: {v}");
+        assert_eq!(v["error"]["field"], field, "{q}: {v}");
+    }
+    let (st, v) = s.get_json("/v1/scenes/calm/shader?lang=spirv").await;
+    assert_eq!(st, 400);
+    assert!(
+        v["error"]["message"].as_str().unwrap().contains("glsl_es"),
+        "the message lists the languages: {v}"
+    );
+    let (st, v) = s.get_json("/v1/scenes/nope/shader?lang=wgsl").await;
+    assert_eq!((st, code(&v)), (404, "not_found"));
+    s.stop().await;
+}
+
+/// The uniforms are the documented formula evaluated on the scene's own derived waves, and with
+/// them the shader's sum at the origin reproduces `/sample` there.
+#[tokio::test]
+async fn uniforms_follow_the_formula_and_reproduce_sample() {
+    let s = TestServer::start(config()).await;
+    let (_, detail) = s.get_json("/v1/scenes/calm").await;
+    let waves = detail["derived"]["layers"][0]["waves"]
+        .as_array()
+        .unwrap()
+        .clone();
+    let (t, ox, oz) = (1e6 + 0.25, 1e6, -2.5e5);
+    let r = s
+        .get(&format!("/v1/scenes/calm/uniforms?t={t}&origin={ox},{oz}"))
+        .await;
+    assert_eq!(r.status(), 200);
+    let tag = header(&r, "etag").to_owned();
+    let (_, u) = into_json(r).await;
+    assert_eq!(u["spec_hash"], detail["spec_hash"]);
+    assert_eq!(u["model_version"], json!(swell_waves::MODEL_VERSION));
+    assert_eq!(u["t"], json!(t));
+    assert_eq!(u["origin"], json!([ox, oz]));
+    assert_eq!(u["waves"], json!(3));
+    let phases = u["phases"].as_array().unwrap();
+    let block = u["block"].as_array().unwrap();
+    assert_eq!(block.len(), 4);
+    assert_eq!(u["block_bytes"], json!(16));
+    let f = |w: &Value, k: &str| w[k].as_f64().unwrap();
+    let mut height = 0.0;
+    for (i, w) in waves.iter().enumerate() {
+        let d = [
+            w["direction"][0].as_f64().unwrap(),
+            w["direction"][1].as_f64().unwrap(),
+        ];
+        let along = d[0] * ox + d[1] * oz;
+        let expect = swell_waves::math::reduce_phase(
+            f(w, "wavenumber") * along - f(w, "omega") * t + f(w, "phase"),
+        );
+        assert_eq!(bits(&phases[i]), expect.to_bits(), "wave {i}");
+        assert_eq!(bits(&block[i]), f64::from(expect as f32).to_bits());
+        height += f(w, "amplitude") * expect.sin();
+    }
+    assert_eq!(block[3], json!(0.0));
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/sample",
+            &json!({"t": t, "points": [[ox, oz]], "fields": ["height"]}),
+        )
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let sampled = v["height"][0].as_f64().unwrap();
+    assert!(
+        (sampled - height).abs() < 1e-9,
+        "uniforms give {height}, /sample {sampled}"
+    );
+    // Same query, same body, same tag.
+    let r = s
+        .get(&format!("/v1/scenes/calm/uniforms?t={t}&origin={ox},{oz}"))
+        .await;
+    assert_eq!(header(&r, "etag"), tag);
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn uniforms_errors_name_the_parameter() {
+    let s = TestServer::start(config()).await;
+    for (q, field) in [
+        ("t=abc", "t"),
+        ("t=1e99", "t"),
+        ("t=NaN", "t"),
+        ("origin=1", "origin"),
+        ("origin=1,2,3", "origin"),
+        ("origin=a,0", "origin"),
+        ("origin=1e300,0", "origin"),
+    ] {
+        let (st, v) = s.get_json(&format!("/v1/scenes/lake/uniforms?{q}")).await;
+        assert_eq!((st, code(&v)), (400, "invalid_value"), "{q}: {v}");
+        assert_eq!(v["error"]["field"], field, "{q}: {v}");
+    }
+    // No t: the clock's now; an FFT-only scene has no waves and one zero vec4.
+    let (st, v) = s.get_json("/v1/scenes/storm/uniforms").await;
+    assert_eq!(st, 200, "{v}");
+    assert!(v["t"].as_f64().unwrap() >= 0.0);
+    assert_eq!(v["phases"], json!([]));
+    assert_eq!(v["block"], json!([0.0, 0.0, 0.0, 0.0]));
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn spectrum_is_binary_with_a_json_header_and_rejects_other_layers() {
+    let s = TestServer::start(config()).await;
+    let r = s.get("/v1/scenes/open-sea/spectrum?layer=0").await;
+    assert_eq!(r.status(), 200);
+    assert_eq!(header(&r, "content-type"), "application/octet-stream");
+    let tag = header(&r, "etag").to_owned();
+    let bytes = r.bytes().await.unwrap();
+    assert_eq!(&bytes[..4], b"SWSP");
+    let hlen = u32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
+    let h: Value = serde_json::from_slice(&bytes[8..8 + hlen]).unwrap();
+    assert_eq!(h["resolution"], json!(256));
+    assert_eq!(h["tile_size"], json!(256.0));
+    assert_eq!(h["choppiness"], json!(1.0));
+    assert_eq!(h["repeat_period"], json!(200.0));
+    assert_eq!(h["scene"], "open-sea");
+    assert_eq!(h["layer"], json!(0));
+    let (_, detail) = s.get_json("/v1/scenes/open-sea").await;
+    assert_eq!(h["spec_hash"], detail["spec_hash"]);
+    assert_eq!(
+        h["seed"].as_str().unwrap(),
+        detail["derived"]["layers"][0]["seed"]
+            .as_u64()
+            .unwrap()
+            .to_string()
+    );
+    assert_eq!(h["variance"], detail["derived"]["layers"][0]["variance"]);
+    let off = h["data_offset"].as_u64().unwrap() as usize;
+    assert_eq!(bytes.len(), off + 256 * 256 * 24);
+    // Σ|h0|² over every record is half the layer's variance (the model's definition).
+    let mut sum = 0.0;
+    for r in bytes[off..].chunks_exact(24) {
+        let re = f64::from_le_bytes(r[0..8].try_into().unwrap());
+        let im = f64::from_le_bytes(r[8..16].try_into().unwrap());
+        sum += re * re + im * im;
+    }
+    let var = h["variance"].as_f64().unwrap();
+    assert!(
+        (2.0 * sum - var).abs() <= 1e-12 * var,
+        "{} vs {var}",
+        2.0 * sum
+    );
+    let r = s
+        .client
+        .get(s.url("/v1/scenes/open-sea/spectrum?layer=0"))
+        .header("if-none-match", &tag)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 304);
+
+    for (q, needle) in [
+        ("layer=1", "gerstner layer"),
+        ("layer=2", "out of range"),
+        ("layer=-1", "not a layer index"),
+        ("layer=x", "not a layer index"),
+        ("", "required"),
+    ] {
+        let (st, v) = s
+            .get_json(&format!("/v1/scenes/open-sea/spectrum?{q}"))
+            .await;
+        assert_eq!((st, code(&v)), (400, "invalid_value"), "{q}: {v}");
+        assert_eq!(v["error"]["field"], "layer");
+        assert!(
+            v["error"]["message"].as_str().unwrap().contains(needle),
+            "{q}: {v}"
+        );
+    }
+    let (st, v) = s.get_json("/v1/scenes/calm/spectrum?layer=0").await;
+    assert_eq!((st, code(&v)), (400, "invalid_value"), "{v}");
+    s.stop().await;
+}
