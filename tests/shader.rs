@@ -205,6 +205,8 @@ async fn spectrum_is_binary_with_a_json_header_and_rejects_other_layers() {
     assert_eq!(h["tile_size"], json!(256.0));
     assert_eq!(h["choppiness"], json!(1.0));
     assert_eq!(h["repeat_period"], json!(200.0));
+    assert_eq!(h["grid_steps"], json!(12_000), "200 s at 1/60 s");
+    assert_eq!(h["time_step"], json!(200.0 / 12_000.0));
     assert_eq!(h["scene"], "open-sea");
     assert_eq!(h["layer"], json!(0));
     let (_, detail) = s.get_json("/v1/scenes/open-sea").await;

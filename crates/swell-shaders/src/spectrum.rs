@@ -26,6 +26,10 @@
 //!   carries the physical amplitude). Equivalently `h = Σ_k 2·Re[h0(k)·e^{i(k·x − ω_q t)}]`.
 //! - Horizontal displacement `D = Σ_k i·λ·(k/|k|)·h̃·e^{i k·x}` (λ = `choppiness`; a point moves
 //!   towards crests: sharp crests), slopes `∂h/∂x = Σ_k i·k_x·h̃·e^{i k·x}` (z likewise).
+//! - Time grid: the server's default answers (`accuracy.time = "grid"`) read the frames at
+//!   `t_n = n·time_step` around t and interpolate linearly (header `time_step`, `grid_steps`,
+//!   `swell_waves::fft` step 7); a client evaluating at t itself matches `"exact"`, a few tenths
+//!   of a millimetre away.
 //! - The tile is periodic with side L: sample at `x mod L`. Grid node (i, j) of an inverse FFT
 //!   of size N is the point `(i·L/N, j·L/N)`.
 
@@ -137,6 +141,9 @@ pub fn export(
             "tile_size": layer.tile_size(),
             "choppiness": layer.choppiness(),
             "repeat_period": layer.repeat_period(),
+            "time_step": layer.time_step(),
+            "grid_steps": layer.grid_steps(),
+            "time_sampling": "the server's default answers read frames at grid times t_n = n*time_step (n in 0..grid_steps, t reduced modulo repeat_period), linear in time between the two around t: a + (b - a)*w, w = (t_r - t_n)/time_step; a client evaluating at t itself matches accuracy.time = exact",
             "gravity": dispersion.gravity,
             "depth": dispersion.depth,
             "modes": layer.modes(),
