@@ -40,6 +40,8 @@ pub struct Config {
     pub scenes: Vec<(String, SceneSpec)>,
     /// Request limits.
     pub limits: Limits,
+    /// When the journal takes snapshots (with a data dir).
+    pub snapshots: crate::journal::snapshot::SnapshotPolicy,
 }
 
 impl Default for Config {
@@ -51,6 +53,7 @@ impl Default for Config {
             builtin_scenes: true,
             scenes: Vec::new(),
             limits: Limits::default(),
+            snapshots: Default::default(),
         }
     }
 }

@@ -17,7 +17,9 @@
 //! # Layout
 //! - [`config`] — [`Config`], limits, the TOML scene file.
 //! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
-//! - [`state`] — the registry and admin operations (validate → persist → swap).
+//! - [`state`] — the registry and admin operations (validate → journal → swap).
+//! - [`journal`] — durability: every acknowledged change in an fsynced, checksummed log in the
+//!   data dir, periodic snapshots, compaction, and the replay at start-up.
 //! - [`frames`] — the shared, bounded FFT frame cache.
 //! - [`bodies`] — server-authoritative floating bodies: a body world per scene, stepped at the
 //!   scene's tick rate by its own loop ([`bodies::runner`]).
@@ -38,6 +40,7 @@ pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod frames;
+pub mod journal;
 pub mod scene;
 pub mod state;
 pub mod stream;
@@ -103,6 +106,7 @@ fn metrics_handle() -> PrometheusHandle {
 pub struct Server {
     listener: TcpListener,
     state: AppState,
+    snapshots: journal::snapshot::SnapshotPolicy,
 }
 
 impl Server {
@@ -111,35 +115,49 @@ impl Server {
     /// # Errors
     /// The socket cannot be bound, the data dir cannot be opened, a configured scene is invalid.
     pub async fn bind(config: Config) -> Result<Server, StartError> {
-        let store = match &config.data_dir {
-            Some(dir) => Some(
-                scene::store::Store::open(dir).map_err(|source| StartError::Io {
-                    what: format!("opening data dir {}", dir.display()),
-                    source,
-                })?,
-            ),
-            None => None,
+        let io = |dir: &std::path::Path| {
+            let what = format!("opening data dir {}", dir.display());
+            move |source| StartError::Io { what, source }
+        };
+        let (journal, recovered, legacy) = match &config.data_dir {
+            Some(dir) => {
+                let (j, r) = journal::Journal::open(dir).map_err(io(dir))?;
+                // The layout before the journal: read (and imported) only if it is there.
+                let legacy = if dir.join("scenes").is_dir() || dir.join("clocks").is_dir() {
+                    Some(scene::store::Store::open(dir).map_err(io(dir))?)
+                } else {
+                    None
+                };
+                (Some(j), Some(r), legacy)
+            }
+            None => (None, None, None),
         };
         let token = match config.admin_token.clone().filter(|t| !t.is_empty()) {
             Some(t) => t,
             None => api::admin::generate_token()
                 .map_err(|e| StartError::Setup(format!("generating an admin token: {e}")))?,
         };
-        let state = AppState::new(config.limits.clone(), store, token, metrics_handle());
+        let state = AppState::new(config.limits.clone(), journal, token, metrics_handle());
         let loading = state.clone();
         let builtin = config.builtin_scenes;
         let scenes = config.scenes.clone();
-        tokio::task::spawn_blocking(move || loading.load(builtin, &scenes))
-            .await
-            .map_err(|e| StartError::Setup(e.to_string()))?
-            .map_err(StartError::Setup)?;
+        tokio::task::spawn_blocking(move || {
+            loading.load(builtin, &scenes, recovered, legacy.as_ref())
+        })
+        .await
+        .map_err(|e| StartError::Setup(e.to_string()))?
+        .map_err(StartError::Setup)?;
         let listener = TcpListener::bind(config.bind)
             .await
             .map_err(|source| StartError::Io {
                 what: format!("binding {}", config.bind),
                 source,
             })?;
-        Ok(Server { listener, state })
+        Ok(Server {
+            listener,
+            state,
+            snapshots: config.snapshots,
+        })
     }
 
     /// The bound address (the real port when the config asked for port 0).
@@ -183,6 +201,16 @@ impl Server {
         });
         // Bodies restored from the data dir resume stepping.
         state.bodies.start_all(&state);
+        // Snapshots bound the log and the replay after a crash; they stop with the shutdown
+        // signal, before the final snapshot below.
+        let snapshots = state.journal().cloned().map(|j| {
+            tokio::spawn(journal::snapshot::run(
+                state.clone(),
+                j,
+                self.snapshots,
+                state.shutdown.clone(),
+            ))
+        });
         state.set_ready(true);
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
@@ -204,7 +232,12 @@ impl Server {
             })
             .await;
         upkeep.abort();
-        // Stop the body loops and save the bodies' last states (restored at the next start).
+        if let Some(task) = snapshots
+            && let Err(e) = task.await
+        {
+            tracing::error!(error = %e, "the snapshot task panicked");
+        }
+        // Stop the body loops and write a final snapshot (the next start replays nothing).
         let saving = state.clone();
         if let Err(e) = tokio::task::spawn_blocking(move || saving.persist_bodies()).await {
             tracing::error!(error = %e, "saving bodies panicked");

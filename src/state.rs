@@ -3,8 +3,8 @@
 //!
 //! Scenes live in a `BTreeMap` (sorted listing) behind a std `RwLock` held only to clone an
 //! `Arc`. Admin changes (scene put/delete, clock set) are serialised by one async mutex and follow
-//! one order: validate and build → persist → swap in memory. A change that fails at any step
-//! leaves both disk and memory as they were.
+//! one order: validate and build → journal (durable: [`crate::journal`]) → swap in memory. A
+//! change that fails at any step leaves memory as it was.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,6 +19,7 @@ use crate::api::types::ClockUpdate;
 use crate::config::Limits;
 use crate::error::ApiError;
 use crate::frames::FrameCache;
+use crate::journal::{Journal, Op, Recovered};
 use crate::scene::clock::ClockReading;
 use crate::scene::store::{ClockRecord, SceneRecord, Store, unix_now};
 use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
@@ -45,7 +46,7 @@ pub struct Inner {
     /// loops stop (axum's graceful shutdown does neither for upgraded connections).
     pub shutdown: CancellationToken,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
-    store: Option<Store>,
+    journal: Option<Journal>,
     admin_token: String,
     admin_lock: tokio::sync::Mutex<()>,
     ready: AtomicBool,
@@ -72,7 +73,7 @@ impl AppState {
     /// A state with no scenes.
     pub fn new(
         limits: Limits,
-        store: Option<Store>,
+        journal: Option<Journal>,
         admin_token: String,
         metrics: PrometheusHandle,
     ) -> AppState {
@@ -84,7 +85,7 @@ impl AppState {
             tickers: Tickers::default(),
             shutdown: CancellationToken::new(),
             scenes: RwLock::new(BTreeMap::new()),
-            store,
+            journal,
             admin_token,
             admin_lock: tokio::sync::Mutex::new(()),
             ready: AtomicBool::new(false),
@@ -95,6 +96,23 @@ impl AppState {
     /// Seconds on the monotonic clock that scene clocks run on.
     pub fn now(&self) -> f64 {
         self.base.elapsed().as_secs_f64()
+    }
+
+    /// The journal (none without a data dir).
+    pub fn journal(&self) -> Option<&Journal> {
+        self.journal.as_ref()
+    }
+
+    /// Journals `op` and waits until it is durable (nothing to do without a data dir).
+    ///
+    /// # Errors
+    /// 500 if it cannot be written or synced.
+    async fn journal_op(&self, op: Op) -> Result<(), ApiError> {
+        let Some(j) = &self.journal else {
+            return Ok(());
+        };
+        let seq = j.append(op).map_err(ApiError::internal)?;
+        j.commit(seq).await.map_err(ApiError::internal)
     }
 
     /// The admin token.
@@ -178,15 +196,13 @@ impl AppState {
             .await
             .map_err(ApiError::internal)??;
         let _guard = self.admin_lock.lock().await;
-        if let Some(store) = self.store.clone() {
-            // Persist the canonical form: what the scene is, with defaults filled in.
-            let json = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
-            let sid = id.to_owned();
-            tokio::task::spawn_blocking(move || store.put_scene(&sid, &json))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
-        }
+        // Journal the canonical form: what the scene is, with defaults filled in.
+        let spec = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
+        self.journal_op(Op::ScenePut {
+            scene: id.to_owned(),
+            spec,
+        })
+        .await?;
         let mut map = self.write_scenes();
         let (outcome, clock) = match map.get(id) {
             Some(old) => (
@@ -210,13 +226,10 @@ impl AppState {
     pub async fn delete_scene(&self, id: &str) -> Result<(), ApiError> {
         let _guard = self.admin_lock.lock().await;
         self.scene(id)?;
-        if let Some(store) = self.store.clone() {
-            let sid = id.to_owned();
-            tokio::task::spawn_blocking(move || store.delete_scene(&sid))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
-        }
+        self.journal_op(Op::SceneDelete {
+            scene: id.to_owned(),
+        })
+        .await?;
         self.write_scenes().remove(id);
         self.bodies.remove_scene(id);
         Ok(())
@@ -253,30 +266,37 @@ impl AppState {
         if let Some(p) = update.paused {
             clock.set_paused(now, p);
         }
-        if let Some(store) = self.store.clone() {
-            let rec = ClockRecord {
-                t: clock.t(now),
-                rate: clock.rate(),
-                paused: clock.paused(),
-                unix,
-            };
-            let sid = id.to_owned();
-            tokio::task::spawn_blocking(move || store.put_clock(&sid, rec))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
-        }
+        let rec = ClockRecord {
+            t: clock.t(now),
+            rate: clock.rate(),
+            paused: clock.paused(),
+            unix,
+        };
+        self.journal_op(Op::Clock {
+            scene: id.to_owned(),
+            clock: rec,
+        })
+        .await?;
         *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
         Ok(self.read_clock(&entry))
     }
 
-    /// Loads built-in, configured and persisted scenes, in that order (later sources win; a
-    /// persisted deletion removes a built-in or configured scene). Blocking: builds every scene.
+    /// Loads built-in, configured and journaled scenes, in that order (later sources win; a
+    /// journaled deletion removes a built-in or configured scene), then the journaled clocks and
+    /// bodies ([`crate::journal::restore`]). `legacy` is a data dir written before the journal
+    /// (per-file scenes, clocks, bodies): read only when the journal is empty, and imported into
+    /// it. Blocking: builds every scene.
     ///
     /// # Errors
     /// A built-in or configured scene that does not build (a persisted one that no longer builds
     /// is logged and skipped, so a model upgrade cannot keep the server down).
-    pub fn load(&self, builtin: bool, configured: &[(String, SceneSpec)]) -> Result<(), String> {
+    pub fn load(
+        &self,
+        builtin: bool,
+        configured: &[(String, SceneSpec)],
+        recovered: Option<Recovered>,
+        legacy: Option<&Store>,
+    ) -> Result<(), String> {
         if builtin {
             for (id, spec) in crate::scene::builtin::specs() {
                 let scene =
@@ -289,17 +309,37 @@ impl AppState {
                 .map_err(|e| format!("configured scene {id}: {}", e.message))?;
             self.insert_loaded(scene, None);
         }
-        let Some(store) = &self.store else {
-            return Ok(());
-        };
+        let empty = recovered
+            .as_ref()
+            .is_none_or(|r| r.snapshot.is_none() && r.records.is_empty());
+        if let Some(rec) = recovered {
+            crate::journal::restore::restore(self, rec);
+        }
+        match legacy {
+            Some(store) if empty => self.load_legacy(store),
+            _ => Ok(()),
+        }
+    }
+
+    /// Reads a data dir of the pre-journal layout and imports it into the journal.
+    fn load_legacy(&self, store: &Store) -> Result<(), String> {
         let loaded = store.load_scenes();
+        let mut ops = Vec::new();
+        let mut bodies_found = false;
         for (path, why) in loaded.bad {
             tracing::error!(path = %path.display(), %why, "skipping unreadable scene file");
         }
         for (id, rec) in loaded.records {
             match rec {
-                SceneRecord::Deleted => self.remove_loaded(&id),
+                SceneRecord::Deleted => {
+                    self.remove_loaded(&id);
+                    ops.push(Op::SceneDelete { scene: id.clone() });
+                }
                 SceneRecord::Put(v) => {
+                    ops.push(Op::ScenePut {
+                        scene: id.clone(),
+                        spec: v.clone(),
+                    });
                     match SceneSpec::from_value(v).and_then(|spec| Scene::build(&id, spec)) {
                         Ok(scene) => self.insert_loaded(scene, None),
                         Err(e) => {
@@ -323,6 +363,10 @@ impl AppState {
                     };
                     let clock = Clock::with_state(now, t, rec.rate, rec.paused);
                     *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
+                    ops.push(Op::Clock {
+                        scene: id.clone(),
+                        clock: rec,
+                    });
                 }
                 Ok(None) => {}
                 Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable clock file"),
@@ -338,7 +382,12 @@ impl AppState {
                             crate::bodies::SceneBodies::from_record(&r, hz, g)
                                 .map_err(|e| e.message)
                         }) {
-                        Ok(b) => self.bodies.insert(id, b),
+                        Ok(b) => {
+                            bodies_found = true;
+                            // Not bit-exact (the old file kept no anchor): the bodies carry on
+                            // from their saved states.
+                            self.bodies.insert(id, b);
+                        }
                         Err(why) => {
                             tracing::error!(scene = %id, %why, "skipping unreadable bodies file")
                         }
@@ -348,25 +397,34 @@ impl AppState {
                 Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable bodies file"),
             }
         }
+        if ops.is_empty() && !bodies_found {
+            return Ok(());
+        }
+        tracing::info!(
+            records = ops.len(),
+            "imported a data dir of the pre-journal layout"
+        );
+        if let Some(j) = &self.journal {
+            j.append_all(ops)
+                .and_then(|_| crate::journal::snapshot::take(self, j))
+                .map_err(|e| format!("importing the old data dir into the journal: {e}"))?;
+        }
         Ok(())
     }
 }
 
 impl AppState {
-    /// Stops the body loops and writes every scene's bodies to the data dir (graceful shutdown).
-    /// Blocking file I/O: call from `spawn_blocking`.
+    /// Stops the body loops and writes a final snapshot (graceful shutdown), so the next start
+    /// replays nothing. Blocking file I/O: call from `spawn_blocking`.
     pub fn persist_bodies(&self) {
         self.bodies.stop();
-        let Some(store) = &self.store else {
+        let Some(j) = &self.journal else {
             return;
         };
-        for (id, rec) in self.bodies.records() {
-            let result = serde_json::to_value(&rec)
-                .map_err(std::io::Error::other)
-                .and_then(|v| store.put_bodies(&id, &v));
-            match result {
-                Ok(()) => tracing::info!(scene = %id, bodies = rec.bodies.len(), "bodies saved"),
-                Err(e) => tracing::error!(scene = %id, error = %e, "saving bodies failed"),
+        match crate::journal::snapshot::take(self, j) {
+            Ok(()) => tracing::info!(seq = j.last_seq(), "journal: final snapshot written"),
+            Err(e) => {
+                tracing::error!(error = %e, "journal: final snapshot failed (the log holds every change)")
             }
         }
     }

@@ -52,11 +52,9 @@ async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
     s.stop().await;
 
     // No temp files left in the data dir.
-    for sub in ["scenes", "clocks"] {
-        for e in std::fs::read_dir(dir.path().join(sub)).unwrap() {
-            let name = e.unwrap().file_name();
-            assert!(!name.to_string_lossy().ends_with(".tmp"), "{name:?}");
-        }
+    for e in std::fs::read_dir(dir.path().join("journal")).unwrap() {
+        let name = e.unwrap().file_name();
+        assert!(!name.to_string_lossy().ends_with(".tmp"), "{name:?}");
     }
 }
 
@@ -68,8 +66,11 @@ async fn a_rejected_put_leaves_disk_and_memory_alone() {
     bad["gravity"] = json!(-1);
     let (st, _) = s.put_scene("harbour", &bad).await;
     assert_eq!(st, 422);
-    assert!(!dir.path().join("scenes/harbour.json").exists());
     s.stop().await;
+    // Nothing was journaled: the final snapshot holds no admin change.
+    let (_, rec) = swell::journal::Journal::open(dir.path()).unwrap();
+    assert!(rec.records.is_empty(), "{:?}", rec.records);
+    assert!(rec.snapshot.unwrap().admin.scenes.is_empty());
 }
 
 #[tokio::test]

@@ -81,6 +81,14 @@ impl BodyRegistry {
         self.map().remove(id);
     }
 
+    /// Every scene's body cell, by scene id.
+    pub fn cells(&self) -> Vec<(String, Arc<SceneBodiesCell>)> {
+        self.map()
+            .iter()
+            .map(|(id, c)| (id.clone(), c.clone()))
+            .collect()
+    }
+
     /// Persistable records of every scene with bodies.
     pub fn records(&self) -> Vec<(String, BodiesRecord)> {
         self.map()
@@ -169,6 +177,8 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         let scene = entry.scene.clone();
         let (scene_hz, gravity) = (scene.spec.tick_hz, scene.spec.surface.gravity);
         let stepping = cell.clone();
+        let journaling = state.clone();
+        let scene_id = id.clone();
         let done = tokio::task::spawn_blocking(move || {
             let mut b = stepping.lock();
             if b.is_empty() {
@@ -177,6 +187,15 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             let start = Instant::now();
             let adv = b.advance_to(target, &scene.surface, scene_hz, gravity);
             let took = start.elapsed();
+            // A re-anchor is journaled under the same lock, in order with the API's changes
+            // (not waited for: nothing was acknowledged; the next commit's fsync covers it).
+            if let Err(e) = crate::journal::snapshot::append_body_events(
+                journaling.journal(),
+                &scene_id,
+                &mut b,
+            ) {
+                tracing::error!(scene = %scene_id, error = %e, "journal: could not record a re-anchor");
+            }
             Some((adv, took, b.len()))
         })
         .await;

@@ -42,6 +42,20 @@ pub struct ClockRecord {
     pub unix: f64,
 }
 
+impl ClockRecord {
+    /// The clock this reading gives at monotonic time `now`: a running clock advanced by the
+    /// wall time since the reading (never backwards: a wall clock stepped back counts as no
+    /// time), a paused one as it was.
+    pub fn restore(&self, now: f64) -> crate::scene::Clock {
+        let t = if self.paused {
+            self.t
+        } else {
+            self.t + self.rate * (unix_now() - self.unix).max(0.0)
+        };
+        crate::scene::Clock::with_state(now, t, self.rate, self.paused)
+    }
+}
+
 #[derive(Serialize, Deserialize)]
 struct SceneFile {
     format: u32,

@@ -205,6 +205,44 @@ impl World {
         })
     }
 
+    /// An empty world whose next tick is `tick` and whose next [`World::add`] gives `next_id`
+    /// (or more): the frame to restore a persisted world into, before inserting its bodies
+    /// ([`World::insert`]) and inputs ([`World::input`]). Unlike a world started at tick 0
+    /// with a later `start_time`, it keeps the persisted world's substep times to the bit
+    /// (`start_time + (tick + k/256)/tick_hz` rounds differently for another split of the
+    /// same instant), so the restored world continues the same trajectory.
+    ///
+    /// # Errors
+    /// Invalid settings (see [`WorldSettings::validate`]).
+    pub fn resume(settings: WorldSettings, tick: u64, next_id: BodyId) -> Result<World, SpecError> {
+        let mut w = World::new(settings)?;
+        w.tick = tick;
+        w.next_id = next_id;
+        Ok(w)
+    }
+
+    /// Puts back a persisted body's status (what its last step measured: submerged fraction,
+    /// quarantine, rollbacks), keeping the substep count its model gives here. Whether the body
+    /// exists. Statuses are outputs of a step, never inputs to the next, so this changes what a
+    /// restored body reports before its first step, not its trajectory.
+    pub fn restore_status(&mut self, id: BodyId, status: BodyStatus) -> bool {
+        match self.bodies.get_mut(&id) {
+            Some(b) => {
+                b.status = BodyStatus {
+                    substeps: b.status.substeps,
+                    ..status
+                };
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The id the next [`World::add`] gives: one more than the largest ever given.
+    pub fn next_id(&self) -> BodyId {
+        self.next_id
+    }
+
     /// The settings.
     pub fn settings(&self) -> &WorldSettings {
         &self.settings

@@ -1,0 +1,383 @@
+//! Durability against real `swell` processes killed with SIGKILL (issue 11): every acknowledged
+//! change survives, and the bodies continue the *same* trajectory, to the bit, as those of a
+//! server that never died.
+//!
+//! Two processes get the same requests: `a` is killed (SIGKILL, no chance to flush) and
+//! restarted on its data dir; `b` never stops. The scene clock is paused and moved by seeks of
+//! at most 20 ticks, each waited for until the bodies reach it, so both step the same ticks
+//! (a larger jump re-anchors the bodies, which is deterministic too but depends on when the
+//! body loop runs). `a` snapshots after every few records, so both the snapshot and the log's
+//! tail are replayed.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use reqwest::{Client, Method};
+use serde_json::{Value, json};
+
+const TOKEN: &str = "durable";
+/// Tick rate of `calm` (a built-in) and of the `pond` scene the tests put.
+const HZ: f64 = 30.0;
+const POND_HZ: f64 = 20.0;
+
+/// A `swell` process; killed (SIGKILL) when dropped.
+struct Proc {
+    child: Child,
+    base: String,
+    client: Client,
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    // Bind port 0 to learn a free port, then release it for the child (a small race, fine here).
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+async fn start(dir: &Path, snapshot_records: usize) -> Proc {
+    let port = free_port();
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.with_extension("log"))
+        .unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_swell"))
+        .args(["serve", "--bind", &format!("127.0.0.1:{port}")])
+        .arg("--data-dir")
+        .arg(dir)
+        .args(["--admin-token", TOKEN])
+        .args(["--snapshot-records", &snapshot_records.to_string()])
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(log)
+        .spawn()
+        .expect("the swell binary starts");
+    let p = Proc {
+        child,
+        base: format!("http://127.0.0.1:{port}"),
+        client: Client::builder().no_proxy().build().unwrap(),
+    };
+    let t0 = Instant::now();
+    loop {
+        if let Ok(r) = p.client.get(format!("{}/readyz", p.base)).send().await
+            && r.status() == 200
+        {
+            return p;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "never became ready");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+impl Proc {
+    async fn req(&self, method: Method, path: &str, body: Option<&Value>) -> (u16, String) {
+        let mut rb = self
+            .client
+            .request(method, format!("{}{path}", self.base))
+            .bearer_auth(TOKEN);
+        if let Some(b) = body {
+            rb = rb.json(b);
+        }
+        let r = rb.send().await.expect("request");
+        (r.status().as_u16(), r.text().await.unwrap())
+    }
+
+    async fn ok(&self, method: Method, path: &str, body: Option<&Value>) -> Value {
+        let (st, text) = self.req(method, path, body).await;
+        assert!((200..300).contains(&st), "{path}: {st} {text}");
+        serde_json::from_str(&text).unwrap_or(Value::Null)
+    }
+
+    /// The bodies of `scene` as the server wrote them (exact text: equal text = equal bits).
+    async fn bodies(&self, scene: &str) -> String {
+        let (st, text) = self
+            .req(Method::GET, &format!("/v1/scenes/{scene}/bodies"), None)
+            .await;
+        assert_eq!(st, 200, "{text}");
+        text
+    }
+
+    /// Seeks `scene`'s paused clock to `tick` and waits until its bodies are there.
+    async fn seek(&self, scene: &str, tick: i64) {
+        // Mid-tick, so floor(t·hz) is `tick` whatever the rounding of the division.
+        let hz = if scene == "pond" { POND_HZ } else { HZ };
+        let t = (tick as f64 + 0.5) / hz;
+        self.ok(
+            Method::PUT,
+            &format!("/v1/scenes/{scene}/clock"),
+            Some(&json!({"t": t, "paused": true})),
+        )
+        .await;
+        let t0 = Instant::now();
+        loop {
+            let v: Value = serde_json::from_str(&self.bodies(scene).await).unwrap();
+            if v["tick"] == json!(tick) {
+                return;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(20),
+                "bodies never reached tick {tick}: {v}"
+            );
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    }
+}
+
+fn boat(x: f64, y: f64, yaw: f64) -> Value {
+    json!({"mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+           "position": [x, y, -3.0], "yaw": yaw})
+}
+
+fn pond() -> Value {
+    json!({"description": "a pond", "tick_hz": 20, "seed": 5, "layers": [
+        {"kind": "gerstner", "waves": [
+            {"amplitude": 0.3, "wavelength": 25, "direction": [1, 0.3], "steepness": 0.5}]}]})
+}
+
+/// The same requests to every server in `servers`, in order.
+struct Both<'a>(Vec<&'a Proc>);
+
+impl Both<'_> {
+    async fn ok(&self, method: Method, path: &str, body: Option<&Value>) -> Vec<Value> {
+        let mut out = Vec::new();
+        for p in &self.0 {
+            out.push(p.ok(method.clone(), path, body).await);
+        }
+        out
+    }
+    async fn seek(&self, scene: &str, tick: i64) {
+        for p in &self.0 {
+            p.seek(scene, tick).await;
+        }
+    }
+}
+
+/// Phase one: a scene put, clocks paused, three boats, seeks, thrust, a removal, a spawn.
+/// Ends with an input acknowledged for ticks that have not happened yet.
+async fn phase_one(both: &Both<'_>) -> i64 {
+    both.ok(Method::PUT, "/v1/scenes/pond", Some(&pond())).await;
+    let mut tick: i64 = 3000;
+    both.seek("calm", tick).await;
+    both.seek("pond", 400).await;
+    for (i, b) in [
+        boat(0.0, 1.0, 0.0),
+        boat(20.0, 0.3, 0.7),
+        boat(-15.0, 2.0, -1.2),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let ids = both
+            .ok(Method::POST, "/v1/scenes/calm/bodies", Some(b))
+            .await;
+        assert!(ids.iter().all(|v| v["id"] == json!(i)), "{ids:?}");
+    }
+    both.ok(
+        Method::POST,
+        "/v1/scenes/pond/bodies",
+        Some(&boat(3.0, 0.5, 0.2)),
+    )
+    .await;
+    for step in 0..12 {
+        tick += 17;
+        both.seek("calm", tick).await;
+        if step % 4 == 1 {
+            both.ok(
+                Method::POST,
+                &format!("/v1/scenes/calm/bodies/{}/input", step % 3),
+                Some(&json!({"force": [15000.0, 0.0, 2500.5], "torque": [0.0, 900.25, 0.0], "ticks": 25})),
+            )
+            .await;
+        }
+        if step == 5 {
+            both.ok(Method::DELETE, "/v1/scenes/calm/bodies/1", None)
+                .await;
+            both.ok(
+                Method::POST,
+                "/v1/scenes/calm/bodies",
+                Some(&boat(7.0, 1.5, 2.0)),
+            )
+            .await;
+        }
+        if step == 6 {
+            // Give the snapshot task (it checks once a second) a chance to run mid-way.
+            tokio::time::sleep(Duration::from_millis(1200)).await;
+        }
+    }
+    both.seek("pond", 415).await;
+    both.ok(
+        Method::POST,
+        "/v1/scenes/calm/bodies/3/input",
+        Some(&json!({"force": [-8000.0, 0.0, 0.0], "from_tick": tick + 5, "ticks": 40})),
+    )
+    .await;
+    tick
+}
+
+/// Phase two: move on from where phase one left off (the killed server's bodies ticked there
+/// after their last journal record, which the restart must repeat).
+async fn phase_two(both: &Both<'_>, mut tick: i64) -> i64 {
+    for step in 0..6 {
+        tick += 19;
+        both.seek("calm", tick).await;
+        if step == 2 {
+            both.ok(
+                Method::POST,
+                "/v1/scenes/calm/bodies/0/input",
+                Some(&json!({"torque": [3000.0, 0.0, -1000.0], "ticks": 10})),
+            )
+            .await;
+        }
+    }
+    both.seek("pond", 440).await;
+    tick
+}
+
+#[tokio::test]
+async fn after_kill_9_bodies_continue_the_same_trajectory_to_the_bit() {
+    let dirs = tempfile::tempdir().unwrap();
+    let (da, db) = (dirs.path().join("a"), dirs.path().join("b"));
+    // `a` snapshots every 7 records: the restart reads a snapshot and replays a tail.
+    let a = start(&da, 7).await;
+    let b = start(&db, 1_000_000).await;
+    let tick = phase_one(&Both(vec![&a, &b])).await;
+    assert!(
+        da.join("journal/snapshot.bin").exists(),
+        "a snapshot was taken during phase one"
+    );
+    let before = a.bodies("calm").await;
+    assert_eq!(
+        before,
+        b.bodies("calm").await,
+        "the two servers agree before the kill"
+    );
+    drop(a); // SIGKILL
+
+    let a = start(&da, 7).await;
+    // Acknowledged scene and clocks are back.
+    let (st, _) = a.req(Method::GET, "/v1/scenes/pond", None).await;
+    assert_eq!(st, 200);
+    let c = a.ok(Method::GET, "/v1/scenes/calm/clock", None).await;
+    assert_eq!(
+        (c["tick"].clone(), c["paused"].clone()),
+        (json!(tick), json!(true))
+    );
+    // The bodies are where they were, to the bit (stepped from their last record to the
+    // clock's tick on restart, as the live server had).
+    assert_eq!(a.bodies("calm").await, before);
+    assert_eq!(a.bodies("pond").await, b.bodies("pond").await);
+
+    // And they go on exactly as the bodies of the server that never died.
+    let end = phase_two(&Both(vec![&a, &b]), tick).await;
+    let (ours, theirs) = (a.bodies("calm").await, b.bodies("calm").await);
+    assert_eq!(ours, theirs, "calm diverged after the restart");
+    assert_eq!(a.bodies("pond").await, b.bodies("pond").await);
+    let v: Value = serde_json::from_str(&ours).unwrap();
+    assert_eq!(v["tick"], json!(end));
+    assert_eq!(v["bodies"].as_array().unwrap().len(), 3);
+    assert_eq!(v["bodies"][2]["id"], json!(3));
+
+    // Ids are not reused after the restart.
+    let ids = Both(vec![&a, &b])
+        .ok(
+            Method::POST,
+            "/v1/scenes/calm/bodies",
+            Some(&boat(0.0, 1.0, 0.0)),
+        )
+        .await;
+    assert_eq!(ids[0]["id"], json!(4));
+    assert_eq!(ids[1]["id"], json!(4));
+}
+
+/// SplitMix64, so the damage is the same on every run.
+fn splitmix(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A torn or corrupt log (a crash mid-write, bit rot) never stops the server: it starts with
+/// everything before the damage, reports it, and keeps journaling.
+#[tokio::test]
+async fn a_server_starts_from_a_torn_or_corrupt_log() {
+    let dirs = tempfile::tempdir().unwrap();
+    let mut rng = 11_u64;
+    for round in 0..4_u32 {
+        let d = dirs.path().join(format!("r{round}"));
+        let a = start(&d, 1_000_000).await;
+        let p = Both(vec![&a]);
+        p.ok(Method::PUT, "/v1/scenes/pond", Some(&pond())).await;
+        p.seek("calm", 600).await;
+        p.ok(
+            Method::POST,
+            "/v1/scenes/calm/bodies",
+            Some(&boat(0.0, 1.0, 0.0)),
+        )
+        .await;
+        let log = d.join("journal/journal.log");
+        let good_len = std::fs::metadata(&log).unwrap().len();
+        // Records after this point are the ones the damage may take.
+        p.ok(
+            Method::POST,
+            "/v1/scenes/calm/bodies",
+            Some(&boat(9.0, 1.0, 0.0)),
+        )
+        .await;
+        p.ok(
+            Method::PUT,
+            "/v1/scenes/lake/clock",
+            Some(&json!({"t": 5.0, "paused": true})),
+        )
+        .await;
+        drop(a);
+        let mut bytes = std::fs::read(&log).unwrap();
+        let span = bytes.len() as u64 - good_len;
+        let at = (good_len + 1 + splitmix(&mut rng) % (span - 1)) as usize;
+        if round.is_multiple_of(2) {
+            bytes.truncate(at);
+        } else {
+            bytes[at] ^= 0xFF;
+        }
+        std::fs::write(&log, &bytes).unwrap();
+
+        let a = start(&d, 1_000_000).await;
+        let (st, _) = a.req(Method::GET, "/v1/scenes/pond", None).await;
+        assert_eq!(
+            st, 200,
+            "round {round}: the scene before the damage is back"
+        );
+        let v: Value = serde_json::from_str(&a.bodies("calm").await).unwrap();
+        let n = v["bodies"].as_array().unwrap().len();
+        assert!((1..=2).contains(&n), "round {round}: {v}");
+        assert_eq!(v["bodies"][0]["position"], json!([0.0, 1.0, -3.0]));
+        // The damage was reported.
+        let text = std::fs::read_to_string(d.with_extension("log")).unwrap();
+        assert!(text.contains("damaged bytes"), "round {round}: {text}");
+        // And the journal goes on: a new change survives another kill.
+        Both(vec![&a])
+            .ok(
+                Method::PUT,
+                "/v1/scenes/lake/clock",
+                Some(&json!({"t": 42.0, "paused": true})),
+            )
+            .await;
+        drop(a);
+        let a = start(&d, 1_000_000).await;
+        let c = a.ok(Method::GET, "/v1/scenes/lake/clock", None).await;
+        assert_eq!(c["t"], json!(42.0), "round {round}");
+    }
+}
