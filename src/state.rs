@@ -9,7 +9,6 @@
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
-use std::time::Instant;
 
 use metrics_exporter_prometheus::PrometheusHandle;
 use serde_json::Value;
@@ -20,8 +19,8 @@ use crate::config::Limits;
 use crate::error::ApiError;
 use crate::frames::FrameCache;
 use crate::journal::{Journal, Op, Recovered};
-use crate::scene::clock::ClockReading;
-use crate::scene::store::{ClockRecord, SceneRecord, Store, unix_now};
+use crate::scene::clock::{BUILTIN_EPOCH, ClockReading, WallClock};
+use crate::scene::store::{ClockRecord, SceneRecord, Store};
 use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
 use crate::stream::ticks::Tickers;
 
@@ -50,7 +49,7 @@ pub struct Inner {
     admin_token: String,
     admin_lock: tokio::sync::Mutex<()>,
     ready: AtomicBool,
-    base: Instant,
+    wall: WallClock,
 }
 
 impl std::ops::Deref for AppState {
@@ -89,13 +88,14 @@ impl AppState {
             admin_token,
             admin_lock: tokio::sync::Mutex::new(()),
             ready: AtomicBool::new(false),
-            base: Instant::now(),
+            wall: WallClock::default(),
         }))
     }
 
-    /// Seconds on the monotonic clock that scene clocks run on.
+    /// Unix seconds now, as scene clocks read it: never less than an earlier answer (see
+    /// [`WallClock`]).
     pub fn now(&self) -> f64 {
-        self.base.elapsed().as_secs_f64()
+        self.wall.now()
     }
 
     /// The journal (none without a data dir).
@@ -161,9 +161,11 @@ impl AppState {
         clock.read(self.now(), entry.scene.spec.tick_hz)
     }
 
-    /// Inserts a scene at start-up (no persistence, no lock), with a fresh clock at t = 0.
+    /// Inserts a scene at start-up (no persistence, no lock), with `clock` or one started from
+    /// the scene's epoch ([`BUILTIN_EPOCH`] if it gives none).
     pub fn insert_loaded(&self, scene: Scene, clock: Option<Clock>) {
-        let clock = clock.unwrap_or_else(|| Clock::starting_at(self.now(), 0.0));
+        let clock =
+            clock.unwrap_or_else(|| Clock::from_epoch(scene.spec.epoch.unwrap_or(BUILTIN_EPOCH)));
         let id = scene.id.clone();
         self.write_scenes().insert(
             id,
@@ -195,7 +197,20 @@ impl AppState {
         let scene = tokio::task::spawn_blocking(move || Scene::build(&owned_id, parsed))
             .await
             .map_err(ApiError::internal)??;
+        let mut scene = scene;
         let _guard = self.admin_lock.lock().await;
+        // The epoch: as given; else a replaced scene's; else now (a new scene starts at t = 0,
+        // and the journaled spec remembers when, so its clock survives restarts).
+        let old = self.scene(id).ok();
+        let old_epoch = old.as_ref().and_then(|o| o.scene.spec.epoch);
+        let given = scene.spec.epoch;
+        if given.is_none() {
+            scene.spec.epoch = if old.is_some() {
+                old_epoch
+            } else {
+                Some(self.now())
+            };
+        }
         // Journal the canonical form: what the scene is, with defaults filled in.
         let spec = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
         self.journal_op(Op::ScenePut {
@@ -204,12 +219,15 @@ impl AppState {
         })
         .await?;
         let mut map = self.write_scenes();
+        let epoch = scene.spec.epoch.unwrap_or(BUILTIN_EPOCH);
         let (outcome, clock) = match map.get(id) {
-            Some(old) => (
+            // A replaced scene keeps its clock, unless the put moves its epoch.
+            Some(old) if given.is_none() || given == old_epoch => (
                 PutOutcome::Replaced,
                 *old.clock.lock().unwrap_or_else(|p| p.into_inner()),
             ),
-            None => (PutOutcome::Created, Clock::starting_at(self.now(), 0.0)),
+            Some(_) => (PutOutcome::Replaced, Clock::from_epoch(epoch)),
+            None => (PutOutcome::Created, Clock::from_epoch(epoch)),
         };
         let entry = Arc::new(SceneEntry {
             scene: Arc::new(scene),
@@ -255,7 +273,6 @@ impl AppState {
         let _guard = self.admin_lock.lock().await;
         let entry = self.scene(id)?;
         let now = self.now();
-        let unix = unix_now();
         let mut clock = *entry.clock.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(t) = update.t {
             clock.seek(now, t);
@@ -270,7 +287,7 @@ impl AppState {
             t: clock.t(now),
             rate: clock.rate(),
             paused: clock.paused(),
-            unix,
+            unix: now,
         };
         self.journal_op(Op::Clock {
             scene: id.to_owned(),
@@ -349,20 +366,13 @@ impl AppState {
                 }
             }
         }
-        // Clocks: a persisted reading, advanced by the wall time since it was taken.
+        // Clocks: a persisted reading, anchored at the wall time it was taken.
         let now = self.now();
-        let unix = unix_now();
         for entry in self.scenes() {
             let id = &entry.scene.id;
             match store.load_clock(id) {
                 Ok(Some(rec)) => {
-                    let t = if rec.paused {
-                        rec.t
-                    } else {
-                        rec.t + rec.rate * (unix - rec.unix).max(0.0)
-                    };
-                    let clock = Clock::with_state(now, t, rec.rate, rec.paused);
-                    *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
+                    *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = rec.restore(now);
                     ops.push(Op::Clock {
                         scene: id.clone(),
                         clock: rec,

@@ -24,9 +24,12 @@ use crate::state::AppState;
 fn put_scene(state: &AppState, id: &str, spec: &Value) {
     match SceneSpec::from_value(spec.clone()).and_then(|s| Scene::build(id, s)) {
         Ok(scene) => {
+            // As a live put: the old clock stays unless the put moved the epoch (a new scene's
+            // spec always carries one, filled in when it was created).
             let clock = state
                 .scene(id)
                 .ok()
+                .filter(|e| scene.spec.epoch.is_none() || scene.spec.epoch == e.scene.spec.epoch)
                 .map(|e| *e.clock.lock().unwrap_or_else(|p| p.into_inner()));
             state.insert_loaded(scene, clock);
         }
