@@ -107,6 +107,7 @@ pub struct Server {
     listener: TcpListener,
     state: AppState,
     snapshots: journal::snapshot::SnapshotPolicy,
+    shutdown_timeout: Duration,
 }
 
 impl Server {
@@ -157,6 +158,7 @@ impl Server {
             listener,
             state,
             snapshots: config.snapshots,
+            shutdown_timeout: config.shutdown_timeout,
         })
     }
 
@@ -182,6 +184,11 @@ impl Server {
     /// and returns. Readiness turns off as soon as shutdown starts, so a load balancer stops
     /// sending new work while the last requests drain.
     ///
+    /// Shutdown, in order: the signal fires the one shutdown token ([`AppState`]'s `shutdown`),
+    /// which every loop and session watches (WebSocket sessions send Close 1001); axum drains
+    /// in-flight HTTP requests; every tracked task ([`AppState`]'s `tasks`) is awaited, up to
+    /// the configured deadline; then the final journal snapshot is written.
+    ///
     /// # Errors
     /// The accept loop failed.
     pub async fn run(
@@ -192,25 +199,28 @@ impl Server {
         let app = router(self.state.clone());
         // The Prometheus handle keeps histogram windows bounded only if upkeep runs.
         let upkeep_handle = self.state.metrics.clone();
-        let upkeep = tokio::spawn(async move {
+        let upkeep_stop = state.shutdown.clone();
+        state.tasks.spawn(async move {
             let mut tick = tokio::time::interval(Duration::from_secs(5));
             loop {
-                tick.tick().await;
-                upkeep_handle.run_upkeep();
+                tokio::select! {
+                    () = upkeep_stop.cancelled() => return,
+                    _ = tick.tick() => upkeep_handle.run_upkeep(),
+                }
             }
         });
         // Bodies restored from the data dir resume stepping.
         state.bodies.start_all(&state);
         // Snapshots bound the log and the replay after a crash; they stop with the shutdown
         // signal, before the final snapshot below.
-        let snapshots = state.journal().cloned().map(|j| {
-            tokio::spawn(journal::snapshot::run(
+        if let Some(j) = state.journal().cloned() {
+            state.tasks.spawn(journal::snapshot::run(
                 state.clone(),
                 j,
                 self.snapshots,
                 state.shutdown.clone(),
-            ))
-        });
+            ));
+        }
         state.set_ready(true);
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
@@ -231,11 +241,18 @@ impl Server {
                 tracing::info!("shutting down: draining in-flight requests");
             })
             .await;
-        upkeep.abort();
-        if let Some(task) = snapshots
-            && let Err(e) = task.await
+        // (Already fired unless serving failed.)
+        state.shutdown.cancel();
+        state.tasks.close();
+        if tokio::time::timeout(self.shutdown_timeout, state.tasks.wait())
+            .await
+            .is_err()
         {
-            tracing::error!(error = %e, "the snapshot task panicked");
+            tracing::warn!(
+                left = state.tasks.len(),
+                deadline_s = self.shutdown_timeout.as_secs_f64(),
+                "shutdown deadline passed with tasks still running; writing the final snapshot anyway"
+            );
         }
         // Stop the body loops and write a final snapshot (the next start replays nothing).
         let saving = state.clone();

@@ -49,6 +49,9 @@ struct ServeArgs {
     /// Journal records that trigger a snapshot (and a compaction of the log) at once.
     #[arg(long, env = "SWELL_SNAPSHOT_RECORDS", default_value_t = 10_000)]
     snapshot_records: usize,
+    /// Seconds shutdown waits for sessions and loops to end before the final snapshot.
+    #[arg(long, env = "SWELL_SHUTDOWN_TIMEOUT", default_value_t = 10.0)]
+    shutdown_timeout: f64,
 }
 
 #[tokio::main]
@@ -88,6 +91,8 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
                 .context("--snapshot-interval must be a non-negative number of seconds")?,
             max_records: args.snapshot_records.max(1),
         },
+        shutdown_timeout: std::time::Duration::try_from_secs_f64(args.shutdown_timeout)
+            .context("--shutdown-timeout must be a non-negative number of seconds")?,
         ..Default::default()
     };
     if let Some(path) = &args.config {

@@ -13,6 +13,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use metrics_exporter_prometheus::PrometheusHandle;
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
 
 use crate::api::types::ClockUpdate;
 use crate::config::Limits;
@@ -41,9 +42,13 @@ pub struct Inner {
     pub bodies: crate::bodies::runner::BodyRegistry,
     /// Running tick loops, by scene.
     pub tickers: Tickers,
-    /// Fired when the server starts shutting down: WebSocket sessions send Close and end, tick
-    /// loops stop (axum's graceful shutdown does neither for upgraded connections).
+    /// Fired when the server starts shutting down: the one signal every loop and session
+    /// watches. WebSocket sessions send Close (1001) and end, tick, body and snapshot loops stop
+    /// (axum's graceful shutdown does neither for upgraded connections).
     pub shutdown: CancellationToken,
+    /// Every task the server spawns (sessions, tick and body loops, query work), so shutdown
+    /// can await them, with a deadline, before the final snapshot.
+    pub tasks: TaskTracker,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     journal: Option<Journal>,
     admin_token: String,
@@ -83,6 +88,7 @@ impl AppState {
             bodies: Default::default(),
             tickers: Tickers::default(),
             shutdown: CancellationToken::new(),
+            tasks: TaskTracker::new(),
             scenes: RwLock::new(BTreeMap::new()),
             journal,
             admin_token,

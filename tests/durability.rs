@@ -452,3 +452,96 @@ async fn two_processes_started_apart_agree_on_now_and_put_scenes_keep_their_epoc
         "t advanced with wall time across the restart: {before} then {after}"
     );
 }
+
+/// Graceful shutdown of a real process on SIGTERM (issue 11): an HTTP batch in flight when the
+/// signal arrives completes, a WebSocket subscriber gets Close 1001 (going away), the process
+/// exits 0 within its deadline, and its bodies are flushed: the final snapshot holds them, the
+/// log is compacted to nothing, and a restart has them to the bit.
+#[tokio::test]
+async fn sigterm_finishes_requests_closes_sockets_with_1001_and_flushes_bodies() {
+    use futures_util::{SinkExt, StreamExt};
+    use tokio_tungstenite::tungstenite::Message;
+    use tokio_tungstenite::tungstenite::protocol::frame::coding::CloseCode;
+
+    let dirs = tempfile::tempdir().unwrap();
+    let d = dirs.path().join("a");
+    let mut a = start(&d, 1_000_000).await;
+    let p = Both(vec![&a]);
+    p.seek("calm", 900).await;
+    p.ok(
+        Method::POST,
+        "/v1/scenes/calm/bodies",
+        Some(&boat(0.0, 1.0, 0.3)),
+    )
+    .await;
+    p.seek("calm", 940).await;
+    let before = a.bodies("calm").await;
+
+    let ws_url = format!("{}/v1/scenes/calm/stream", a.base.replace("http", "ws"));
+    let (mut ws, _) = tokio_tungstenite::connect_async(ws_url).await.unwrap();
+    ws.send(Message::Text(r#"{"type":"subscribe","ticks":true}"#.into()))
+        .await
+        .unwrap();
+    // A big batch that takes a while: in flight when the signal arrives.
+    let pts: Vec<[f64; 2]> = (0..60_000)
+        .map(|i| [(i % 300) as f64 * 0.7, (i / 300) as f64 * 0.9])
+        .collect();
+    let batch = json!({"t": 5.0, "points": pts, "fields": ["height", "normal"]});
+    let (client, url) = (
+        a.client.clone(),
+        format!("{}/v1/scenes/storm/sample", a.base),
+    );
+    let inflight = tokio::spawn(async move { client.post(url).json(&batch).send().await });
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    let signalled = Instant::now();
+    let kill = Command::new("kill")
+        .args(["-TERM", &a.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+
+    let resp = inflight
+        .await
+        .unwrap()
+        .expect("the in-flight batch completes");
+    assert_eq!(resp.status(), 200);
+    let v: Value = resp.json().await.unwrap();
+    assert_eq!(v["height"].as_array().unwrap().len(), 60_000);
+
+    let close = tokio::time::timeout(Duration::from_secs(10), async {
+        loop {
+            match ws.next().await {
+                Some(Ok(Message::Close(f))) => return f,
+                Some(Ok(_)) => {}
+                other => panic!("the stream ended without a Close frame: {other:?}"),
+            }
+        }
+    })
+    .await
+    .expect("Close within 10 s")
+    .expect("a Close frame with a status");
+    assert_eq!(close.code, CloseCode::Away, "{close:?}");
+
+    let status = loop {
+        if let Some(st) = a.child.try_wait().unwrap() {
+            break st;
+        }
+        assert!(
+            signalled.elapsed() < Duration::from_secs(12),
+            "still running 12 s after SIGTERM (deadline 10 s)"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    };
+    assert_eq!(status.code(), Some(0), "{status:?}");
+    drop(a);
+
+    // Flushed: the final snapshot holds the body and the log holds nothing after it.
+    let (_, rec) = swell::journal::Journal::open(&d).unwrap();
+    assert!(rec.problems.is_empty(), "{:?}", rec.problems);
+    assert!(rec.records.is_empty(), "{:?}", rec.records);
+    let snap = rec.snapshot.expect("a final snapshot");
+    assert_eq!(snap.bodies["calm"].world.bodies.len(), 1);
+    assert_eq!(snap.bodies["calm"].world.tick, 940);
+    let a = start(&d, 1_000_000).await;
+    assert_eq!(a.bodies("calm").await, before);
+}

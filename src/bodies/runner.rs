@@ -136,7 +136,9 @@ pub fn ensure_running(state: &AppState, id: &str, cell: &Arc<SceneBodiesCell>) {
         .compare_exchange(false, true, Ordering::SeqCst, Ordering::SeqCst)
         .is_ok()
     {
-        tokio::spawn(run(state.clone(), id.to_owned(), cell.clone()));
+        state
+            .tasks
+            .spawn(run(state.clone(), id.to_owned(), cell.clone()));
     }
 }
 
@@ -159,7 +161,12 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
     let mut interval = interval_for(hz);
     tracing::debug!(scene = %id, "body loop started");
     loop {
-        let scheduled = interval.tick().await;
+        // The shutdown token ends the loop at once (not a tick later); the final snapshot is
+        // taken after every loop has ended.
+        let scheduled = tokio::select! {
+            () = state.shutdown.cancelled() => break,
+            s = interval.tick() => s,
+        };
         let lateness = scheduled.elapsed().as_secs_f64();
         metrics::histogram!("swell_tick_lateness_seconds").record(lateness);
         let entry = match state.scene(&id) {
