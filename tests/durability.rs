@@ -545,3 +545,117 @@ async fn sigterm_finishes_requests_closes_sockets_with_1001_and_flushes_bodies()
     let a = start(&d, 1_000_000).await;
     assert_eq!(a.bodies("calm").await, before);
 }
+
+/// Kill -9 at random moments during a stream of admin writes and body spawns, again and again on
+/// one data dir (issue 11's kill loop). After each restart: every acknowledged scene, body and
+/// clock change is there, nothing was reported damaged (a killed process cannot tear a write
+/// the kernel accepted), and the server keeps going. `SWELL_KILL_LOOPS` sets the number of kills
+/// (default 8 here; docs/reliability.md records a run of 50).
+#[tokio::test]
+async fn kill_loop_loses_nothing_acknowledged() {
+    let kills: u32 = std::env::var("SWELL_KILL_LOOPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(8);
+    let dirs = tempfile::tempdir().unwrap();
+    let d = dirs.path().join("k");
+    let mut rng = 99_u64;
+    let mut scenes: Vec<String> = Vec::new();
+    let mut bodies: Vec<u64> = Vec::new();
+    let mut clock_t: Option<f64> = None;
+    let mut n = 0_u64;
+    // One more start than kills: the last one only checks.
+    for round in 0..=kills {
+        let a = start(&d, 5).await;
+        // Everything acknowledged so far is back.
+        for s in &scenes {
+            let (st, _) = a.req(Method::GET, &format!("/v1/scenes/{s}"), None).await;
+            assert_eq!(st, 200, "round {round}: scene {s} lost");
+        }
+        let v: Value = serde_json::from_str(&a.bodies("calm").await).unwrap();
+        let have: Vec<u64> = v["bodies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|b| b["id"].as_u64().unwrap())
+            .collect();
+        for id in &bodies {
+            assert!(have.contains(id), "round {round}: body {id} lost: {have:?}");
+        }
+        if let Some(t) = clock_t {
+            let c = a.ok(Method::GET, "/v1/scenes/lake/clock", None).await;
+            // The last acknowledged value, or a later one that was durable but not answered.
+            assert!(
+                c["t"].as_f64().unwrap() >= t,
+                "round {round}: clock {c} < {t}"
+            );
+        }
+        let log = std::fs::read_to_string(d.with_extension("log")).unwrap();
+        assert!(!log.contains("damaged"), "round {round}: {log}");
+        if round == kills {
+            break;
+        }
+        // Writes from another task; SIGKILL at a seeded random moment, mid-request or not.
+        type Acked = Vec<(u64, u64, u16, String)>; // (kind, n, status, body)
+        let acked = std::sync::Arc::new(std::sync::Mutex::new(Acked::new()));
+        let writer = {
+            let (client, base, acked) = (a.client.clone(), a.base.clone(), acked.clone());
+            let first = n;
+            tokio::spawn(async move {
+                let mut n = first;
+                let mut spawned = 0;
+                loop {
+                    n += 1;
+                    // At most 10 spawns a round: 50 rounds stay under max_scene_bodies.
+                    let kind = match n % 3 {
+                        1 if spawned >= 10 => 2,
+                        k => k,
+                    };
+                    spawned += u32::from(kind == 1);
+                    let rb = match kind {
+                        0 => client.put(format!("{base}/v1/scenes/k{n}")).json(&pond()),
+                        1 => client
+                            .post(format!("{base}/v1/scenes/calm/bodies"))
+                            .json(&boat(n as f64, 1.0, 0.0)),
+                        _ => client
+                            .put(format!("{base}/v1/scenes/lake/clock"))
+                            .json(&json!({"t": n as f64 + 0.25, "paused": true})),
+                    };
+                    let Ok(r) = rb.bearer_auth(TOKEN).send().await else {
+                        return n; // killed
+                    };
+                    let st = r.status().as_u16();
+                    let Ok(text) = r.text().await else {
+                        return n;
+                    };
+                    acked.lock().unwrap().push((kind, n, st, text));
+                }
+            })
+        };
+        tokio::time::sleep(Duration::from_millis(50 + splitmix(&mut rng) % 400)).await;
+        drop(a); // SIGKILL
+        n = writer.await.unwrap();
+        let acked = std::mem::take(&mut *acked.lock().unwrap());
+        assert!(
+            !acked.is_empty(),
+            "round {round}: nothing was written before the kill"
+        );
+        for (kind, i, st, text) in acked {
+            assert!((200..300).contains(&st), "round {round}: {st} {text}");
+            match kind {
+                0 => scenes.push(format!("k{i}")),
+                1 => {
+                    let v: Value = serde_json::from_str(&text).unwrap();
+                    bodies.push(v["id"].as_u64().unwrap());
+                }
+                _ => clock_t = Some(i as f64 + 0.25),
+            }
+        }
+    }
+    assert!(!bodies.is_empty() && !scenes.is_empty());
+    eprintln!(
+        "{kills} kills: {n} writes sent, {} scenes and {} bodies acknowledged and all restored",
+        scenes.len(),
+        bodies.len()
+    );
+}
