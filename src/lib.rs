@@ -256,7 +256,7 @@ impl Server {
         }
         // Stop the body loops and write a final snapshot (the next start replays nothing).
         let saving = state.clone();
-        if let Err(e) = tokio::task::spawn_blocking(move || saving.persist_bodies()).await {
+        if let Err(e) = tokio::task::spawn_blocking(move || saving.write_final_snapshot()).await {
             tracing::error!(error = %e, "saving bodies panicked");
         }
         tracing::info!("stopped");

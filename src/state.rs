@@ -432,7 +432,7 @@ impl AppState {
 impl AppState {
     /// Stops the body loops and writes a final snapshot (graceful shutdown), so the next start
     /// replays nothing. Blocking file I/O: call from `spawn_blocking`.
-    pub fn persist_bodies(&self) {
+    pub fn write_final_snapshot(&self) {
         self.bodies.stop();
         let Some(j) = &self.journal else {
             return;

@@ -79,12 +79,13 @@ pub async fn create(
             ));
         }
         let bid = b.spawn(&req)?;
-        let seq = journal_events(&state, &id, &mut b)?;
+        let seq = journal_events(&state, &id, &mut b);
         (b.state(bid)?, seq)
     };
     let (out, seq) = out;
-    commit(&state, seq).await?;
+    // The body is in the world now: step it even if the journal failed (answered with 500).
     ensure_running(&state, &id, &cell);
+    commit(&state, seq?).await?;
     tracing::info!(scene = %id, body = out.id, "body spawned");
     Ok((StatusCode::CREATED, axum::Json(out)).into_response())
 }

@@ -150,15 +150,13 @@ impl SceneBodies {
             events: Vec::new(),
         };
         for r in &rec.bodies {
-            match b.world.insert(r.id, &r.spec, r.state) {
+            let status = rec.statuses.get(&r.id).copied().unwrap_or_default();
+            match b.world.restore_body(r.id, &r.spec, r.state, status) {
                 Ok(()) => {
                     b.specs.insert(r.id, r.spec.clone());
                 }
                 Err(e) => tracing::error!(body = r.id, error = %e, "snapshot: skipping a body"),
             }
-        }
-        for (id, st) in &rec.statuses {
-            b.world.restore_status(*id, *st);
         }
         for i in &rec.inputs {
             if let Err(e) = b.world.input(*i) {

@@ -9,7 +9,7 @@
 //! (`offset ← t(now)`, `anchor ← now`) first, so t is continuous through rate changes, pause and
 //! resume; only a seek jumps.
 
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize};
 
@@ -19,13 +19,23 @@ use serde::{Deserialize, Serialize};
 /// second has sub-nanosecond resolution for centuries.
 pub const BUILTIN_EPOCH: f64 = 1_767_225_600.0;
 
+/// A step back smaller than this (s) is not logged: concurrent readers of the system clock
+/// race by microseconds, which the clamp absorbs silently.
+const STEP_BACK_LOG_S: f64 = 0.01;
+
 /// Unix time that never runs backwards: a system clock stepped back (NTP, an operator) is
 /// clamped to the latest time already seen, and logged, so scene time at rate > 0 never runs
 /// backwards and bodies never see time reverse.
+///
+/// Lock-free (it is read on every query without `t` and every tick): the latest time is kept
+/// as f64 bits in an atomic, and for non-negative f64 the bit patterns order as the numbers do,
+/// so `fetch_max` on the bits is a max on the times.
 #[derive(Debug, Default)]
 pub struct WallClock {
-    /// Latest Unix time handed out, and whether the clock is currently held (stepped back).
-    last: Mutex<(f64, bool)>,
+    /// Bits of the latest Unix time handed out (0 = 0.0).
+    last: AtomicU64,
+    /// Whether the clock is held (the system clock is behind `last`): logs once per step back.
+    held: AtomicBool,
 }
 
 impl WallClock {
@@ -37,23 +47,24 @@ impl WallClock {
     /// `unix` clamped to never be less than an earlier answer (the clock logic of
     /// [`WallClock::now`], with the system time injected).
     pub fn observe(&self, unix: f64) -> f64 {
-        let mut g = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        let (last, held) = *g;
-        if unix >= last {
-            if held {
+        // Before 1970 or NaN (a broken clock) counts as 0: the bit order holds for +0.0 up.
+        let unix = if unix >= 0.0 { unix } else { 0.0 };
+        let prev = f64::from_bits(self.last.fetch_max(unix.to_bits(), Ordering::AcqRel));
+        if unix >= prev {
+            if self.held.swap(false, Ordering::Relaxed) {
                 tracing::info!(unix, "system clock caught up; scene clocks run again");
             }
-            *g = (unix, false);
             unix
         } else {
-            if !held {
+            // Two threads reading the system clock microseconds apart race here too; only a
+            // real step back is worth a log line.
+            if prev - unix > STEP_BACK_LOG_S && !self.held.swap(true, Ordering::Relaxed) {
                 tracing::warn!(
-                    back_s = last - unix,
+                    back_s = prev - unix,
                     "system clock stepped backwards; scene clocks hold until it catches up"
                 );
             }
-            *g = (last, true);
-            last
+            prev
         }
     }
 }

@@ -221,21 +221,37 @@ impl World {
         Ok(w)
     }
 
-    /// Puts back a persisted body's status (what its last step measured: submerged fraction,
-    /// quarantine, rollbacks), keeping the substep count its model gives here. Whether the body
-    /// exists. Statuses are outputs of a step, never inputs to the next, so this changes what a
-    /// restored body reports before its first step, not its trajectory.
-    pub fn restore_status(&mut self, id: BodyId, status: BodyStatus) -> bool {
-        match self.bodies.get_mut(&id) {
-            Some(b) => {
-                b.status = BodyStatus {
-                    substeps: b.status.substeps,
-                    ..status
-                };
-                true
-            }
-            None => false,
+    /// Puts back body `id` exactly as a persisted world had it: its state to the bit and its
+    /// status (what its last step measured), with the substep count its model gives here.
+    /// [`World::insert`] normalises the rotation, which moves the last bits of a quaternion the
+    /// world itself produced and so the whole later trajectory; here a rotation within 1e-9 of
+    /// unit length is kept as it is (a stepped body's is unit to ~1e-15) and only one further
+    /// off is normalised.
+    ///
+    /// # Errors
+    /// As [`World::insert`].
+    pub fn restore_body(
+        &mut self,
+        id: BodyId,
+        spec: &BodySpec,
+        state: BodyState,
+        status: BodyStatus,
+    ) -> Result<(), SpecError> {
+        let normalised = state.validated("state")?;
+        let exact = if (state.rotation.length() - 1.0).abs() <= 1e-9 {
+            state
+        } else {
+            normalised
+        };
+        self.insert(id, spec, exact)?;
+        if let Some(b) = self.bodies.get_mut(&id) {
+            b.state = exact;
+            b.status = BodyStatus {
+                substeps: b.status.substeps,
+                ..status
+            };
         }
+        Ok(())
     }
 
     /// The id the next [`World::add`] gives: one more than the largest ever given.
