@@ -2,8 +2,10 @@
 //! [`Surface`], and its clock.
 //!
 //! - [`builtin`] — the scenes `swell serve` starts with.
-//! - [`clock`] — scene time: `t = rate·(now − epoch) + offset`, pause, seek.
-//! - [`store`] — atomic persistence of scenes and clocks in the data dir.
+//! - [`clock`] — scene time anchored to wall time: `t = offset + rate·(unix_now − anchor)` from
+//!   the scene epoch; pause, rate, seek.
+//! - [`store`] — the clock record, and the reader of the pre-journal data dir layout (changes
+//!   are now journaled: [`crate::journal`]).
 
 pub mod builtin;
 pub mod clock;
