@@ -132,3 +132,39 @@ async fn graceful_shutdown_finishes_in_flight_requests() {
         .unwrap();
     assert!(s.client.get(s.url("/healthz")).send().await.is_err());
 }
+
+/// A data dir written before the journal (per-file `scenes/`, `clocks/`) is imported at the
+/// first start and kept from then on: the journal holds it, so it survives the next restart
+/// even once the old files are gone.
+#[tokio::test]
+async fn a_pre_journal_data_dir_is_imported() {
+    use swell::scene::store::{ClockRecord, Store};
+    let dir = tempfile::tempdir().unwrap();
+    let old = Store::open(dir.path()).unwrap();
+    old.put_scene("harbour", &small_spec()).unwrap();
+    old.delete_scene("storm").unwrap();
+    let clock = ClockRecord {
+        t: 77.0,
+        rate: 2.0,
+        paused: true,
+        unix: 1.7e9,
+    };
+    old.put_clock("harbour", clock).unwrap();
+    for round in 0..2 {
+        let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+        let (st, _) = s.get_json("/v1/scenes/harbour").await;
+        assert_eq!(st, 200, "round {round}");
+        let (st, _) = s.get_json("/v1/scenes/storm").await;
+        assert_eq!(st, 404, "round {round}: the deletion was imported too");
+        let (_, c) = s.get_json("/v1/scenes/harbour/clock").await;
+        assert_eq!(
+            (c["t"].as_f64(), c["rate"].as_f64(), c["paused"].as_bool()),
+            (Some(77.0), Some(2.0), Some(true)),
+            "round {round}"
+        );
+        s.stop().await;
+        // After the first start the journal has it all: the old files are no longer needed.
+        std::fs::remove_dir_all(dir.path().join("scenes")).ok();
+        std::fs::remove_dir_all(dir.path().join("clocks")).ok();
+    }
+}
