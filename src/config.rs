@@ -40,6 +40,12 @@ pub struct Config {
     pub scenes: Vec<(String, SceneSpec)>,
     /// Request limits.
     pub limits: Limits,
+    /// When the journal takes snapshots (with a data dir).
+    pub snapshots: crate::journal::snapshot::SnapshotPolicy,
+    /// Longest the server waits at shutdown for its tasks (WebSocket sessions flushing their
+    /// Close, loops finishing a step) before it writes the final snapshot anyway. 10 s: well
+    /// inside Kubernetes' default 30 s grace period, with room for in-flight requests first.
+    pub shutdown_timeout: Duration,
 }
 
 impl Default for Config {
@@ -51,6 +57,8 @@ impl Default for Config {
             builtin_scenes: true,
             scenes: Vec::new(),
             limits: Limits::default(),
+            snapshots: Default::default(),
+            shutdown_timeout: Duration::from_secs(10),
         }
     }
 }

@@ -17,7 +17,9 @@
 //! # Layout
 //! - [`config`] — [`Config`], limits, the TOML scene file.
 //! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
-//! - [`state`] — the registry and admin operations (validate → persist → swap).
+//! - [`state`] — the registry and admin operations (validate → journal → swap).
+//! - [`journal`] — durability: every acknowledged change in an fsynced, checksummed log in the
+//!   data dir, periodic snapshots, compaction, and the replay at start-up.
 //! - [`frames`] — the shared, bounded FFT frame cache.
 //! - [`bodies`] — server-authoritative floating bodies: a body world per scene, stepped at the
 //!   scene's tick rate by its own loop ([`bodies::runner`]).
@@ -38,6 +40,7 @@ pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod frames;
+pub mod journal;
 pub mod scene;
 pub mod state;
 pub mod stream;
@@ -103,6 +106,8 @@ fn metrics_handle() -> PrometheusHandle {
 pub struct Server {
     listener: TcpListener,
     state: AppState,
+    snapshots: journal::snapshot::SnapshotPolicy,
+    shutdown_timeout: Duration,
 }
 
 impl Server {
@@ -111,35 +116,50 @@ impl Server {
     /// # Errors
     /// The socket cannot be bound, the data dir cannot be opened, a configured scene is invalid.
     pub async fn bind(config: Config) -> Result<Server, StartError> {
-        let store = match &config.data_dir {
-            Some(dir) => Some(
-                scene::store::Store::open(dir).map_err(|source| StartError::Io {
-                    what: format!("opening data dir {}", dir.display()),
-                    source,
-                })?,
-            ),
-            None => None,
+        let io = |dir: &std::path::Path| {
+            let what = format!("opening data dir {}", dir.display());
+            move |source| StartError::Io { what, source }
+        };
+        let (journal, recovered, legacy) = match &config.data_dir {
+            Some(dir) => {
+                let (j, r) = journal::Journal::open(dir).map_err(io(dir))?;
+                // The layout before the journal: read (and imported) only if it is there.
+                let legacy = if dir.join("scenes").is_dir() || dir.join("clocks").is_dir() {
+                    Some(scene::store::Store::open(dir).map_err(io(dir))?)
+                } else {
+                    None
+                };
+                (Some(j), Some(r), legacy)
+            }
+            None => (None, None, None),
         };
         let token = match config.admin_token.clone().filter(|t| !t.is_empty()) {
             Some(t) => t,
             None => api::admin::generate_token()
                 .map_err(|e| StartError::Setup(format!("generating an admin token: {e}")))?,
         };
-        let state = AppState::new(config.limits.clone(), store, token, metrics_handle());
+        let state = AppState::new(config.limits.clone(), journal, token, metrics_handle());
         let loading = state.clone();
         let builtin = config.builtin_scenes;
         let scenes = config.scenes.clone();
-        tokio::task::spawn_blocking(move || loading.load(builtin, &scenes))
-            .await
-            .map_err(|e| StartError::Setup(e.to_string()))?
-            .map_err(StartError::Setup)?;
+        tokio::task::spawn_blocking(move || {
+            loading.load(builtin, &scenes, recovered, legacy.as_ref())
+        })
+        .await
+        .map_err(|e| StartError::Setup(e.to_string()))?
+        .map_err(StartError::Setup)?;
         let listener = TcpListener::bind(config.bind)
             .await
             .map_err(|source| StartError::Io {
                 what: format!("binding {}", config.bind),
                 source,
             })?;
-        Ok(Server { listener, state })
+        Ok(Server {
+            listener,
+            state,
+            snapshots: config.snapshots,
+            shutdown_timeout: config.shutdown_timeout,
+        })
     }
 
     /// The bound address (the real port when the config asked for port 0).
@@ -164,6 +184,11 @@ impl Server {
     /// and returns. Readiness turns off as soon as shutdown starts, so a load balancer stops
     /// sending new work while the last requests drain.
     ///
+    /// Shutdown, in order: the signal fires the one shutdown token ([`AppState`]'s `shutdown`),
+    /// which every loop and session watches (WebSocket sessions send Close 1001); axum drains
+    /// in-flight HTTP requests; every tracked task ([`AppState`]'s `tasks`) is awaited, up to
+    /// the configured deadline; then the final journal snapshot is written.
+    ///
     /// # Errors
     /// The accept loop failed.
     pub async fn run(
@@ -174,17 +199,31 @@ impl Server {
         let app = router(self.state.clone());
         // The Prometheus handle keeps histogram windows bounded only if upkeep runs.
         let upkeep_handle = self.state.metrics.clone();
-        let upkeep = tokio::spawn(async move {
+        let upkeep_stop = state.shutdown.clone();
+        state.tasks.spawn(async move {
             let mut tick = tokio::time::interval(Duration::from_secs(5));
             loop {
-                tick.tick().await;
-                upkeep_handle.run_upkeep();
+                tokio::select! {
+                    () = upkeep_stop.cancelled() => return,
+                    _ = tick.tick() => upkeep_handle.run_upkeep(),
+                }
             }
         });
-        // FFT frames the scene clocks are about to reach, computed before queries ask.
-        let ahead = tokio::spawn(crate::frames::run_ahead(state.clone()));
+        // FFT frames the scene clocks are about to reach, computed before queries ask; stops on
+        // the shutdown token.
+        state.tasks.spawn(crate::frames::run_ahead(state.clone()));
         // Bodies restored from the data dir resume stepping.
         state.bodies.start_all(&state);
+        // Snapshots bound the log and the replay after a crash; they stop with the shutdown
+        // signal, before the final snapshot below.
+        if let Some(j) = state.journal().cloned() {
+            state.tasks.spawn(journal::snapshot::run(
+                state.clone(),
+                j,
+                self.snapshots,
+                state.shutdown.clone(),
+            ));
+        }
         state.set_ready(true);
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
@@ -205,12 +244,22 @@ impl Server {
                 tracing::info!("shutting down: draining in-flight requests");
             })
             .await;
-        upkeep.abort();
-        // The frame-ahead loop ends on the shutdown token; it holds no state worth waiting for.
-        ahead.abort();
-        // Stop the body loops and save the bodies' last states (restored at the next start).
+        // (Already fired unless serving failed.)
+        state.shutdown.cancel();
+        state.tasks.close();
+        if tokio::time::timeout(self.shutdown_timeout, state.tasks.wait())
+            .await
+            .is_err()
+        {
+            tracing::warn!(
+                left = state.tasks.len(),
+                deadline_s = self.shutdown_timeout.as_secs_f64(),
+                "shutdown deadline passed with tasks still running; writing the final snapshot anyway"
+            );
+        }
+        // Stop the body loops and write a final snapshot (the next start replays nothing).
         let saving = state.clone();
-        if let Err(e) = tokio::task::spawn_blocking(move || saving.persist_bodies()).await {
+        if let Err(e) = tokio::task::spawn_blocking(move || saving.write_final_snapshot()).await {
             tracing::error!(error = %e, "saving bodies panicked");
         }
         tracing::info!("stopped");

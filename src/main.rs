@@ -43,6 +43,15 @@ struct ServeArgs {
     /// Start without the built-in scenes.
     #[arg(long)]
     no_builtin_scenes: bool,
+    /// Seconds between journal snapshots while anything changes (bounds the replay at start).
+    #[arg(long, env = "SWELL_SNAPSHOT_INTERVAL", default_value_t = 30.0)]
+    snapshot_interval: f64,
+    /// Journal records that trigger a snapshot (and a compaction of the log) at once.
+    #[arg(long, env = "SWELL_SNAPSHOT_RECORDS", default_value_t = 10_000)]
+    snapshot_records: usize,
+    /// Seconds shutdown waits for sessions and loops to end before the final snapshot.
+    #[arg(long, env = "SWELL_SHUTDOWN_TIMEOUT", default_value_t = 10.0)]
+    shutdown_timeout: f64,
 }
 
 #[tokio::main]
@@ -77,6 +86,13 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
         data_dir: Some(args.data_dir),
         admin_token: args.admin_token.clone(),
         builtin_scenes: !args.no_builtin_scenes,
+        snapshots: swell::journal::snapshot::SnapshotPolicy {
+            interval: std::time::Duration::try_from_secs_f64(args.snapshot_interval)
+                .context("--snapshot-interval must be a non-negative number of seconds")?,
+            max_records: args.snapshot_records.max(1),
+        },
+        shutdown_timeout: std::time::Duration::try_from_secs_f64(args.shutdown_timeout)
+            .context("--shutdown-timeout must be a non-negative number of seconds")?,
         ..Default::default()
     };
     if let Some(path) = &args.config {

@@ -3,24 +3,25 @@
 //!
 //! Scenes live in a `BTreeMap` (sorted listing) behind a std `RwLock` held only to clone an
 //! `Arc`. Admin changes (scene put/delete, clock set) are serialised by one async mutex and follow
-//! one order: validate and build → persist → swap in memory. A change that fails at any step
-//! leaves both disk and memory as they were.
+//! one order: validate and build → journal (durable: [`crate::journal`]) → swap in memory. A
+//! change that fails at any step leaves memory as it was.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
-use std::time::Instant;
 
 use metrics_exporter_prometheus::PrometheusHandle;
 use serde_json::Value;
 use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
 
 use crate::api::types::ClockUpdate;
 use crate::config::Limits;
 use crate::error::ApiError;
 use crate::frames::FrameCache;
-use crate::scene::clock::ClockReading;
-use crate::scene::store::{ClockRecord, SceneRecord, Store, unix_now};
+use crate::journal::{Journal, Op, Recovered};
+use crate::scene::clock::{BUILTIN_EPOCH, ClockReading, WallClock};
+use crate::scene::store::{ClockRecord, SceneRecord, Store};
 use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
 use crate::stream::ticks::Tickers;
 
@@ -41,15 +42,19 @@ pub struct Inner {
     pub bodies: crate::bodies::runner::BodyRegistry,
     /// Running tick loops, by scene.
     pub tickers: Tickers,
-    /// Fired when the server starts shutting down: WebSocket sessions send Close and end, tick
-    /// loops stop (axum's graceful shutdown does neither for upgraded connections).
+    /// Fired when the server starts shutting down: the one signal every loop and session
+    /// watches. WebSocket sessions send Close (1001) and end, tick, body and snapshot loops stop
+    /// (axum's graceful shutdown does neither for upgraded connections).
     pub shutdown: CancellationToken,
+    /// Every task the server spawns (sessions, tick and body loops, query work), so shutdown
+    /// can await them, with a deadline, before the final snapshot.
+    pub tasks: TaskTracker,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
-    store: Option<Store>,
+    journal: Option<Journal>,
     admin_token: String,
     admin_lock: tokio::sync::Mutex<()>,
     ready: AtomicBool,
-    base: Instant,
+    wall: WallClock,
 }
 
 impl std::ops::Deref for AppState {
@@ -72,7 +77,7 @@ impl AppState {
     /// A state with no scenes.
     pub fn new(
         limits: Limits,
-        store: Option<Store>,
+        journal: Option<Journal>,
         admin_token: String,
         metrics: PrometheusHandle,
     ) -> AppState {
@@ -83,18 +88,37 @@ impl AppState {
             bodies: Default::default(),
             tickers: Tickers::default(),
             shutdown: CancellationToken::new(),
+            tasks: TaskTracker::new(),
             scenes: RwLock::new(BTreeMap::new()),
-            store,
+            journal,
             admin_token,
             admin_lock: tokio::sync::Mutex::new(()),
             ready: AtomicBool::new(false),
-            base: Instant::now(),
+            wall: WallClock::default(),
         }))
     }
 
-    /// Seconds on the monotonic clock that scene clocks run on.
+    /// Unix seconds now, as scene clocks read it: never less than an earlier answer (see
+    /// [`WallClock`]).
     pub fn now(&self) -> f64 {
-        self.base.elapsed().as_secs_f64()
+        self.wall.now()
+    }
+
+    /// The journal (none without a data dir).
+    pub fn journal(&self) -> Option<&Journal> {
+        self.journal.as_ref()
+    }
+
+    /// Journals `op` and waits until it is durable (nothing to do without a data dir).
+    ///
+    /// # Errors
+    /// 500 if it cannot be written or synced.
+    async fn journal_op(&self, op: Op) -> Result<(), ApiError> {
+        let Some(j) = &self.journal else {
+            return Ok(());
+        };
+        let seq = j.append(op).map_err(ApiError::internal)?;
+        j.commit(seq).await.map_err(ApiError::internal)
     }
 
     /// The admin token.
@@ -143,9 +167,11 @@ impl AppState {
         clock.read(self.now(), entry.scene.spec.tick_hz)
     }
 
-    /// Inserts a scene at start-up (no persistence, no lock), with a fresh clock at t = 0.
+    /// Inserts a scene at start-up (no persistence, no lock), with `clock` or one started from
+    /// the scene's epoch ([`BUILTIN_EPOCH`] if it gives none).
     pub fn insert_loaded(&self, scene: Scene, clock: Option<Clock>) {
-        let clock = clock.unwrap_or_else(|| Clock::starting_at(self.now(), 0.0));
+        let clock =
+            clock.unwrap_or_else(|| Clock::from_epoch(scene.spec.epoch.unwrap_or(BUILTIN_EPOCH)));
         let id = scene.id.clone();
         self.write_scenes().insert(
             id,
@@ -177,23 +203,37 @@ impl AppState {
         let scene = tokio::task::spawn_blocking(move || Scene::build(&owned_id, parsed))
             .await
             .map_err(ApiError::internal)??;
+        let mut scene = scene;
         let _guard = self.admin_lock.lock().await;
-        if let Some(store) = self.store.clone() {
-            // Persist the canonical form: what the scene is, with defaults filled in.
-            let json = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
-            let sid = id.to_owned();
-            tokio::task::spawn_blocking(move || store.put_scene(&sid, &json))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
+        // The epoch: as given; else a replaced scene's; else now (a new scene starts at t = 0,
+        // and the journaled spec remembers when, so its clock survives restarts).
+        let old = self.scene(id).ok();
+        let old_epoch = old.as_ref().and_then(|o| o.scene.spec.epoch);
+        let given = scene.spec.epoch;
+        if given.is_none() {
+            scene.spec.epoch = if old.is_some() {
+                old_epoch
+            } else {
+                Some(self.now())
+            };
         }
+        // Journal the canonical form: what the scene is, with defaults filled in.
+        let spec = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
+        self.journal_op(Op::ScenePut {
+            scene: id.to_owned(),
+            spec,
+        })
+        .await?;
         let mut map = self.write_scenes();
+        let epoch = scene.spec.epoch.unwrap_or(BUILTIN_EPOCH);
         let (outcome, clock) = match map.get(id) {
-            Some(old) => (
+            // A replaced scene keeps its clock, unless the put moves its epoch.
+            Some(old) if given.is_none() || given == old_epoch => (
                 PutOutcome::Replaced,
                 *old.clock.lock().unwrap_or_else(|p| p.into_inner()),
             ),
-            None => (PutOutcome::Created, Clock::starting_at(self.now(), 0.0)),
+            Some(_) => (PutOutcome::Replaced, Clock::from_epoch(epoch)),
+            None => (PutOutcome::Created, Clock::from_epoch(epoch)),
         };
         let entry = Arc::new(SceneEntry {
             scene: Arc::new(scene),
@@ -210,13 +250,10 @@ impl AppState {
     pub async fn delete_scene(&self, id: &str) -> Result<(), ApiError> {
         let _guard = self.admin_lock.lock().await;
         self.scene(id)?;
-        if let Some(store) = self.store.clone() {
-            let sid = id.to_owned();
-            tokio::task::spawn_blocking(move || store.delete_scene(&sid))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
-        }
+        self.journal_op(Op::SceneDelete {
+            scene: id.to_owned(),
+        })
+        .await?;
         self.write_scenes().remove(id);
         self.bodies.remove_scene(id);
         Ok(())
@@ -242,7 +279,6 @@ impl AppState {
         let _guard = self.admin_lock.lock().await;
         let entry = self.scene(id)?;
         let now = self.now();
-        let unix = unix_now();
         let mut clock = *entry.clock.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(t) = update.t {
             clock.seek(now, t);
@@ -253,30 +289,37 @@ impl AppState {
         if let Some(p) = update.paused {
             clock.set_paused(now, p);
         }
-        if let Some(store) = self.store.clone() {
-            let rec = ClockRecord {
-                t: clock.t(now),
-                rate: clock.rate(),
-                paused: clock.paused(),
-                unix,
-            };
-            let sid = id.to_owned();
-            tokio::task::spawn_blocking(move || store.put_clock(&sid, rec))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
-        }
+        let rec = ClockRecord {
+            t: clock.t(now),
+            rate: clock.rate(),
+            paused: clock.paused(),
+            unix: now,
+        };
+        self.journal_op(Op::Clock {
+            scene: id.to_owned(),
+            clock: rec,
+        })
+        .await?;
         *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
         Ok(self.read_clock(&entry))
     }
 
-    /// Loads built-in, configured and persisted scenes, in that order (later sources win; a
-    /// persisted deletion removes a built-in or configured scene). Blocking: builds every scene.
+    /// Loads built-in, configured and journaled scenes, in that order (later sources win; a
+    /// journaled deletion removes a built-in or configured scene), then the journaled clocks and
+    /// bodies ([`crate::journal::restore`]). `legacy` is a data dir written before the journal
+    /// (per-file scenes, clocks, bodies): read only when the journal is empty, and imported into
+    /// it. Blocking: builds every scene.
     ///
     /// # Errors
     /// A built-in or configured scene that does not build (a persisted one that no longer builds
     /// is logged and skipped, so a model upgrade cannot keep the server down).
-    pub fn load(&self, builtin: bool, configured: &[(String, SceneSpec)]) -> Result<(), String> {
+    pub fn load(
+        &self,
+        builtin: bool,
+        configured: &[(String, SceneSpec)],
+        recovered: Option<Recovered>,
+        legacy: Option<&Store>,
+    ) -> Result<(), String> {
         if builtin {
             for (id, spec) in crate::scene::builtin::specs() {
                 let scene =
@@ -289,17 +332,37 @@ impl AppState {
                 .map_err(|e| format!("configured scene {id}: {}", e.message))?;
             self.insert_loaded(scene, None);
         }
-        let Some(store) = &self.store else {
-            return Ok(());
-        };
+        let empty = recovered
+            .as_ref()
+            .is_none_or(|r| r.snapshot.is_none() && r.records.is_empty());
+        if let Some(rec) = recovered {
+            crate::journal::restore::restore(self, rec);
+        }
+        match legacy {
+            Some(store) if empty => self.load_legacy(store),
+            _ => Ok(()),
+        }
+    }
+
+    /// Reads a data dir of the pre-journal layout and imports it into the journal.
+    fn load_legacy(&self, store: &Store) -> Result<(), String> {
         let loaded = store.load_scenes();
+        let mut ops = Vec::new();
+        let mut bodies_found = false;
         for (path, why) in loaded.bad {
             tracing::error!(path = %path.display(), %why, "skipping unreadable scene file");
         }
         for (id, rec) in loaded.records {
             match rec {
-                SceneRecord::Deleted => self.remove_loaded(&id),
+                SceneRecord::Deleted => {
+                    self.remove_loaded(&id);
+                    ops.push(Op::SceneDelete { scene: id.clone() });
+                }
                 SceneRecord::Put(v) => {
+                    ops.push(Op::ScenePut {
+                        scene: id.clone(),
+                        spec: v.clone(),
+                    });
                     match SceneSpec::from_value(v).and_then(|spec| Scene::build(&id, spec)) {
                         Ok(scene) => self.insert_loaded(scene, None),
                         Err(e) => {
@@ -309,20 +372,17 @@ impl AppState {
                 }
             }
         }
-        // Clocks: a persisted reading, advanced by the wall time since it was taken.
+        // Clocks: a persisted reading, anchored at the wall time it was taken.
         let now = self.now();
-        let unix = unix_now();
         for entry in self.scenes() {
             let id = &entry.scene.id;
             match store.load_clock(id) {
                 Ok(Some(rec)) => {
-                    let t = if rec.paused {
-                        rec.t
-                    } else {
-                        rec.t + rec.rate * (unix - rec.unix).max(0.0)
-                    };
-                    let clock = Clock::with_state(now, t, rec.rate, rec.paused);
-                    *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
+                    *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = rec.restore(now);
+                    ops.push(Op::Clock {
+                        scene: id.clone(),
+                        clock: rec,
+                    });
                 }
                 Ok(None) => {}
                 Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable clock file"),
@@ -338,7 +398,12 @@ impl AppState {
                             crate::bodies::SceneBodies::from_record(&r, hz, g)
                                 .map_err(|e| e.message)
                         }) {
-                        Ok(b) => self.bodies.insert(id, b),
+                        Ok(b) => {
+                            bodies_found = true;
+                            // Not bit-exact (the old file kept no anchor): the bodies carry on
+                            // from their saved states.
+                            self.bodies.insert(id, b);
+                        }
                         Err(why) => {
                             tracing::error!(scene = %id, %why, "skipping unreadable bodies file")
                         }
@@ -348,25 +413,34 @@ impl AppState {
                 Err(why) => tracing::error!(scene = %id, %why, "skipping unreadable bodies file"),
             }
         }
+        if ops.is_empty() && !bodies_found {
+            return Ok(());
+        }
+        tracing::info!(
+            records = ops.len(),
+            "imported a data dir of the pre-journal layout"
+        );
+        if let Some(j) = &self.journal {
+            j.append_all(ops)
+                .and_then(|_| crate::journal::snapshot::take(self, j))
+                .map_err(|e| format!("importing the old data dir into the journal: {e}"))?;
+        }
         Ok(())
     }
 }
 
 impl AppState {
-    /// Stops the body loops and writes every scene's bodies to the data dir (graceful shutdown).
-    /// Blocking file I/O: call from `spawn_blocking`.
-    pub fn persist_bodies(&self) {
+    /// Stops the body loops and writes a final snapshot (graceful shutdown), so the next start
+    /// replays nothing. Blocking file I/O: call from `spawn_blocking`.
+    pub fn write_final_snapshot(&self) {
         self.bodies.stop();
-        let Some(store) = &self.store else {
+        let Some(j) = &self.journal else {
             return;
         };
-        for (id, rec) in self.bodies.records() {
-            let result = serde_json::to_value(&rec)
-                .map_err(std::io::Error::other)
-                .and_then(|v| store.put_bodies(&id, &v));
-            match result {
-                Ok(()) => tracing::info!(scene = %id, bodies = rec.bodies.len(), "bodies saved"),
-                Err(e) => tracing::error!(scene = %id, error = %e, "saving bodies failed"),
+        match crate::journal::snapshot::take(self, j) {
+            Ok(()) => tracing::info!(seq = j.last_seq(), "journal: final snapshot written"),
+            Err(e) => {
+                tracing::error!(error = %e, "journal: final snapshot failed (the log holds every change)")
             }
         }
     }

@@ -52,11 +52,9 @@ async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
     s.stop().await;
 
     // No temp files left in the data dir.
-    for sub in ["scenes", "clocks"] {
-        for e in std::fs::read_dir(dir.path().join(sub)).unwrap() {
-            let name = e.unwrap().file_name();
-            assert!(!name.to_string_lossy().ends_with(".tmp"), "{name:?}");
-        }
+    for e in std::fs::read_dir(dir.path().join("journal")).unwrap() {
+        let name = e.unwrap().file_name();
+        assert!(!name.to_string_lossy().ends_with(".tmp"), "{name:?}");
     }
 }
 
@@ -68,8 +66,11 @@ async fn a_rejected_put_leaves_disk_and_memory_alone() {
     bad["gravity"] = json!(-1);
     let (st, _) = s.put_scene("harbour", &bad).await;
     assert_eq!(st, 422);
-    assert!(!dir.path().join("scenes/harbour.json").exists());
     s.stop().await;
+    // Nothing was journaled: the final snapshot holds no admin change.
+    let (_, rec) = swell::journal::Journal::open(dir.path()).unwrap();
+    assert!(rec.records.is_empty(), "{:?}", rec.records);
+    assert!(rec.snapshot.unwrap().admin.scenes.is_empty());
 }
 
 #[tokio::test]
@@ -130,4 +131,40 @@ async fn graceful_shutdown_finishes_in_flight_requests() {
         .unwrap()
         .unwrap();
     assert!(s.client.get(s.url("/healthz")).send().await.is_err());
+}
+
+/// A data dir written before the journal (per-file `scenes/`, `clocks/`) is imported at the
+/// first start and kept from then on: the journal holds it, so it survives the next restart
+/// even once the old files are gone.
+#[tokio::test]
+async fn a_pre_journal_data_dir_is_imported() {
+    use swell::scene::store::{ClockRecord, Store};
+    let dir = tempfile::tempdir().unwrap();
+    let old = Store::open(dir.path()).unwrap();
+    old.put_scene("harbour", &small_spec()).unwrap();
+    old.delete_scene("storm").unwrap();
+    let clock = ClockRecord {
+        t: 77.0,
+        rate: 2.0,
+        paused: true,
+        unix: 1.7e9,
+    };
+    old.put_clock("harbour", clock).unwrap();
+    for round in 0..2 {
+        let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
+        let (st, _) = s.get_json("/v1/scenes/harbour").await;
+        assert_eq!(st, 200, "round {round}");
+        let (st, _) = s.get_json("/v1/scenes/storm").await;
+        assert_eq!(st, 404, "round {round}: the deletion was imported too");
+        let (_, c) = s.get_json("/v1/scenes/harbour/clock").await;
+        assert_eq!(
+            (c["t"].as_f64(), c["rate"].as_f64(), c["paused"].as_bool()),
+            (Some(77.0), Some(2.0), Some(true)),
+            "round {round}"
+        );
+        s.stop().await;
+        // After the first start the journal has it all: the old files are no longer needed.
+        std::fs::remove_dir_all(dir.path().join("scenes")).ok();
+        std::fs::remove_dir_all(dir.path().join("clocks")).ok();
+    }
 }

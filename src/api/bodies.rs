@@ -24,6 +24,24 @@ pub struct BodiesResponse {
     pub bodies: Vec<BodyState>,
 }
 
+/// Journals the changes just made to `b` (call with its lock held); the seq to commit.
+fn journal_events(
+    state: &AppState,
+    scene: &str,
+    b: &mut crate::bodies::SceneBodies,
+) -> Result<u64, ApiError> {
+    crate::journal::snapshot::append_body_events(state.journal(), scene, b)
+        .map_err(ApiError::internal)
+}
+
+/// Waits until the journal holds record `seq` durably: the answer goes out only then.
+async fn commit(state: &AppState, seq: u64) -> Result<(), ApiError> {
+    match state.journal() {
+        Some(j) => j.commit(seq).await.map_err(ApiError::internal),
+        None => Ok(()),
+    }
+}
+
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
     raw.parse::<u64>().map_err(|_| {
         ApiError::invalid(
@@ -61,9 +79,13 @@ pub async fn create(
             ));
         }
         let bid = b.spawn(&req)?;
-        b.state(bid)?
+        let seq = journal_events(&state, &id, &mut b);
+        (b.state(bid)?, seq)
     };
+    let (out, seq) = out;
+    // The body is in the world now: step it even if the journal failed (answered with 500).
     ensure_running(&state, &id, &cell);
+    commit(&state, seq?).await?;
     tracing::info!(scene = %id, body = out.id, "body spawned");
     Ok((StatusCode::CREATED, axum::Json(out)).into_response())
 }
@@ -116,7 +138,16 @@ pub async fn delete(
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
-    if cell.lock().remove(bid) {
+    let removed = {
+        let mut b = cell.lock();
+        if b.remove(bid) {
+            Some(journal_events(&state, &id, &mut b)?)
+        } else {
+            None
+        }
+    };
+    if let Some(seq) = removed {
+        commit(&state, seq).await?;
         tracing::info!(scene = %id, body = bid, "body removed");
         Ok(StatusCode::NO_CONTENT)
     } else {
@@ -136,11 +167,12 @@ pub async fn input(
     let bid = parse_body_id(&bid)?;
     let req: InputRequest = from_slice(&body)?;
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
-    let tick = {
+    let (tick, seq) = {
         let mut b = cell.lock();
         b.input(bid, &req)?;
-        b.tick()
+        (b.tick(), journal_events(&state, &id, &mut b)?)
     };
+    commit(&state, seq).await?;
     Ok((
         StatusCode::ACCEPTED,
         axum::Json(serde_json::json!({"tick": tick})),

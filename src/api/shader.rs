@@ -220,7 +220,7 @@ pub async fn uniforms(
     let entry = state.scene(&id)?;
     let q = query(q)?;
     let t = match q.t.as_deref() {
-        None => resolve_time(&state, &entry, None)?,
+        None => resolve_time(&state, &entry, None)?.t,
         Some(s) => {
             let v: f64 = s.trim().parse().map_err(|_| {
                 ApiError::invalid("t", format!("t = {s:?} is not a number (seconds)"))

@@ -10,6 +10,7 @@
 //! server was overloaded), the world is re-anchored at the new tick with every body's current
 //! state and the rest of its inputs: the bodies carry on from where they were.
 
+pub mod event;
 pub mod runner;
 
 use std::collections::BTreeMap;
@@ -20,6 +21,7 @@ use swell_waves::{QueryOptions, Surface};
 
 pub use crate::api::types::BodyState;
 use crate::error::ApiError;
+pub use event::{BodyEvent, WorldRecord};
 
 /// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
 /// is re-anchored instead. Two seconds at 30 Hz: catching up more would stall the loop further.
@@ -152,10 +154,13 @@ pub struct SceneBodies {
     anchor: i64,
     tick_hz: f64,
     gravity: f64,
+    /// Changes made since the owner last took them ([`SceneBodies::take_events`]), in order:
+    /// what the journal records so a restart replays the same world.
+    events: Vec<BodyEvent>,
 }
 
 /// One body as persisted.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BodyRecord {
     /// Id.
     pub id: u64,
@@ -191,6 +196,11 @@ impl SceneBodies {
             anchor,
             tick_hz,
             gravity,
+            events: vec![BodyEvent::Created {
+                anchor,
+                tick_hz,
+                gravity,
+            }],
         })
     }
 
@@ -234,6 +244,12 @@ impl SceneBodies {
         let state =
             swell_waves::body::BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
         let id = self.world.add(&spec, state).map_err(|e| model_error(&e))?;
+        self.events.push(BodyEvent::Spawned {
+            at: self.tick(),
+            id,
+            spec: spec.clone(),
+            state,
+        });
         self.specs.insert(id, spec);
         Ok(id)
     }
@@ -241,7 +257,14 @@ impl SceneBodies {
     /// Removes a body; whether it existed.
     pub fn remove(&mut self, id: u64) -> bool {
         self.specs.remove(&id);
-        self.world.remove(id)
+        let existed = self.world.remove(id);
+        if existed {
+            self.events.push(BodyEvent::Removed {
+                at: self.tick(),
+                id,
+            });
+        }
+        existed
     }
 
     /// Queues an input for body `id`.
@@ -267,18 +290,19 @@ impl SceneBodies {
                 format!("ticks = {ticks} is out of range: 1..=10000000"),
             ));
         }
-        self.world
-            .input(BodyInput {
-                body: id,
-                force: req.force,
-                torque: req.torque,
-                from_tick: (from - self.anchor) as u64,
-                ticks,
-            })
-            .map_err(|e| {
-                let field = e.field().trim_start_matches("input.").to_owned();
-                ApiError::invalid(field, e.to_string())
-            })
+        let input = BodyInput {
+            body: id,
+            force: req.force,
+            torque: req.torque,
+            from_tick: (from - self.anchor) as u64,
+            ticks,
+        };
+        self.world.input(input).map_err(|e| {
+            let field = e.field().trim_start_matches("input.").to_owned();
+            ApiError::invalid(field, e.to_string())
+        })?;
+        self.events.push(BodyEvent::Input { at: now, input });
+        Ok(())
     }
 
     /// Steps the bodies forward to scene tick `target` on `surface` (see the module docs for
@@ -347,6 +371,12 @@ impl SceneBodies {
         let Ok(mut world) = World::new(settings(tick, tick_hz, gravity)) else {
             return; // Scene settings the model rejects: keep the old world.
         };
+        self.events.push(BodyEvent::Reanchored {
+            at: self.tick(),
+            to: tick,
+            tick_hz,
+            gravity,
+        });
         for (id, body) in self.world.bodies() {
             if let Some(spec) = self.specs.get(&id) {
                 // The spec and state were valid when added; insert cannot fail on them.
@@ -418,6 +448,7 @@ impl SceneBodies {
         gravity: f64,
     ) -> Result<SceneBodies, ApiError> {
         let mut b = SceneBodies::new(rec.tick, tick_hz, gravity)?;
+        b.events.clear();
         for r in &rec.bodies {
             match b.world.insert(r.id, &r.spec, r.state) {
                 Ok(()) => {

@@ -81,6 +81,14 @@ impl BodyRegistry {
         self.map().remove(id);
     }
 
+    /// Every scene's body cell, by scene id.
+    pub fn cells(&self) -> Vec<(String, Arc<SceneBodiesCell>)> {
+        self.map()
+            .iter()
+            .map(|(id, c)| (id.clone(), c.clone()))
+            .collect()
+    }
+
     /// Persistable records of every scene with bodies.
     pub fn records(&self) -> Vec<(String, BodiesRecord)> {
         self.map()
@@ -128,7 +136,9 @@ pub fn ensure_running(state: &AppState, id: &str, cell: &Arc<SceneBodiesCell>) {
         .compare_exchange(false, true, Ordering::SeqCst, Ordering::SeqCst)
         .is_ok()
     {
-        tokio::spawn(run(state.clone(), id.to_owned(), cell.clone()));
+        state
+            .tasks
+            .spawn(run(state.clone(), id.to_owned(), cell.clone()));
     }
 }
 
@@ -151,7 +161,12 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
     let mut interval = interval_for(hz);
     tracing::debug!(scene = %id, "body loop started");
     loop {
-        let scheduled = interval.tick().await;
+        // The shutdown token ends the loop at once (not a tick later); the final snapshot is
+        // taken after every loop has ended.
+        let scheduled = tokio::select! {
+            () = state.shutdown.cancelled() => break,
+            s = interval.tick() => s,
+        };
         let lateness = scheduled.elapsed().as_secs_f64();
         metrics::histogram!("swell_tick_lateness_seconds").record(lateness);
         let entry = match state.scene(&id) {
@@ -169,6 +184,8 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         let scene = entry.scene.clone();
         let (scene_hz, gravity) = (scene.spec.tick_hz, scene.spec.surface.gravity);
         let stepping = cell.clone();
+        let journaling = state.clone();
+        let scene_id = id.clone();
         let done = tokio::task::spawn_blocking(move || {
             let mut b = stepping.lock();
             if b.is_empty() {
@@ -177,6 +194,15 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             let start = Instant::now();
             let adv = b.advance_to(target, &scene.surface, scene_hz, gravity);
             let took = start.elapsed();
+            // A re-anchor is journaled under the same lock, in order with the API's changes
+            // (not waited for: nothing was acknowledged; the next commit's fsync covers it).
+            if let Err(e) = crate::journal::snapshot::append_body_events(
+                journaling.journal(),
+                &scene_id,
+                &mut b,
+            ) {
+                tracing::error!(scene = %scene_id, error = %e, "journal: could not record a re-anchor");
+            }
             Some((adv, took, b.len()))
         })
         .await;

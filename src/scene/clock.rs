@@ -1,16 +1,78 @@
-//! Scene time.
+//! Scene time, anchored to wall time.
 //!
-//! `t = rate·(now − epoch) + offset` while running; `t = offset` while paused. `now` is seconds
-//! on a monotonic clock (the caller supplies it: this struct never reads a clock, so its maths is
-//! tested without waiting). Every change re-anchors (`offset ← t(now)`, `epoch ← now`) first, so
-//! t is continuous through rate changes, pause and resume; only a seek jumps.
+//! `t = offset + rate·(now − anchor)` while running; `t = offset` while paused. `now` is Unix
+//! time in seconds (f64), read through a [`WallClock`] that never goes backwards; the caller
+//! supplies it (this struct never reads a clock, so its maths is tested without waiting). A
+//! scene's clock starts from its *epoch*, the Unix time at which its `t = 0` at rate 1
+//! ([`Clock::from_epoch`]): two processes with the same scene agree on `t` now, to within their
+//! system clocks' skew, without talking to each other. Every change re-anchors
+//! (`offset ← t(now)`, `anchor ← now`) first, so t is continuous through rate changes, pause and
+//! resume; only a seek jumps.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-/// A scene clock. Pure arithmetic on a caller-supplied `now` (seconds, monotonic).
+/// The epoch of built-in and configured scenes that give none: 2026-01-01T00:00:00Z, Unix
+/// seconds. Fixed, so every replica of a fleet (and every restart) agrees on their `t` now. Any
+/// fixed past instant would do; this one keeps `t` well inside the f64 range where a scene
+/// second has sub-nanosecond resolution for centuries.
+pub const BUILTIN_EPOCH: f64 = 1_767_225_600.0;
+
+/// A step back smaller than this (s) is not logged: concurrent readers of the system clock
+/// race by microseconds, which the clamp absorbs silently.
+const STEP_BACK_LOG_S: f64 = 0.01;
+
+/// Unix time that never runs backwards: a system clock stepped back (NTP, an operator) is
+/// clamped to the latest time already seen, and logged, so scene time at rate > 0 never runs
+/// backwards and bodies never see time reverse.
+///
+/// Lock-free (it is read on every query without `t` and every tick): the latest time is kept
+/// as f64 bits in an atomic, and for non-negative f64 the bit patterns order as the numbers do,
+/// so `fetch_max` on the bits is a max on the times.
+#[derive(Debug, Default)]
+pub struct WallClock {
+    /// Bits of the latest Unix time handed out (0 = 0.0).
+    last: AtomicU64,
+    /// Whether the clock is held (the system clock is behind `last`): logs once per step back.
+    held: AtomicBool,
+}
+
+impl WallClock {
+    /// Unix seconds now, never less than any earlier answer.
+    pub fn now(&self) -> f64 {
+        self.observe(crate::scene::store::unix_now())
+    }
+
+    /// `unix` clamped to never be less than an earlier answer (the clock logic of
+    /// [`WallClock::now`], with the system time injected).
+    pub fn observe(&self, unix: f64) -> f64 {
+        // Before 1970 or NaN (a broken clock) counts as 0: the bit order holds for +0.0 up.
+        let unix = if unix >= 0.0 { unix } else { 0.0 };
+        let prev = f64::from_bits(self.last.fetch_max(unix.to_bits(), Ordering::AcqRel));
+        if unix >= prev {
+            if self.held.swap(false, Ordering::Relaxed) {
+                tracing::info!(unix, "system clock caught up; scene clocks run again");
+            }
+            unix
+        } else {
+            // Two threads reading the system clock microseconds apart race here too; only a
+            // real step back is worth a log line.
+            if prev - unix > STEP_BACK_LOG_S && !self.held.swap(true, Ordering::Relaxed) {
+                tracing::warn!(
+                    back_s = prev - unix,
+                    "system clock stepped backwards; scene clocks hold until it catches up"
+                );
+            }
+            prev
+        }
+    }
+}
+
+/// A scene clock. Pure arithmetic on a caller-supplied `now` (Unix seconds).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Clock {
-    epoch: f64,
+    anchor: f64,
     offset: f64,
     rate: f64,
     paused: bool,
@@ -29,13 +91,16 @@ pub struct ClockReading {
     pub rate: f64,
     /// Whether t is frozen.
     pub paused: bool,
+    /// Unix time of the reading, s: `t` at another Unix time `u` is
+    /// `t + rate·(u − unix)` (unless paused), so a client can follow the clock on its own.
+    pub unix: f64,
 }
 
 impl Clock {
     /// A running clock at rate 1 that reads `t` at `now`.
     pub fn starting_at(now: f64, t: f64) -> Clock {
         Clock {
-            epoch: now,
+            anchor: now,
             offset: t,
             rate: 1.0,
             paused: false,
@@ -45,11 +110,16 @@ impl Clock {
     /// A clock reading `t` at `now` with the given rate and pause state.
     pub fn with_state(now: f64, t: f64, rate: f64, paused: bool) -> Clock {
         Clock {
-            epoch: now,
+            anchor: now,
             offset: t,
             rate,
             paused,
         }
+    }
+
+    /// A running clock at rate 1 that reads `t = 0` at Unix time `epoch`.
+    pub fn from_epoch(epoch: f64) -> Clock {
+        Clock::starting_at(epoch, 0.0)
     }
 
     /// Scene time at `now`, s.
@@ -57,7 +127,7 @@ impl Clock {
         if self.paused {
             self.offset
         } else {
-            self.offset + self.rate * (now - self.epoch)
+            self.offset + self.rate * (now - self.anchor)
         }
     }
 
@@ -71,26 +141,26 @@ impl Clock {
         self.paused
     }
 
-    fn anchor(&mut self, now: f64) {
+    fn reanchor(&mut self, now: f64) {
         self.offset = self.t(now);
-        self.epoch = now;
+        self.anchor = now;
     }
 
     /// Sets the rate, keeping t continuous at `now`.
     pub fn set_rate(&mut self, now: f64, rate: f64) {
-        self.anchor(now);
+        self.reanchor(now);
         self.rate = rate;
     }
 
     /// Pauses (t frozen at its value at `now`) or resumes (t continues from there).
     pub fn set_paused(&mut self, now: f64, paused: bool) {
-        self.anchor(now);
+        self.reanchor(now);
         self.paused = paused;
     }
 
     /// Jumps to scene time `t` at `now` (rate and pause state unchanged).
     pub fn seek(&mut self, now: f64, t: f64) {
-        self.epoch = now;
+        self.anchor = now;
         self.offset = t;
     }
 
@@ -103,6 +173,7 @@ impl Clock {
             tick_hz,
             rate: self.rate,
             paused: self.paused,
+            unix: now,
         }
     }
 }
@@ -166,6 +237,40 @@ mod tests {
         c.set_paused(11.0, true);
         c.seek(12.0, -3.0);
         assert_eq!(c.t(20.0), -3.0);
+    }
+
+    /// A scene clock started from an epoch reads the same t in any process at the same Unix
+    /// time, whenever that process started.
+    #[test]
+    fn clocks_from_the_same_epoch_agree_whenever_they_were_made() {
+        let a = Clock::from_epoch(BUILTIN_EPOCH);
+        let b = Clock::from_epoch(BUILTIN_EPOCH);
+        let now = BUILTIN_EPOCH + 86_400.0 * 300.0 + 0.25;
+        assert_eq!(a.t(now), b.t(now));
+        assert_eq!(a.t(now), 86_400.0 * 300.0 + 0.25);
+        assert_eq!(a.t(BUILTIN_EPOCH), 0.0);
+    }
+
+    /// A system clock stepped back is held at the latest time seen (and runs again once it
+    /// catches up), so a running scene clock never reads an earlier t than it already has.
+    #[test]
+    fn a_system_clock_stepped_back_never_runs_scene_time_backwards() {
+        let w = WallClock::default();
+        let c = Clock::from_epoch(1000.0);
+        let mut last_t = f64::NEG_INFINITY;
+        for unix in [
+            1000.0, 1005.0, 1010.0, 1002.0, 1003.0, 1009.5, 1010.0, 1011.0, 1500.0,
+        ] {
+            let t = c.t(w.observe(unix));
+            assert!(t >= last_t, "t went back from {last_t} to {t} at {unix}");
+            last_t = t;
+        }
+        assert_eq!(w.observe(1004.0), 1500.0);
+        assert_eq!(
+            c.t(w.observe(1600.0)),
+            600.0,
+            "runs again after catching up"
+        );
     }
 
     #[test]

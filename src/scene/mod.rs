@@ -2,8 +2,10 @@
 //! [`Surface`], and its clock.
 //!
 //! - [`builtin`] — the scenes `swell serve` starts with.
-//! - [`clock`] — scene time: `t = rate·(now − epoch) + offset`, pause, seek.
-//! - [`store`] — atomic persistence of scenes and clocks in the data dir.
+//! - [`clock`] — scene time anchored to wall time: `t = offset + rate·(unix_now − anchor)` from
+//!   the scene epoch; pause, rate, seek.
+//! - [`store`] — the clock record, and the reader of the pre-journal data dir layout (changes
+//!   are now journaled: [`crate::journal`]).
 
 pub mod builtin;
 pub mod clock;
@@ -36,10 +38,20 @@ pub struct SceneSpec {
     pub description: String,
     /// Ticks per second of scene time (`tick = floor(t·tick_hz)`), in (0, 1000]. Default 30.
     pub tick_hz: f64,
+    /// Unix time, s, at which the scene clock reads `t = 0` running at rate 1 (in
+    /// [0, [`MAX_EPOCH`]]). Default: [`clock::BUILTIN_EPOCH`] for built-in and configured scenes
+    /// (so replicas agree), the time of creation for a scene `PUT` by an admin (filled in and
+    /// persisted). Not part of the sea: it moves the clock only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub epoch: Option<f64>,
     /// The waves.
     #[serde(flatten)]
     pub surface: SurfaceSpec,
 }
+
+/// Latest scene epoch accepted, Unix seconds (year 5138): far beyond any real schedule, well
+/// inside the range where f64 seconds keep microseconds.
+pub const MAX_EPOCH: f64 = 1e11;
 
 /// Default tick rate, Hz: a common game network rate.
 pub const DEFAULT_TICK_HZ: f64 = 30.0;
@@ -78,10 +90,18 @@ impl SceneSpec {
                 return Err(ApiError::bad_json("tick_hz must be a number").with_field("tick_hz"));
             }
         };
+        let epoch = match map.remove("epoch") {
+            None | Some(Value::Null) => None,
+            Some(Value::Number(n)) => Some(n.as_f64().unwrap_or(f64::NAN)),
+            Some(_) => {
+                return Err(ApiError::bad_json("epoch must be a number").with_field("epoch"));
+            }
+        };
         let surface: SurfaceSpec = crate::api::json::from_value(Value::Object(map))?;
         let spec = SceneSpec {
             description,
             tick_hz,
+            epoch,
             surface,
         };
         spec.validate()?;
@@ -104,6 +124,17 @@ impl SceneSpec {
                 },
             ));
         }
+        if let Some(e) = self.epoch
+            && !(e.is_finite() && (0.0..=MAX_EPOCH).contains(&e))
+        {
+            return Err(ApiError::invalid_spec(
+                &swell_waves::SpecError::OutOfRange {
+                    field: "epoch".into(),
+                    value: e,
+                    allowed: format!("Unix seconds in [0, {MAX_EPOCH}]"),
+                },
+            ));
+        }
         if self.description.len() > MAX_DESCRIPTION {
             return Err(ApiError::invalid_spec(&swell_waves::SpecError::BadLength {
                 field: "description".into(),
@@ -115,11 +146,16 @@ impl SceneSpec {
     }
 
     /// The canonical JSON of the spec: fields in declaration order, numbers in shortest
-    /// round-trip form. Its hash identifies the sea.
+    /// round-trip form, without `epoch` (it moves the clock, not the sea). Its hash identifies
+    /// the sea.
     pub fn canonical_json(&self) -> String {
+        let sea = SceneSpec {
+            epoch: None,
+            ..self.clone()
+        };
         // Serialising plain data (no maps with non-string keys, no non-finite floats after
         // validation) cannot fail; an empty string would only weaken the hash, not break it.
-        serde_json::to_string(self).unwrap_or_default()
+        serde_json::to_string(&sea).unwrap_or_default()
     }
 }
 
@@ -272,6 +308,7 @@ fn kind_of(l: &Layer) -> &'static str {
 pub struct SceneEntry {
     /// The scene.
     pub scene: Arc<Scene>,
-    /// Its clock. A std mutex: held for a few arithmetic operations, never across an await.
+    /// Its clock (see [`clock`]). A std mutex: held for a few arithmetic operations, never
+    /// across an await.
     pub clock: Mutex<Clock>,
 }

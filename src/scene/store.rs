@@ -3,8 +3,11 @@
 //! Layout: `scenes/<id>.json` holds `{"format":1,"id","spec"}` for a scene put by an admin, or
 //! `{"format":1,"id","deleted":true}` for a deleted one (so a deleted built-in stays deleted);
 //! `clocks/<id>.json` holds `{"format":1,"t","rate","paused","unix"}`: the clock's reading at
-//! wall-clock `unix` seconds. On restore a running clock advances by the wall time that passed
-//! (so replicas and restarts keep scene time flowing); a paused one reads the same t.
+//! wall-clock `unix` seconds; restored anchored there ([`ClockRecord::restore`]), so a running
+//! clock has advanced by the wall time that passed and a paused one reads the same t.
+//!
+//! This per-file layout is what servers before the journal ([`crate::journal`]) wrote; it is
+//! now only read, to import an old data dir. [`ClockRecord`] is also the journal's clock record.
 //!
 //! Every write is atomic: write `<name>.tmp`, fsync it, rename over `<name>`, fsync the directory.
 //! A crash leaves either the old file or the new one, never half of one. All functions here do
@@ -40,6 +43,16 @@ pub struct ClockRecord {
     pub paused: bool,
     /// Wall-clock time of the reading, seconds since the Unix epoch.
     pub unix: f64,
+}
+
+impl ClockRecord {
+    /// The clock this reading gives: anchored at the reading's own Unix time, so every process
+    /// that loads it agrees on `t` at any instant. A wall clock now behind the reading (stepped
+    /// back, or another machine's) anchors it at `now` instead, so it never reads a `t` earlier
+    /// than the one recorded.
+    pub fn restore(&self, now: f64) -> crate::scene::Clock {
+        crate::scene::Clock::with_state(self.unix.min(now), self.t, self.rate, self.paused)
+    }
 }
 
 #[derive(Serialize, Deserialize)]

@@ -132,9 +132,13 @@ pub async fn stream(
             Codec::Protobuf => PROTOBUF_PROTOCOL,
         }]);
     }
-    Ok(ws.on_upgrade(move |socket: WebSocket| async move {
-        let (sink, stream) = socket.split();
-        session(state, id, codec, sink, stream).await;
+    // The session is tracked: shutdown waits for its Close to go out before the final snapshot.
+    let tasks = state.tasks.clone();
+    Ok(ws.on_upgrade(move |socket: WebSocket| {
+        tasks.track_future(async move {
+            let (sink, stream) = socket.split();
+            session(state, id, codec, sink, stream).await;
+        })
     }))
 }
 
@@ -237,7 +241,7 @@ where
     metrics::gauge!("swell_ws_sessions").increment(1.0);
     metrics::counter!("swell_ws_sessions_total").increment(1);
     let (tx, rx) = mpsc::channel(state.limits.ws_send_queue.max(1));
-    let mut writer = tokio::spawn(write_loop(sink, rx));
+    let mut writer = state.tasks.spawn(write_loop(sink, rx));
     let queue = Queue {
         tx,
         codec,
@@ -499,7 +503,7 @@ fn query(
     }
     let st = state.clone();
     let queue = queue.clone();
-    tokio::spawn(async move {
+    state.tasks.spawn(async move {
         let result = tokio::task::spawn_blocking(move || run(&st, &scene, at))
             .await
             .map_err(ApiError::internal)

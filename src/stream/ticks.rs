@@ -91,7 +91,9 @@ impl Tickers {
         metrics::gauge!("swell_tick_loops").increment(1.0);
         // Every loop carries the scene's bodies (none is cheap: one map lookup per tick).
         let hook = crate::bodies::runner::BodiesHook::new(state.clone(), id);
-        tokio::spawn(run(state.clone(), id.to_owned(), tx, Some(Box::new(hook))));
+        state
+            .tasks
+            .spawn(run(state.clone(), id.to_owned(), tx, Some(Box::new(hook))));
         rx
     }
 

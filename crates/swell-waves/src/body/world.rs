@@ -205,6 +205,60 @@ impl World {
         })
     }
 
+    /// An empty world whose next tick is `tick` and whose next [`World::add`] gives `next_id`
+    /// (or more): the frame to restore a persisted world into, before inserting its bodies
+    /// ([`World::insert`]) and inputs ([`World::input`]). Unlike a world started at tick 0
+    /// with a later `start_time`, it keeps the persisted world's substep times to the bit
+    /// (`start_time + (tick + k/256)/tick_hz` rounds differently for another split of the
+    /// same instant), so the restored world continues the same trajectory.
+    ///
+    /// # Errors
+    /// Invalid settings (see [`WorldSettings::validate`]).
+    pub fn resume(settings: WorldSettings, tick: u64, next_id: BodyId) -> Result<World, SpecError> {
+        let mut w = World::new(settings)?;
+        w.tick = tick;
+        w.next_id = next_id;
+        Ok(w)
+    }
+
+    /// Puts back body `id` exactly as a persisted world had it: its state to the bit and its
+    /// status (what its last step measured), with the substep count its model gives here.
+    /// [`World::insert`] normalises the rotation, which moves the last bits of a quaternion the
+    /// world itself produced and so the whole later trajectory; here a rotation within 1e-9 of
+    /// unit length is kept as it is (a stepped body's is unit to ~1e-15) and only one further
+    /// off is normalised.
+    ///
+    /// # Errors
+    /// As [`World::insert`].
+    pub fn restore_body(
+        &mut self,
+        id: BodyId,
+        spec: &BodySpec,
+        state: BodyState,
+        status: BodyStatus,
+    ) -> Result<(), SpecError> {
+        let normalised = state.validated("state")?;
+        let exact = if (state.rotation.length() - 1.0).abs() <= 1e-9 {
+            state
+        } else {
+            normalised
+        };
+        self.insert(id, spec, exact)?;
+        if let Some(b) = self.bodies.get_mut(&id) {
+            b.state = exact;
+            b.status = BodyStatus {
+                substeps: b.status.substeps,
+                ..status
+            };
+        }
+        Ok(())
+    }
+
+    /// The id the next [`World::add`] gives: one more than the largest ever given.
+    pub fn next_id(&self) -> BodyId {
+        self.next_id
+    }
+
     /// The settings.
     pub fn settings(&self) -> &WorldSettings {
         &self.settings

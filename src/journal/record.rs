@@ -1,0 +1,157 @@
+//! The records of the journal and the snapshot, as JSON payloads.
+//!
+//! Every type here is serialised with serde's external tagging (`{"scene_put": {...}}`): numbers
+//! go straight from serde_json's shortest round-trip writer to its exact (`float_roundtrip`)
+//! parser, so a replayed f64 has the bits that were journaled.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::bodies::{BodyEvent, WorldRecord};
+use crate::scene::store::ClockRecord;
+
+/// One journal record: a sequence number (1, 2, …; never reused) and the change.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Position in the journal.
+    pub seq: u64,
+    /// The change.
+    pub op: Op,
+}
+
+/// An acknowledged change.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Op {
+    /// An admin put a scene (canonical spec JSON, defaults filled in).
+    ScenePut {
+        /// Scene id.
+        scene: String,
+        /// The spec.
+        spec: Value,
+    },
+    /// An admin deleted a scene (its clock and bodies go with it).
+    SceneDelete {
+        /// Scene id.
+        scene: String,
+    },
+    /// An admin changed a scene's clock; the clock after the change.
+    Clock {
+        /// Scene id.
+        scene: String,
+        /// The clock.
+        clock: ClockRecord,
+    },
+    /// A change to a scene's bodies.
+    Body {
+        /// Scene id.
+        scene: String,
+        /// The change.
+        event: BodyEvent,
+    },
+}
+
+impl Op {
+    /// Whether the op is an admin change to scenes or clocks (the snapshot's `admin` part).
+    pub fn is_admin(&self) -> bool {
+        !matches!(self, Op::Body { .. })
+    }
+}
+
+/// A scene as admins left it: put (with its spec) or deleted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AdminScene {
+    /// Put with this spec.
+    Put(Value),
+    /// Deleted (a deleted built-in or configured scene stays deleted).
+    Deleted,
+}
+
+/// What admins changed, folded: the last word on each scene and clock.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct AdminState {
+    /// Scenes put or deleted by an admin.
+    pub scenes: BTreeMap<String, AdminScene>,
+    /// Clocks set by an admin.
+    pub clocks: BTreeMap<String, ClockRecord>,
+}
+
+impl AdminState {
+    /// Folds in one op (body ops are ignored).
+    pub fn apply(&mut self, op: &Op) {
+        match op {
+            Op::ScenePut { scene, spec } => {
+                self.scenes
+                    .insert(scene.clone(), AdminScene::Put(spec.clone()));
+            }
+            Op::SceneDelete { scene } => {
+                self.scenes.insert(scene.clone(), AdminScene::Deleted);
+                self.clocks.remove(scene);
+            }
+            Op::Clock { scene, clock } => {
+                self.clocks.insert(scene.clone(), *clock);
+            }
+            Op::Body { .. } => {}
+        }
+    }
+}
+
+/// One scene's body world in a snapshot, and the journal position it includes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BodiesSnapshot {
+    /// Every body record of this scene with `seq <= seq` is already in `world`.
+    pub seq: u64,
+    /// The world.
+    pub world: WorldRecord,
+}
+
+/// The state the journal's records build up to, as of known journal positions. Replay starts
+/// from it and applies only the records after those positions.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    /// Wall-clock time it was taken, Unix seconds (for people).
+    pub unix: f64,
+    /// Every admin record with `seq <= admin_seq` is in `admin`.
+    pub admin_seq: u64,
+    /// Scenes and clocks as admins left them.
+    pub admin: AdminState,
+    /// Scenes without an entry in `bodies` had no body world at `bodies_seq`: their body
+    /// records with `seq <= bodies_seq` are obsolete.
+    pub bodies_seq: u64,
+    /// Body worlds by scene.
+    pub bodies: BTreeMap<String, BodiesSnapshot>,
+}
+
+impl Snapshot {
+    /// The last record already included for `op` (so replay skips records up to it).
+    pub fn covers(&self, op: &Op) -> u64 {
+        match op {
+            Op::Body { scene, .. } => self.body_seq(scene),
+            _ => self.admin_seq,
+        }
+    }
+
+    /// The last body record of `scene` already included.
+    pub fn body_seq(&self, scene: &str) -> u64 {
+        self.bodies.get(scene).map_or(self.bodies_seq, |b| b.seq)
+    }
+
+    /// The last record every part includes: records up to it may be dropped from the log.
+    pub fn cut(&self) -> u64 {
+        self.bodies
+            .values()
+            .map(|b| b.seq)
+            .fold(self.admin_seq.min(self.bodies_seq), u64::min)
+    }
+
+    /// The highest journal position it mentions.
+    pub fn max_seq(&self) -> u64 {
+        self.bodies
+            .values()
+            .map(|b| b.seq)
+            .fold(self.admin_seq.max(self.bodies_seq), u64::max)
+    }
+}

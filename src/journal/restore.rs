@@ -1,0 +1,126 @@
+//! Start-up: rebuild scenes, clocks and body worlds from the snapshot and the log's tail.
+//!
+//! Order: the snapshot's admin part (scenes, clocks) and body worlds, then every record after
+//! what the snapshot includes, in journal order. Body events step their world to the event's
+//! tick on the scene's surface as it was at that point of the log, then apply. Finally each
+//! body world is stepped to its scene clock's tick now: a server that never stopped would have
+//! stepped there, so the restarted one continues the same trajectory.
+
+use std::collections::BTreeMap;
+
+use serde_json::Value;
+
+use super::snapshot::append_body_events;
+use super::{AdminScene, Op, Recovered};
+use crate::bodies::SceneBodies;
+use crate::bodies::event::MAX_REPLAY_STEPS;
+use crate::scene::store::ClockRecord;
+use crate::scene::{Scene, SceneSpec};
+use crate::state::AppState;
+
+/// Puts a scene from its journaled spec, keeping the clock of a scene it replaces (as a live
+/// put does). A spec that no longer builds is logged and skipped, so a model upgrade cannot keep
+/// the server down.
+fn put_scene(state: &AppState, id: &str, spec: &Value) {
+    match SceneSpec::from_value(spec.clone()).and_then(|s| Scene::build(id, s)) {
+        Ok(scene) => {
+            // As a live put: the old clock stays unless the put moved the epoch (a new scene's
+            // spec always carries one, filled in when it was created).
+            let clock = state
+                .scene(id)
+                .ok()
+                .filter(|e| scene.spec.epoch.is_none() || scene.spec.epoch == e.scene.spec.epoch)
+                .map(|e| *e.clock.lock().unwrap_or_else(|p| p.into_inner()));
+            state.insert_loaded(scene, clock);
+        }
+        Err(e) => {
+            tracing::error!(scene = %id, error = %e.message, "journal: skipping a scene that no longer builds");
+        }
+    }
+}
+
+/// Sets a scene's clock from a journaled record.
+fn set_clock(state: &AppState, id: &str, rec: &ClockRecord) {
+    if let Ok(entry) = state.scene(id) {
+        *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = rec.restore(state.now());
+    }
+}
+
+/// Applies what [`super::Journal::open`] recovered to a state that holds the built-in and
+/// configured scenes. Blocking (builds scenes, steps bodies).
+pub fn restore(state: &AppState, rec: Recovered) {
+    let snapshot = rec.snapshot.unwrap_or_default();
+    for (id, s) in &snapshot.admin.scenes {
+        match s {
+            AdminScene::Put(spec) => put_scene(state, id, spec),
+            AdminScene::Deleted => state.remove_loaded(id),
+        }
+    }
+    for (id, c) in &snapshot.admin.clocks {
+        set_clock(state, id, c);
+    }
+    let mut worlds: BTreeMap<String, SceneBodies> = BTreeMap::new();
+    for (id, b) in &snapshot.bodies {
+        match SceneBodies::from_world_record(&b.world) {
+            Ok(w) => {
+                worlds.insert(id.clone(), w);
+            }
+            Err(why) => tracing::error!(scene = %id, %why, "journal: skipping a body world"),
+        }
+    }
+    let replayed = rec.records.len();
+    for r in rec.records {
+        let admin_new = r.seq > snapshot.admin_seq;
+        match &r.op {
+            Op::ScenePut { scene, spec } if admin_new => put_scene(state, scene, spec),
+            Op::SceneDelete { scene } => {
+                if admin_new {
+                    state.remove_loaded(scene);
+                }
+                if r.seq > snapshot.body_seq(scene) {
+                    worlds.remove(scene);
+                }
+            }
+            Op::Clock { scene, clock } if admin_new => set_clock(state, scene, clock),
+            Op::Body { scene, event } if r.seq > snapshot.body_seq(scene) => {
+                if matches!(event, crate::bodies::BodyEvent::Created { .. }) {
+                    match SceneBodies::from_created(event) {
+                        Ok(w) => {
+                            worlds.insert(scene.clone(), w);
+                        }
+                        Err(why) => {
+                            tracing::error!(scene = %scene, %why, "journal: skipping a body world")
+                        }
+                    }
+                    continue;
+                }
+                let (Some(w), Ok(entry)) = (worlds.get_mut(scene), state.scene(scene)) else {
+                    continue; // The scene or its world is gone: nothing to apply it to.
+                };
+                w.replay(event, &entry.scene.surface);
+            }
+            _ => {}
+        }
+    }
+    // Catch each world up with its clock, as a server that never stopped would have.
+    let journal = state.journal();
+    for (id, mut w) in worlds {
+        let Ok(entry) = state.scene(&id) else {
+            continue;
+        };
+        let target = state.read_clock(&entry).tick;
+        let ahead = target - w.tick();
+        if ahead > 0 && ahead <= MAX_REPLAY_STEPS {
+            w.step_to(target, &entry.scene.surface);
+        }
+        // (Further off or behind: the body loop re-anchors at its first step, and journals it.)
+        if let Err(e) = append_body_events(journal, &id, &mut w) {
+            tracing::error!(scene = %id, error = %e, "journal: could not record a re-anchor");
+        }
+        tracing::info!(scene = %id, bodies = w.len(), tick = w.tick(), "bodies restored");
+        state.bodies.insert(&id, w);
+    }
+    if replayed > 0 || !rec.problems.is_empty() {
+        tracing::info!(replayed, problems = rec.problems.len(), "journal: restored");
+    }
+}
