@@ -36,6 +36,11 @@ pub const DEFAULT_DAMPING_RATIO: f64 = 0.3;
 fn step_options() -> QueryOptions {
     let mut o = QueryOptions::default();
     o.inversion.tolerance = 1e-4;
+    // Bodies build their own FFT frames per substep time (not the server's shared grid frames
+    // yet, issue 10's body scheduler): at an exact time that is one frame, where reading the time
+    // grid would take two (substep times are not grid times). The sea they see differs from the
+    // queries' grid answers by the grid's interpolation error (under 0.4 mm on the built-ins).
+    o.time = swell_waves::TimeSampling::Exact;
     o
 }
 
@@ -504,6 +509,37 @@ mod tests {
         ]}))
         .unwrap();
         Surface::new(&spec).unwrap()
+    }
+
+    /// Bodies must not pay two FFT frames per substep: their substep times are not grid
+    /// times, so reading the time grid would build both neighbours (a height query on a choppy
+    /// layer is 6 transforms a frame: height, Dx, Dz and three Jacobian terms).
+    #[test]
+    fn a_body_substep_builds_one_fft_frame() {
+        let (_, spec) = crate::scene::builtin::specs()
+            .into_iter()
+            .find(|(id, _)| id == "storm")
+            .unwrap();
+        let scene = crate::scene::Scene::build("storm", spec).unwrap();
+        let t = 1000.0 / 30.0 + 0.25 / 30.0;
+        let one = scene
+            .surface
+            .at(t, swell_waves::QueryFields::HEIGHT, &step_options())
+            .unwrap();
+        assert_eq!(one.transforms(), 6);
+        let grid = scene
+            .surface
+            .at(
+                t,
+                swell_waves::QueryFields::HEIGHT,
+                &QueryOptions::default(),
+            )
+            .unwrap();
+        assert_eq!(
+            grid.transforms(),
+            12,
+            "the grid reads two frames between grid times"
+        );
     }
 
     fn boat() -> SpawnRequest {
