@@ -479,13 +479,7 @@ pub async fn run_ahead(state: crate::state::AppState) {
 mod tests {
     use super::*;
 
-    fn builtin(id: &str) -> Scene {
-        let (_, spec) = crate::scene::builtin::specs()
-            .into_iter()
-            .find(|(i, _)| i == id)
-            .expect("a built-in scene");
-        Scene::build(id, spec).expect("builds")
-    }
+    use crate::scene::builtin::built as builtin;
 
     fn fft(scene: &Scene) -> &FftLayer {
         match &scene.surface.layers()[0] {

@@ -467,13 +467,7 @@ pub fn orientation_probes(req: &OrientationRequest) -> usize {
 mod tests {
     use super::*;
 
-    fn builtin(id: &str) -> Scene {
-        let (_, spec) = crate::scene::builtin::specs()
-            .into_iter()
-            .find(|(i, _)| i == id)
-            .expect("a built-in scene");
-        Scene::build(id, spec).expect("builds")
-    }
+    use crate::scene::builtin::built as builtin;
 
     #[test]
     fn small_queries_run_inline_unless_they_need_a_frame_computed() {

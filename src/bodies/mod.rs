@@ -516,11 +516,7 @@ mod tests {
     /// layer is 6 transforms a frame: height, Dx, Dz and three Jacobian terms).
     #[test]
     fn a_body_substep_builds_one_fft_frame() {
-        let (_, spec) = crate::scene::builtin::specs()
-            .into_iter()
-            .find(|(id, _)| id == "storm")
-            .unwrap();
-        let scene = crate::scene::Scene::build("storm", spec).unwrap();
+        let scene = crate::scene::builtin::built("storm");
         let t = 1000.0 / 30.0 + 0.25 / 30.0;
         let one = scene
             .surface

@@ -82,6 +82,19 @@ pub fn specs() -> Vec<(String, SceneSpec)> {
         .collect()
 }
 
+/// The built-in scene `id`, built (for tests across the crate).
+///
+/// # Panics
+/// If `id` is not a built-in scene.
+#[cfg(test)]
+pub(crate) fn built(id: &str) -> super::Scene {
+    let (_, spec) = specs()
+        .into_iter()
+        .find(|(i, _)| i == id)
+        .unwrap_or_else(|| panic!("{id} is not a built-in scene"));
+    super::Scene::build(id, spec).expect("built-in scenes build")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
