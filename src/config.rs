@@ -82,7 +82,9 @@ pub struct Limits {
     pub max_in_flight: usize,
     /// Longest a request may take, ms; then 503.
     pub request_timeout_ms: u64,
-    /// FFT frames kept in the shared cache. A 256² frame with every field is 4 MiB.
+    /// FFT frames kept in the shared cache for times away from a scene clock's now (far-off
+    /// grid frames and exact times; see [`crate::frames`]): the frames around now are kept
+    /// apart and never evicted by these. A 256² frame with every field is 4 MiB.
     pub frame_cache_entries: usize,
     /// Largest |x|, |z| of a world point, m. Beyond ~1e12 m phases lose all precision.
     pub max_coordinate: f64,
