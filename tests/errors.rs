@@ -406,3 +406,53 @@ async fn empty_batches_are_fine() {
     assert_eq!((st, v["bodies"].clone()), (200, json!([])));
     s.stop().await;
 }
+
+/// Regression (issue 11, found by the `json_orientation` fuzz target): a finite but huge yaw
+/// (`7e99`) was accepted, the model's deterministic sin/cos of it was NaN, every probe landed at a
+/// NaN world point and the answer was a 500 `non_finite_result` instead of a 400; a spawn with
+/// such a yaw would have put a body with a NaN rotation in the world. Yaw is bounded by
+/// `swell_waves::body::MAX_YAW`: 400 naming the field, and the bound itself still answers.
+#[tokio::test]
+async fn issue_11_huge_yaw_is_400_not_a_non_finite_answer() {
+    let s = TestServer::start(config()).await;
+    let max = swell_waves::body::MAX_YAW;
+    for yaw in [7e99, -2.0 * max] {
+        let (st, v) = s
+            .post_json(
+                "/v1/scenes/calm/orientation",
+                &json!({"t": 362, "bodies": [{"position": [20, -4], "yaw": yaw, "length": 39,
+                                              "beam": 12, "probes": [[0, 0]]}]}),
+            )
+            .await;
+        assert_eq!(
+            (st, code(&v), v["error"]["field"].as_str()),
+            (400, "invalid_value", Some("bodies[0].yaw")),
+            "{v}"
+        );
+        let (st, v) = s
+            .admin(
+                Method::POST,
+                "/v1/scenes/calm/bodies",
+                Some(&json!({"mass": 3000.0,
+                             "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+                             "position": [5.0, 0.0, -3.0], "yaw": yaw})),
+                Some(TOKEN),
+            )
+            .await;
+        assert_eq!(
+            (st, code(&v), v["error"]["field"].as_str()),
+            (400, "invalid_value", Some("yaw")),
+            "{v}"
+        );
+    }
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/orientation",
+            &json!({"bodies": [{"position": [20, -4], "yaw": max, "length": 39, "beam": 12}]}),
+        )
+        .await;
+    assert_eq!(st, 200, "{v}");
+    assert!(v["bodies"][0]["heave"].is_f64(), "{v}");
+    assert!(v["bodies"][0]["rotation"][3].is_f64(), "{v}");
+    s.stop().await;
+}

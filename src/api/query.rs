@@ -13,6 +13,7 @@ use std::sync::Arc;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use glam::DVec2;
+use swell_waves::body::MAX_YAW;
 use swell_waves::{Inversion, QueryFields, QueryOptions};
 
 use crate::api::types::{
@@ -300,10 +301,13 @@ pub fn run_orientation(
     for (i, b) in req.bodies.iter().enumerate() {
         check_coord(limits, b.position[0], || format!("bodies[{i}].position[0]"))?;
         check_coord(limits, b.position[1], || format!("bodies[{i}].position[1]"))?;
-        if !b.yaw.is_finite() {
+        if !(b.yaw.is_finite() && b.yaw.abs() <= MAX_YAW) {
             return Err(ApiError::invalid(
                 format!("bodies[{i}].yaw"),
-                format!("bodies[{i}].yaw must be a finite number"),
+                format!(
+                    "bodies[{i}].yaw = {} is out of range: a finite angle with |yaw| <= {MAX_YAW} rad",
+                    b.yaw
+                ),
             ));
         }
         let fp: swell_waves::body::BodyFootprint = b.clone().into();

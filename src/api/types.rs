@@ -219,7 +219,8 @@ pub struct OrientationRequest {
 pub struct Body {
     /// World `[x, z]` of the body origin, m.
     pub position: [f64; 2],
-    /// Yaw, rad (rotation about +y; positive turns the bow from +x towards −z).
+    /// Yaw, rad (rotation about +y; positive turns the bow from +x towards −z), within
+    /// ±[`swell_waves::body::MAX_YAW`] (10⁹ rad).
     #[serde(default)]
     pub yaw: f64,
     /// Length, m, in (0, 10 km] ([`swell_waves::body::MAX_FOOTPRINT`]).

@@ -55,7 +55,7 @@ pub struct SpawnRequest {
     pub hull: HullSpec,
     /// World position of the body origin `[x, y, z]`, m.
     pub position: [f64; 3],
-    /// Yaw, rad (about +y).
+    /// Yaw, rad (about +y), within ±[`swell_waves::body::MAX_YAW`].
     #[serde(default)]
     pub yaw: f64,
     /// Centre of mass in the body frame, m. Default the hull centre.
@@ -243,8 +243,17 @@ impl SceneBodies {
                 ));
             }
         }
-        if !req.yaw.is_finite() {
-            return Err(ApiError::invalid("yaw", "yaw must be finite"));
+        // Beyond MAX_YAW the model's sin/cos is not finite: the body would spawn with a NaN
+        // rotation.
+        let max_yaw = swell_waves::body::MAX_YAW;
+        if !(req.yaw.is_finite() && req.yaw.abs() <= max_yaw) {
+            return Err(ApiError::invalid(
+                "yaw",
+                format!(
+                    "yaw = {} must be finite with |yaw| <= {max_yaw} rad",
+                    req.yaw
+                ),
+            ));
         }
         let state =
             swell_waves::body::BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);

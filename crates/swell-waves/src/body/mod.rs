@@ -34,7 +34,9 @@ mod world;
 pub use hull::{
     Cell, CellSpec, DEFAULT_BOX_CELLS, Hull, HullSpec, MAX_BOX_CELLS_PER_SIDE, MAX_CELLS,
 };
-pub use orientation::{BodyFootprint, MAX_FOOTPRINT, MAX_PROBES, Orientation, fit_plane, yaw_quat};
+pub use orientation::{
+    BodyFootprint, MAX_FOOTPRINT, MAX_PROBES, MAX_YAW, Orientation, fit_plane, yaw_quat,
+};
 pub use spec::{BodyModel, BodySpec, MAX_MASS, MAX_WAVELENGTH_FACTOR};
 pub use state::{BodyState, BodyStatus, quat_from_rotation_vector};
 pub use water::WaterPoint;

@@ -29,13 +29,19 @@ pub const MAX_PROBES: usize = 256;
 /// out NaN.
 pub const MAX_FOOTPRINT: f64 = 10_000.0;
 
+/// Largest `|yaw|`, rad: 10⁹ rad (1.6·10⁸ turns). The crate's deterministic `sin_cos` reduces
+/// its argument exactly only up to about 2.7·10¹⁰ rad, and far beyond that its answer is not even
+/// finite; unbounded, a yaw of 7e99 made every probe's world position NaN and the orientation came
+/// out NaN. No heading a client accumulates gets near this (a body turning at 1 rad/s for 30 years).
+pub const MAX_YAW: f64 = 1e9;
+
 /// Where a body touches the water: a rectangular footprint, or explicit probe points.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 pub struct BodyFootprint {
     /// World position `(x, z)` of the body origin, m.
     pub position: [f64; 2],
-    /// Yaw ψ, rad (rotation about +y).
+    /// Yaw ψ, rad (rotation about +y), within ±[`MAX_YAW`].
     #[cfg_attr(feature = "serde", serde(default))]
     pub yaw: f64,
     /// Length along the forward axis, m (in (0, [`MAX_FOOTPRINT`]]).
@@ -74,13 +80,13 @@ impl BodyFootprint {
     /// Validates the body and returns its probes in the body frame.
     ///
     /// # Errors
-    /// Non-finite position, yaw or probe; length or beam ≤ 0 (a body of zero size has no
-    /// orientation) or above [`MAX_FOOTPRINT`]; a probe coordinate beyond ±[`MAX_FOOTPRINT`];
-    /// an empty or over-long probe list.
+    /// Non-finite position; a yaw that is not finite or beyond ±[`MAX_YAW`]; length or beam ≤ 0
+    /// (a body of zero size has no orientation) or above [`MAX_FOOTPRINT`]; a probe coordinate
+    /// beyond ±[`MAX_FOOTPRINT`]; an empty or over-long probe list.
     pub fn probes(&self, field: &str) -> Result<Vec<DVec2>, SpecError> {
         finite(&format!("{field}.position[0]"), self.position[0])?;
         finite(&format!("{field}.position[1]"), self.position[1])?;
-        finite(&format!("{field}.yaw"), self.yaw)?;
+        in_range(&format!("{field}.yaw"), self.yaw, -MAX_YAW, MAX_YAW)?;
         let l = positive_at_most(&format!("{field}.length"), self.length, MAX_FOOTPRINT)?;
         let b = positive_at_most(&format!("{field}.beam"), self.beam, MAX_FOOTPRINT)?;
         match &self.probes {
@@ -142,9 +148,10 @@ impl BodyFootprint {
 }
 
 /// Least-squares plane `y = heave + b·u + c·v` through body-frame probes and their heights, and
-/// the orientation it implies (see the module docs). Total: any finite input gives a finite
-/// answer. Probes that do not span a plane (one point, or all on a line) fix only the slope
-/// they can see: a single point gives a level plane; collinear probes tilt only along their line.
+/// the orientation it implies (see the module docs). Total: any finite input with
+/// `|yaw| ≤` [`MAX_YAW`] gives a finite answer. Probes that do not span a plane (one point, or
+/// all on a line) fix only the slope they can see: a single point gives a level plane; collinear
+/// probes tilt only along their line.
 pub fn fit_plane(yaw: f64, probes: &[DVec2], heights: &[f64]) -> Orientation {
     let n = probes.len().min(heights.len());
     let (mut b, mut c, mut heave) = (0.0, 0.0, 0.0);
