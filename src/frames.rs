@@ -68,6 +68,16 @@ struct Key {
     when: When,
 }
 
+impl Key {
+    fn new(scene: &Scene, layer: usize, when: When) -> Key {
+        Key {
+            scene: scene.uid,
+            layer,
+            when,
+        }
+    }
+}
+
 type Slot = Arc<OnceLock<Arc<FftFrame>>>;
 
 #[derive(Debug)]
@@ -263,11 +273,7 @@ impl FrameCache {
         now: f64,
     ) -> Arc<FftFrame> {
         let near = Self::is_near(layer, when, now);
-        let key = Key {
-            scene: scene.uid,
-            layer: i,
-            when,
-        };
+        let key = Key::new(scene, i, when);
         let (slot, fields) = self.slot(key, need, near);
         slot.get_or_init(|| {
             let start = Instant::now();
@@ -364,11 +370,7 @@ impl FrameCache {
                 Layer::Fft(f) => {
                     let (a, b) = Self::whens(f, t, options.time);
                     [Some(a), b].into_iter().flatten().all(|when| {
-                        let key = Key {
-                            scene: scene.uid,
-                            layer: i,
-                            when,
-                        };
+                        let key = Key::new(scene, i, when);
                         g.entries
                             .get(&key)
                             .is_some_and(|e| e.fields.contains(needs[i]) && e.slot.get().is_some())
@@ -417,11 +419,7 @@ impl FrameCache {
                 }
             }
             for when in whens {
-                let key = Key {
-                    scene: scene.uid,
-                    layer: i,
-                    when,
-                };
+                let key = Key::new(scene, i, when);
                 let held = self
                     .lock()
                     .entries

@@ -6,7 +6,7 @@ mod common;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{TestServer, bits, config};
+use common::{TestServer, bits, config, free_port};
 use serde_json::{Value, json};
 
 /// Kills the child process when the test ends, pass or fail.
@@ -17,15 +17,6 @@ impl Drop for Killed {
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
-}
-
-fn free_port() -> u16 {
-    // Bind port 0 to learn a free port, then release it for the child (a small race, fine here).
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 #[tokio::test]

@@ -12,6 +12,16 @@ use tokio::task::JoinHandle;
 pub const TOKEN: &str = "test-token";
 
 /// A config for tests: ephemeral port, fixed token, built-in scenes, no data dir.
+/// A free loopback port for a child `swell` process: bind port 0, learn the port, release it
+/// (a small race, fine in tests).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
 pub fn config() -> swell::Config {
     swell::Config {
         bind: SocketAddr::from(([127, 0, 0, 1], 0)),
