@@ -8,7 +8,7 @@ use std::sync::{Arc, OnceLock};
 
 use glam::{DVec2, DVec3, Vec3};
 
-use crate::error::{SpecError, finite, positive};
+use crate::error::{SpecError, finite, in_range, positive};
 use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec, lerp_samples};
 use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
 use crate::math::splitmix64;
@@ -18,6 +18,12 @@ use crate::spectrum::Dispersion;
 use crate::wave::{Lanes, LanesF32, SurfaceSample, Wave, WaveSoA};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
+
+/// Smallest gravity a surface may declare, m/s²: far below any body a game puts water on
+/// (the Moon is 1.62); a subnormal gravity once pushed the spectra's quadrature to ~1e-320 rad/m.
+pub const MIN_GRAVITY: f64 = 0.01;
+/// Largest gravity a surface may declare, m/s² (Jupiter is 24.8).
+pub const MAX_GRAVITY: f64 = 1000.0;
 
 /// Most layers a surface may declare.
 pub const MAX_LAYERS: usize = 16;
@@ -31,7 +37,7 @@ pub struct SurfaceSpec {
     /// gives its own. Default 0.
     #[cfg_attr(feature = "serde", serde(default))]
     pub seed: u64,
-    /// Gravity g, m/s². Default 9.81.
+    /// Gravity g, m/s², in [[`MIN_GRAVITY`], [`MAX_GRAVITY`]]. Default 9.81.
     #[cfg_attr(feature = "serde", serde(default = "default_gravity"))]
     pub gravity: f64,
     /// Water depth h, m; absent means deep water.
@@ -116,7 +122,7 @@ impl Surface {
     /// path starts with `layers[i]`); a total Gerstner fold number ≥ 1 across layers (field
     /// `layers`).
     pub fn new(spec: &SurfaceSpec) -> Result<Surface, SpecError> {
-        positive("gravity", spec.gravity)?;
+        in_range("gravity", spec.gravity, MIN_GRAVITY, MAX_GRAVITY)?;
         if let Some(h) = spec.depth {
             positive("depth", h)?;
         }

@@ -501,3 +501,18 @@ proptest! {
         }
     }
 }
+
+/// Found by fuzzing scene specs (issue 11): a positive but subnormal gravity (9.815e-324 m/s²)
+/// was accepted and sent the spectrum normalisation's quadrature past usize. Gravity is now
+/// bounded to a physical range, with an error naming it.
+#[test]
+fn issue_11_a_subnormal_gravity_is_an_error_naming_it() {
+    for g in [9.815e-324, 0.0, -9.81, 1e6] {
+        let spec: swell_waves::SurfaceSpec = serde_json::from_value(serde_json::json!({
+            "gravity": g, "layers": [{"kind": "sine", "waves": [
+                {"amplitude": 0.1, "wavelength": 10.0, "direction": [1.0, 0.0]}]}]}))
+        .unwrap();
+        let e = swell_waves::Surface::new(&spec).unwrap_err();
+        assert_eq!(e.field(), "gravity", "g = {g}: {e}");
+    }
+}

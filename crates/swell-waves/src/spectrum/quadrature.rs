@@ -26,14 +26,20 @@ pub(crate) fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
 /// The log variable suits spectra, which span decades in ω or k; breaks go where the integrand's
 /// second derivative jumps (the JONSWAP σ switch at ωp, the TMA kinks), so every piece is smooth
 /// and Simpson keeps its fourth order.
+/// Most Simpson intervals one piece of [`simpson_log`] may use.
+const MAX_INTERVALS: usize = 1 << 16;
+
 pub(crate) fn simpson_log(f: impl Fn(f64) -> f64, breaks: &[f64], per_unit: f64) -> f64 {
     let mut total = 0.0;
     for pair in breaks.windows(2) {
         let (a, b) = (crate::math::ln(pair[0]), crate::math::ln(pair[1]));
-        if a.is_nan() || b.is_nan() || b <= a {
+        if !(a.is_finite() && b.is_finite()) || b <= a {
             continue;
         }
-        let n = (((b - a) * per_unit).ceil() as usize).max(16);
+        // Capped: a piece spanning absurd decades (a subnormal gravity puts the spectral peak
+        // near 1e-320) must cost bounded work, not overflow the node count. Physical spectra
+        // use a few thousand intervals, far below the cap, so their sums are unchanged.
+        let n = (((b - a) * per_unit).ceil() as usize).clamp(16, MAX_INTERVALS);
         total += simpson(
             |u| {
                 let x = exp(u);
@@ -50,6 +56,17 @@ pub(crate) fn simpson_log(f: impl Fn(f64) -> f64, breaks: &[f64], per_unit: f64)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Found by fuzzing scene specs (issue 11): `gravity: 9.815e-324` put a spectrum's breaks
+    /// ~1400 decades apart; the node count saturated to usize::MAX and `n + 1` overflowed (a
+    /// panic in debug builds, garbage in release). The work is now bounded and the sum finite.
+    #[test]
+    fn a_piece_spanning_absurd_decades_costs_bounded_work() {
+        let v = simpson_log(|x| 1.0 / (x * x), &[1e-320, 1.0, f64::MAX], 256.0);
+        assert!(!v.is_nan(), "no panic, a number: {v}");
+        let v = simpson_log(|_| 0.0, &[5e-324, 1.0], 1e300);
+        assert_eq!(v, 0.0);
+    }
 
     #[test]
     fn simpson_is_exact_for_cubics() {
