@@ -506,3 +506,22 @@ impl Fleet {
         tracing::debug!(id = %entry.id, "store: applied a feed entry");
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::EntryId;
+
+    #[test]
+    fn entry_ids_order_as_redis_orders_them() {
+        let a = EntryId::parse("1700000000000-0").unwrap();
+        let b = EntryId::parse("1700000000000-1").unwrap();
+        let c = EntryId::parse("1700000000001-0").unwrap();
+        assert!(EntryId::default() < a && a < b && b < c);
+        // Numeric, not lexicographic: 9-0 < 10-0.
+        assert!(EntryId::parse("9-0").unwrap() < EntryId::parse("10-0").unwrap());
+        assert_eq!(b.to_string(), "1700000000000-1");
+        for bad in ["", "12", "a-1", "1-b", "-1"] {
+            assert_eq!(EntryId::parse(bad), None, "{bad:?}");
+        }
+    }
+}
