@@ -590,6 +590,41 @@ async fn ten_thousand_random_queries_answer_the_same_bytes_through_nginx_and_eac
     );
     assert_eq!(results.len(), 10_000);
     assert!(nows > 1000, "{nows} queries at now");
+
+    // WebSockets through nginx (docker/nginx.conf's upgrade headers): the subprotocol is
+    // negotiated, ping/pong answers, tick frames flow.
+    use futures_util::SinkExt as _;
+    use tokio_tungstenite::tungstenite::{Message, client::IntoClientRequest as _};
+    let mut req = format!("ws://127.0.0.1:{}/v1/scenes/calm/stream", nginx.port)
+        .into_client_request()
+        .unwrap();
+    req.headers_mut()
+        .insert("sec-websocket-protocol", "swell.v1.json".parse().unwrap());
+    let (mut ws, resp) = tokio_tungstenite::connect_async(req)
+        .await
+        .expect("upgrade through nginx");
+    assert_eq!(resp.headers()["sec-websocket-protocol"], "swell.v1.json");
+    ws.send(Message::text(r#"{"type":"ping","id":1,"client_time":5.5}"#))
+        .await
+        .unwrap();
+    ws.send(Message::text(r#"{"type":"subscribe","ticks":true}"#))
+        .await
+        .unwrap();
+    let (mut pong, mut ticks) = (false, Vec::new());
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !(pong && ticks.len() >= 3) {
+        assert!(Instant::now() < deadline, "no pong/ticks through nginx");
+        let Some(Ok(Message::Text(text))) = ws.next().await else {
+            continue;
+        };
+        let v: Value = serde_json::from_str(&text).unwrap();
+        match v["type"].as_str() {
+            Some("pong") => pong = v["client_time"] == 5.5,
+            Some("tick") => ticks.push(v["tick"].as_i64().unwrap()),
+            _ => {}
+        }
+    }
+    assert!(ticks.windows(2).all(|w| w[1] > w[0]), "{ticks:?}");
 }
 
 /// The same query with `t` given explicitly.
