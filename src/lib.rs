@@ -247,6 +247,20 @@ impl Server {
                 state
                     .tasks
                     .spawn(fleet.clone().run(state.clone(), state.shutdown.clone()));
+                // Body logs: follow every scene that has one (found again every second, so a
+                // scene whose first body was spawned through another replica is picked up).
+                if let Some(fb) = state.fleet_bodies().cloned() {
+                    let (st, stop) = (state.clone(), state.shutdown.clone());
+                    state.tasks.spawn(async move {
+                        let mut every = tokio::time::interval(Duration::from_secs(1));
+                        loop {
+                            tokio::select! {
+                                () = stop.cancelled() => return,
+                                _ = every.tick() => fb.discover(&st).await,
+                            }
+                        }
+                    });
+                }
                 let readying = state.clone();
                 state.tasks.spawn(async move {
                     tokio::select! {

@@ -57,6 +57,8 @@ pub struct Inner {
     wall: WallClock,
     /// The Redis store of a fleet (`--store`); unset: the journal (or memory) is the store.
     fleet: std::sync::OnceLock<crate::store::Fleet>,
+    /// Body sharing through the fleet's Redis (set with `fleet`).
+    fleet_bodies: std::sync::OnceLock<crate::store::FleetBodies>,
 }
 
 impl std::ops::Deref for AppState {
@@ -98,11 +100,15 @@ impl AppState {
             ready: AtomicBool::new(false),
             wall: WallClock::default(),
             fleet: std::sync::OnceLock::new(),
+            fleet_bodies: std::sync::OnceLock::new(),
         }))
     }
 
     /// Makes Redis the store of admin changes (once, before serving).
     pub fn set_fleet(&self, fleet: crate::store::Fleet) {
+        let _ = self
+            .fleet_bodies
+            .set(crate::store::FleetBodies::new(fleet.clone()));
         if self.fleet.set(fleet).is_err() {
             tracing::warn!("a store was already set; keeping the first");
         }
@@ -111,6 +117,11 @@ impl AppState {
     /// The Redis store, if this replica is part of a fleet.
     pub fn fleet(&self) -> Option<&crate::store::Fleet> {
         self.fleet.get()
+    }
+
+    /// Body sharing, if this replica is part of a fleet.
+    pub fn fleet_bodies(&self) -> Option<&crate::store::FleetBodies> {
+        self.fleet_bodies.get()
     }
 
     /// Where admin changes go.
@@ -305,7 +316,9 @@ impl AppState {
             let op = Op::SceneDelete {
                 scene: id.to_owned(),
             };
-            return fleet.commit(op, None, false).await;
+            fleet.commit(op, None, false).await?;
+            fleet.delete_body_log(id).await;
+            return Ok(());
         }
         self.journal_op(Op::SceneDelete {
             scene: id.to_owned(),

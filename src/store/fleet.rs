@@ -80,11 +80,23 @@ if ARGV[5] ~= '' then redis.call('HDEL', KEYS[1], ARGV[5]) end
 return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], 'nonce', ARGV[2])
 ";
 
+/// Timeouts of a connection that blocks in `XREAD` for up to [`FEED_BLOCK_MS`].
+fn feed_config() -> AsyncConnectionConfig {
+    AsyncConnectionConfig::new()
+        .set_connection_timeout(Some(CONNECT_TIMEOUT))
+        .set_response_timeout(Some(
+            Duration::from_millis(FEED_BLOCK_MS as u64) + RESPONSE_TIMEOUT,
+        ))
+}
+
 /// A Redis stream entry id, `ms-seq`, ordered as Redis orders them.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord)]
 pub struct EntryId(u64, u64);
 
 impl EntryId {
+    /// Past every id.
+    pub const MAX: EntryId = EntryId(u64::MAX, u64::MAX);
+
     /// Parses `ms-seq`.
     pub fn parse(s: &str) -> Option<EntryId> {
         let (a, b) = s.split_once('-')?;
@@ -199,6 +211,58 @@ impl Fleet {
         *self.0.applied.borrow()
     }
 
+    /// A nonce unique to this process and request (`<instance>-<n>`).
+    pub fn next_nonce(&self) -> String {
+        format!(
+            "{}-{}",
+            self.0.origin,
+            self.0.nonces.fetch_add(1, Ordering::Relaxed)
+        )
+    }
+
+    /// Whether `nonce` was made by [`Fleet::next_nonce`] of this process.
+    pub fn is_own_nonce(&self, nonce: &str) -> bool {
+        nonce
+            .strip_prefix(self.0.origin.as_str())
+            .is_some_and(|r| r.starts_with('-'))
+    }
+
+    /// The shared, reconnecting connection for short commands.
+    pub fn writes(&self) -> ConnectionManager {
+        self.0.writes.clone()
+    }
+
+    /// A dedicated connection for blocking reads (`XREAD BLOCK`), with the feed's timeouts.
+    ///
+    /// # Errors
+    /// Redis cannot be reached.
+    pub async fn feed_connection(&self) -> redis::RedisResult<MultiplexedConnection> {
+        self.0
+            .client
+            .get_multiplexed_async_connection_with_config(&feed_config())
+            .await
+    }
+
+    /// Drops a deleted scene's body log, lease and snapshot (best effort: a later put of the
+    /// same id must not inherit them).
+    pub async fn delete_body_log(&self, scene: &str) {
+        let mut conn = self.0.writes.clone();
+        let keys: Vec<String> = ["log", "wm", "lease", "fence", "snap"]
+            .iter()
+            .map(|k| format!("swell:bodies:{scene}:{k}"))
+            .collect();
+        let r: redis::RedisResult<()> = redis::pipe()
+            .del(&keys)
+            .ignore()
+            .srem("swell:bodies:scenes", scene)
+            .ignore()
+            .query_async(&mut conn)
+            .await;
+        if let Err(e) = r {
+            tracing::warn!(scene, error = %e, "store: could not drop a deleted scene's body log");
+        }
+    }
+
     /// Waits until the first full re-read of the store is applied.
     pub async fn wait_synced(&self) {
         let mut rx = self.0.synced.subscribe();
@@ -260,11 +324,7 @@ impl Fleet {
         };
         let value = value.map_err(ApiError::internal)?;
         let op_json = serde_json::to_string(&op).map_err(ApiError::internal)?;
-        let nonce = format!(
-            "{}-{}",
-            self.0.origin,
-            self.0.nonces.fetch_add(1, Ordering::Relaxed)
-        );
+        let nonce = self.next_nonce();
         if let Some(scene) = built {
             lock(&self.0.prebuilt).insert(nonce.clone(), scene);
         }
@@ -330,11 +390,7 @@ impl Fleet {
     /// The feed loop: connect, re-read everything, follow the stream; on any error reconnect
     /// with backoff and start over. Ends when `shutdown` fires.
     pub async fn run(self, state: AppState, shutdown: CancellationToken) {
-        let config = AsyncConnectionConfig::new()
-            .set_connection_timeout(Some(CONNECT_TIMEOUT))
-            .set_response_timeout(Some(
-                Duration::from_millis(FEED_BLOCK_MS as u64) + RESPONSE_TIMEOUT,
-            ));
+        let config = feed_config();
         let mut backoff = BACKOFF_MIN;
         loop {
             let attempt = async {

@@ -14,14 +14,18 @@
 //! - [`fleet`] — the Redis backend: connection pooling (one multiplexed connection manager for
 //!   writes, one dedicated connection for the feed), timeouts, reconnects with backoff, the
 //!   feed loop and the full re-read on every (re)connect.
+//! - [`bodies`] — floating bodies across a fleet: a sequenced per-scene log in Redis (a lease
+//!   holder appends watermarks), every replica stepping its copy from it to the same bits.
 //! - [`apply`] — applying one admin change to the in-memory registry (shared by the feed and
 //!   the full re-read).
 //! - [`url`] — parsing `--store`.
 
 pub mod apply;
+pub mod bodies;
 pub mod fleet;
 pub mod url;
 
+pub use bodies::FleetBodies;
 pub use fleet::Fleet;
 pub use url::StoreUrl;
 
