@@ -153,7 +153,7 @@ impl Server {
         if let Some(url) = &config.store {
             let fleet = store::Fleet::new(url.clone()).map_err(StartError::Setup)?;
             tracing::info!(store = %url, "admin changes are shared through Redis");
-            state.set_fleet(fleet);
+            state.set_fleet(fleet, config.snapshots.interval);
         }
         let loading = state.clone();
         let builtin = config.builtin_scenes;

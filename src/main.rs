@@ -59,7 +59,8 @@ struct ServeArgs {
     /// Start without the built-in scenes.
     #[arg(long)]
     no_builtin_scenes: bool,
-    /// Seconds between journal snapshots while anything changes (bounds the replay at start).
+    /// Seconds between journal snapshots while anything changes (bounds the replay at start);
+    /// with --store, between body snapshots in Redis.
     #[arg(long, env = "SWELL_SNAPSHOT_INTERVAL", default_value_t = 30.0)]
     snapshot_interval: f64,
     /// Journal records that trigger a snapshot (and a compaction of the log) at once.

@@ -104,11 +104,13 @@ impl AppState {
         }))
     }
 
-    /// Makes Redis the store of admin changes (once, before serving).
-    pub fn set_fleet(&self, fleet: crate::store::Fleet) {
-        let _ = self
-            .fleet_bodies
-            .set(crate::store::FleetBodies::new(fleet.clone()));
+    /// Makes Redis the store of admin changes and body logs (once, before serving); body
+    /// snapshots go to Redis every `body_snapshots`.
+    pub fn set_fleet(&self, fleet: crate::store::Fleet, body_snapshots: std::time::Duration) {
+        let _ = self.fleet_bodies.set(crate::store::FleetBodies::new(
+            fleet.clone(),
+            body_snapshots,
+        ));
         if self.fleet.set(fleet).is_err() {
             tracing::warn!("a store was already set; keeping the first");
         }

@@ -702,7 +702,13 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     let _serial = SERIAL.lock().await;
     let redis = Redis::start();
     let c = client();
-    let mut rs = replicas(&redis.url(), 3, &c).await;
+    // Body snapshots every second, so the replica started at the end joins from one.
+    let mut rs: Vec<Replica> = (0..3)
+        .map(|_| Replica::spawn(&redis.url(), &["--snapshot-interval", "1"]))
+        .collect();
+    for r in &rs {
+        r.wait_ready(&c).await;
+    }
     let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/bay", Some(spec(0.5))).await;
     assert_eq!(st, 201, "{v}");
     until(&c, &rs[2], "/v1/scenes/bay", Instant::now(), |st, _| {
@@ -890,8 +896,28 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         "survivors differ at tick {tick}:\n{texts:#?}"
     );
     // A replica started now rebuilds the same world from Redis (snapshot + log).
-    let late = Replica::spawn(&redis.url(), &[]);
+    let late = Replica::spawn(&redis.url(), &["--snapshot-interval", "1"]);
     late.wait_ready(&c).await;
+    until(
+        &c,
+        &late,
+        "/v1/scenes/bay/bodies",
+        Instant::now(),
+        |st, v| st == 200 && v["bodies"].as_array().is_some_and(|b| b.len() == 2),
+    )
+    .await;
+    assert!(
+        late.log().contains("bodies from a snapshot"),
+        "the late replica did not start from a snapshot:\n{}",
+        late.log()
+    );
+    // Compaction: the log holds about two snapshot intervals, not the whole run (~7 s of
+    // watermarks at 20 Hz plus ~80 commands were appended).
+    let len: i64 = procs::redis_line(redis.port, "XLEN swell:bodies:bay:log")
+        .and_then(|l| l.trim_start_matches(':').parse().ok())
+        .expect("XLEN");
+    eprintln!("body log length after compaction: {len}");
+    assert!(len < 120, "the body log was not compacted: {len} entries");
     let mut refs = refs;
     refs.push(&late);
     let (tick2, texts) = settled_bodies(&c, &refs, "bay").await;

@@ -32,7 +32,7 @@
 //! Redis already, so none is lost.
 //!
 //! # Snapshots
-//! The sequencer writes `…:snap` every [`SNAPSHOT_EVERY`]: the world at a watermark, the pending
+//! The sequencer writes `…:snap` every `--snapshot-interval` seconds: the world at a watermark, the pending
 //! commands and the stream id it covers; then trims the log to the previous snapshot's id (one
 //! interval of slack for a slow follower). A joining replica starts from the snapshot.
 
@@ -58,7 +58,8 @@ use crate::state::AppState;
 pub const LEASE_TTL: Duration = Duration::from_millis(1500);
 /// How often the holder renews (and others try to take) the lease.
 pub const LEASE_RENEW: Duration = Duration::from_millis(300);
-/// How often the sequencer snapshots the world into Redis and trims the log.
+/// How often the sequencer snapshots the world into Redis and trims the log, unless
+/// `--snapshot-interval` says otherwise ([`FleetBodies::new`]).
 pub const SNAPSHOT_EVERY: Duration = Duration::from_secs(10);
 /// How long a spawn waits for its own replica to apply it (one or two ticks normally; a
 /// failover takes up to [`LEASE_TTL`]).
@@ -153,6 +154,7 @@ struct Inner {
     applied: watch::Sender<u64>,
     /// Scenes whose lease this replica holds, with the token.
     leases: Mutex<HashMap<String, u64>>,
+    snapshot_every: Duration,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -207,14 +209,20 @@ fn redis_down(e: &redis::RedisError) -> ApiError {
 }
 
 impl FleetBodies {
-    /// Body sharing over `fleet`'s Redis.
-    pub fn new(fleet: Fleet) -> FleetBodies {
+    /// Body sharing over `fleet`'s Redis, snapshotting every `snapshot_every` (zero: the
+    /// default [`SNAPSHOT_EVERY`]).
+    pub fn new(fleet: Fleet, snapshot_every: Duration) -> FleetBodies {
         FleetBodies(Arc::new(Inner {
             fleet,
             following: Mutex::new(HashSet::new()),
             outcomes: Mutex::new(HashMap::new()),
             applied: watch::Sender::new(0),
             leases: Mutex::new(HashMap::new()),
+            snapshot_every: if snapshot_every.is_zero() {
+                SNAPSHOT_EVERY
+            } else {
+                snapshot_every
+            },
         }))
     }
 
@@ -424,7 +432,7 @@ impl FleetBodies {
                     self.apply_batch(state, scene, f, entries).await;
                     // The sequencer snapshots what its follower holds (exact: the world at the
                     // last watermark and the commands after it), then trims the log.
-                    if self.is_sequencer(scene) && snapped.elapsed() >= SNAPSHOT_EVERY {
+                    if self.is_sequencer(scene) && snapped.elapsed() >= self.0.snapshot_every {
                         snapped = Instant::now();
                         let world = state.bodies.get(scene).map(|c| c.lock().world_record());
                         let json = serde_json::to_string(&Snap::of(f, world)).unwrap_or_default();
