@@ -927,3 +927,144 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         "the late replica differs at tick {tick}:\n{texts:#?}"
     );
 }
+
+/// `swell-load`, built beside this test by `cargo test --workspace` (the CI command).
+fn swell_load() -> std::path::PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let dir = exe.parent().and_then(|d| d.parent()).unwrap();
+    let p = dir.join("swell-load");
+    assert!(
+        p.is_file(),
+        "{} is missing: `cargo test --workspace` builds it (or `cargo build --profile test -p swell-load`)",
+        p.display()
+    );
+    p
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn kill_9_of_the_sequencer_during_a_swell_load_mixed_run_through_nginx() {
+    let _serial = SERIAL.lock().await;
+    let load = swell_load();
+    let redis = Redis::start();
+    let c = client();
+    let mut rs: Vec<Replica> = (0..3)
+        .map(|_| Replica::spawn(&redis.url(), &["--snapshot-interval", "1"]))
+        .collect();
+    for r in &rs {
+        r.wait_ready(&c).await;
+    }
+    let ports: Vec<u16> = rs.iter().map(|r| r.port).collect();
+    let nginx = procs::Nginx::start(&ports, &c).await;
+    let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/bay", Some(spec(0.5))).await;
+    assert_eq!(st, 201, "{v}");
+    for r in &rs[1..] {
+        until(&c, r, "/v1/scenes/bay", Instant::now(), |st, _| st == 200).await;
+    }
+    for x in [0.0, 15.0, 30.0] {
+        let body = json!({"mass": 2000, "hull": {"kind": "box", "length": 6, "beam": 2.5, "height": 1.2},
+            "position": [x, 0.5, 0.0]});
+        let (st, v) = admin(
+            &c,
+            &rs[1],
+            Method::POST,
+            "/v1/scenes/bay/bodies",
+            Some(body),
+        )
+        .await;
+        assert_eq!(st, 201, "{v}");
+    }
+    // 5 s of `mixed` (90% height, 9% samples, 1% orientation at 200 req/s, open loop) and 3
+    // tick subscribers, all through nginx; the sequencer is killed 1.5 s in.
+    let run = std::process::Command::new(&load)
+        .args([
+            "mixed",
+            "--url",
+            &nginx.base,
+            "--scene",
+            "bay",
+            "--rate",
+            "200",
+        ])
+        .args([
+            "--duration",
+            "5s",
+            "--warmup",
+            "0s",
+            "--subscribers",
+            "3",
+            "--timeout",
+            "3s",
+            "--json",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("swell-load starts");
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let seq = sequencer_of(&c, &rs, "bay").await.expect("a sequencer");
+    let killed_at = Instant::now();
+    rs[seq].proc.take().unwrap().kill9();
+    let mut taken = None;
+    while taken.is_none() && killed_at.elapsed() < Duration::from_secs(5) {
+        if sequencer_of(&c, &rs, "bay").await.is_some() {
+            taken = Some(killed_at.elapsed());
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    let out = tokio::task::spawn_blocking(move || run.wait_with_output())
+        .await
+        .unwrap()
+        .unwrap();
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "swell-load report ({e}): {}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    let req = &report["requests"];
+    let (ok, errors) = (req["ok"].as_u64().unwrap(), req["errors"].as_u64().unwrap());
+    eprintln!(
+        "chaos: sequencer (replica {seq}) killed; lease taken after {taken:?}; swell-load mixed through nginx: {ok} ok, {errors} failed {}; stream: {} frames, {} gaps, disconnects {}",
+        req["errors_by_kind"],
+        report["stream"]["frames"],
+        report["stream"]["gaps"],
+        report["stream"]["disconnects"]
+    );
+    assert!(
+        out.status.success(),
+        "swell-load did not complete: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let taken = taken.expect("a survivor took the lease");
+    assert!(
+        taken < Duration::from_millis(2500),
+        "failover took {taken:?}"
+    );
+    assert!(ok >= 900, "{ok} answered of ~1000");
+    // Errors only from requests that were in flight on the killed replica (nginx retries GETs
+    // on another upstream, not POSTs).
+    assert!(errors <= 20, "{errors} failed requests");
+    // The survivors carry on identically.
+    let survivors: Vec<&Replica> = rs.iter().filter(|r| r.proc.is_some()).collect();
+    let (st, _) = admin(
+        &c,
+        survivors[0],
+        Method::PUT,
+        "/v1/scenes/bay/clock",
+        Some(json!({"paused": true})),
+    )
+    .await;
+    assert_eq!(st, 200);
+    let (tick, texts) = settled_bodies(&c, &survivors, "bay").await;
+    assert!(
+        texts.iter().all(|t| t == &texts[0]),
+        "survivors differ at tick {tick}:\n{texts:#?}"
+    );
+    let n = serde_json::from_str::<Value>(&texts[0])
+        .unwrap()
+        .as_array()
+        .unwrap()
+        .len();
+    assert_eq!(n, 3);
+}
