@@ -337,17 +337,7 @@ impl AppState {
     /// 404 unknown scene; 400 for a non-finite or out-of-range `t` or `rate`; 500 if it cannot
     /// be persisted.
     pub async fn set_clock(&self, id: &str, update: ClockUpdate) -> Result<ClockReading, ApiError> {
-        if let Some(t) = update.t {
-            crate::api::query::check_time(&self.limits, t, "t")?;
-        }
-        if let Some(r) = update.rate
-            && !(r.is_finite() && r.abs() <= MAX_RATE)
-        {
-            return Err(ApiError::invalid(
-                "rate",
-                format!("rate = {r} is out of range: |rate| <= {MAX_RATE}"),
-            ));
-        }
+        update.validate(&self.limits)?;
         let _guard = self.admin_lock.lock().await;
         let entry = self.scene(id)?;
         let now = self.now();

@@ -135,3 +135,23 @@ tile_size = 32.0
 wind_direction = [1.0, 0.5]
 spectrum = { kind = "jonswap", wind_speed = 8.0, fetch = 20000.0 }
 """)
+
+# --- admin_json: one selector byte (0 clock, 1 spawn, 2 input), then the JSON body ---
+admin = [
+    (0, {"t": 120.5, "rate": 2.0, "paused": False}),
+    (0, {"rate": -1.0}),
+    (0, {"paused": True}),
+    (1, {"mass": 2000.0, "hull": {"kind": "box", "length": 6.0, "beam": 2.5, "height": 1.2},
+         "position": [5.0, 0.5, -3.0], "yaw": 0.3}),
+    (1, {"mass": 50.0, "hull": {"kind": "cells", "cells": [
+         {"position": [0.0, 0.0, 0.0], "volume": 0.2, "height": 0.5},
+         {"position": [1.0, 0.0, 0.0], "volume": 0.2, "height": 0.5}]},
+         "position": [0.0, 1.0, 0.0], "linear_drag": 10.0, "quadratic_drag": 2.0,
+         "angular_damping": 5.0, "min_wavelength_factor": 1.5, "center_of_mass": [0.5, 0.0, 0.0]}),
+    (1, {"mass": 5e5, "hull": {"kind": "box", "length": 40.0, "beam": 10.0, "height": 5.0,
+         "cells": [8, 4]}, "position": [0.0, -1.0, 0.0]}),
+    (2, {"force": [5000.0, 0.0, 0.0], "torque": [0.0, 800.0, 0.0], "ticks": 3}),
+    (2, {"force": [0.0, 1e6, 0.0], "from_tick": 1801}),
+]
+for i, (which, body) in enumerate(admin):
+    write("admin_json", f"seed-{i}.bin", bytes([which]) + json.dumps(body).encode())

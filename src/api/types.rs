@@ -64,6 +64,29 @@ pub struct ClockUpdate {
     pub t: Option<f64>,
 }
 
+impl ClockUpdate {
+    /// Checks the numbers before anything changes: `t` as a query time
+    /// ([`crate::api::query::check_time`]), `|rate| <=` [`crate::state::MAX_RATE`].
+    ///
+    /// # Errors
+    /// 400 naming `t` or `rate`.
+    pub fn validate(&self, limits: &crate::Limits) -> Result<(), crate::error::ApiError> {
+        if let Some(t) = self.t {
+            crate::api::query::check_time(limits, t, "t")?;
+        }
+        let max = crate::state::MAX_RATE;
+        if let Some(r) = self.rate
+            && !(r.is_finite() && r.abs() <= max)
+        {
+            return Err(crate::error::ApiError::invalid(
+                "rate",
+                format!("rate = {r} is out of range: |rate| <= {max}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// `GET /v1/scenes/{id}/height` query.
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(deny_unknown_fields)]
