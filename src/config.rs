@@ -31,6 +31,9 @@ pub struct Config {
     pub bind: SocketAddr,
     /// Directory of persisted scenes and clocks; `None` keeps everything in memory.
     pub data_dir: Option<PathBuf>,
+    /// A shared store (Redis) for a fleet of replicas; when set, admin changes live there and
+    /// `data_dir` is not used (see [`crate::store`]).
+    pub store: Option<crate::store::StoreUrl>,
     /// Bearer token for admin endpoints; `None` generates one at start (see
     /// [`crate::Server::admin_token`]).
     pub admin_token: Option<String>,
@@ -53,6 +56,7 @@ impl Default for Config {
         Self {
             bind: SocketAddr::from(([127, 0, 0, 1], 8080)),
             data_dir: None,
+            store: None,
             admin_token: None,
             builtin_scenes: true,
             scenes: Vec::new(),

@@ -18,6 +18,8 @@
 //! - [`config`] — [`Config`], limits, the TOML scene file.
 //! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
 //! - [`state`] — the registry and admin operations (validate → journal → swap).
+//! - [`store`] — where admin changes live: the journal (one process) or Redis (a fleet, with
+//!   a change feed every replica applies).
 //! - [`journal`] — durability: every acknowledged change in an fsynced, checksummed log in the
 //!   data dir, periodic snapshots, compaction, and the replay at start-up.
 //! - [`frames`] — the shared, bounded FFT frame cache.
@@ -26,6 +28,7 @@
 //! - [`api`] — routes, middleware, request/response types, handlers, JSON/protobuf negotiation.
 //! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
 //! - [`wire`] — protobuf types generated from `proto/` and their conversions.
+//! - [`healthcheck`] — `swell healthcheck`: a tiny HTTP probe for container health checks.
 //! - [`error`] — [`ApiError`], the one error type of every endpoint.
 //!
 //! # Determinism
@@ -40,9 +43,11 @@ pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod frames;
+pub mod healthcheck;
 pub mod journal;
 pub mod scene;
 pub mod state;
+pub mod store;
 pub mod stream;
 pub mod wire;
 
@@ -120,7 +125,13 @@ impl Server {
             let what = format!("opening data dir {}", dir.display());
             move |source| StartError::Io { what, source }
         };
-        let (journal, recovered, legacy) = match &config.data_dir {
+        // With a shared store (Redis) the data dir is not used: admin changes live in Redis.
+        let data_dir = if config.store.is_some() {
+            None
+        } else {
+            config.data_dir.as_ref()
+        };
+        let (journal, recovered, legacy) = match data_dir {
             Some(dir) => {
                 let (j, r) = journal::Journal::open(dir).map_err(io(dir))?;
                 // The layout before the journal: read (and imported) only if it is there.
@@ -139,6 +150,11 @@ impl Server {
                 .map_err(|e| StartError::Setup(format!("generating an admin token: {e}")))?,
         };
         let state = AppState::new(config.limits.clone(), journal, token, metrics_handle());
+        if let Some(url) = &config.store {
+            let fleet = store::Fleet::new(url.clone()).map_err(StartError::Setup)?;
+            tracing::info!(store = %url, "admin changes are shared through Redis");
+            state.set_fleet(fleet, config.snapshots.interval);
+        }
         let loading = state.clone();
         let builtin = config.builtin_scenes;
         let scenes = config.scenes.clone();
@@ -224,7 +240,37 @@ impl Server {
                 state.shutdown.clone(),
             ));
         }
-        state.set_ready(true);
+        match state.fleet().cloned() {
+            Some(fleet) => {
+                // The change feed; ready once the first full read of the shared store is
+                // applied (until then this replica could serve scenes the fleet has replaced).
+                state
+                    .tasks
+                    .spawn(fleet.clone().run(state.clone(), state.shutdown.clone()));
+                // Body logs: follow every scene that has one (found again every second, so a
+                // scene whose first body was spawned through another replica is picked up).
+                if let Some(fb) = state.fleet_bodies().cloned() {
+                    let (st, stop) = (state.clone(), state.shutdown.clone());
+                    state.tasks.spawn(async move {
+                        let mut every = tokio::time::interval(Duration::from_secs(1));
+                        loop {
+                            tokio::select! {
+                                () = stop.cancelled() => return,
+                                _ = every.tick() => fb.discover(&st).await,
+                            }
+                        }
+                    });
+                }
+                let readying = state.clone();
+                state.tasks.spawn(async move {
+                    tokio::select! {
+                        () = readying.shutdown.cancelled() => {}
+                        () = fleet.wait_synced() => readying.set_ready(true),
+                    }
+                });
+            }
+            None => state.set_ready(true),
+        }
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
         let draining = state.clone();

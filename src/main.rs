@@ -24,6 +24,18 @@ enum Command {
     Serve(ServeArgs),
     /// List the built-in scene ids and descriptions.
     Scenes,
+    /// Exit 0 if a server answers 2xx at `--url` (container health checks: no curl needed).
+    Healthcheck(HealthcheckArgs),
+}
+
+#[derive(Debug, Clone, Args)]
+struct HealthcheckArgs {
+    /// The URL to GET (plain HTTP).
+    #[arg(long, env = "SWELL_HEALTHCHECK_URL", default_value = swell::healthcheck::DEFAULT_URL)]
+    url: String,
+    /// Seconds to wait for the answer.
+    #[arg(long, default_value_t = 2.0)]
+    timeout: f64,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -37,13 +49,18 @@ struct ServeArgs {
     /// Directory where admin changes (scenes, clocks) are persisted and restored from.
     #[arg(long, env = "SWELL_DATA_DIR", default_value = "./swell-data")]
     data_dir: PathBuf,
+    /// Shared store for a fleet of replicas, `redis://HOST:PORT/DB`: scenes and clock changes
+    /// live there and every replica applies them. Without it: the data dir.
+    #[arg(long, env = "SWELL_STORE", value_parser = parse_store)]
+    store: Option<swell::store::StoreUrl>,
     /// Admin bearer token; without one a random token is generated and printed once.
     #[arg(long, env = "SWELL_ADMIN_TOKEN", hide_env_values = true)]
     admin_token: Option<String>,
     /// Start without the built-in scenes.
     #[arg(long)]
     no_builtin_scenes: bool,
-    /// Seconds between journal snapshots while anything changes (bounds the replay at start).
+    /// Seconds between journal snapshots while anything changes (bounds the replay at start);
+    /// with --store, between body snapshots in Redis.
     #[arg(long, env = "SWELL_SNAPSHOT_INTERVAL", default_value_t = 30.0)]
     snapshot_interval: f64,
     /// Journal records that trigger a snapshot (and a compaction of the log) at once.
@@ -75,15 +92,34 @@ async fn main() -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Some(Command::Healthcheck(args)) => {
+            let timeout = std::time::Duration::try_from_secs_f64(args.timeout)
+                .context("--timeout must be a non-negative number of seconds")?;
+            match swell::healthcheck::check(&args.url, timeout).await {
+                Ok(status) => {
+                    println!("ok: {} answered {status}", args.url);
+                    Ok(())
+                }
+                Err(e) => {
+                    eprintln!("unhealthy: {e}");
+                    std::process::exit(1);
+                }
+            }
+        }
         Some(Command::Serve(args)) => serve(args).await,
         None => serve(cli.serve).await,
     }
+}
+
+fn parse_store(s: &str) -> Result<swell::store::StoreUrl, String> {
+    swell::store::StoreUrl::parse(s)
 }
 
 async fn serve(args: ServeArgs) -> anyhow::Result<()> {
     let mut config = swell::Config {
         bind: args.bind,
         data_dir: Some(args.data_dir),
+        store: args.store.clone(),
         admin_token: args.admin_token.clone(),
         builtin_scenes: !args.no_builtin_scenes,
         snapshots: swell::journal::snapshot::SnapshotPolicy {

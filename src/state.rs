@@ -55,6 +55,10 @@ pub struct Inner {
     admin_lock: tokio::sync::Mutex<()>,
     ready: AtomicBool,
     wall: WallClock,
+    /// The Redis store of a fleet (`--store`); unset: the journal (or memory) is the store.
+    fleet: std::sync::OnceLock<crate::store::Fleet>,
+    /// Body sharing through the fleet's Redis (set with `fleet`).
+    fleet_bodies: std::sync::OnceLock<crate::store::FleetBodies>,
 }
 
 impl std::ops::Deref for AppState {
@@ -95,7 +99,39 @@ impl AppState {
             admin_lock: tokio::sync::Mutex::new(()),
             ready: AtomicBool::new(false),
             wall: WallClock::default(),
+            fleet: std::sync::OnceLock::new(),
+            fleet_bodies: std::sync::OnceLock::new(),
         }))
+    }
+
+    /// Makes Redis the store of admin changes and body logs (once, before serving); body
+    /// snapshots go to Redis every `body_snapshots`.
+    pub fn set_fleet(&self, fleet: crate::store::Fleet, body_snapshots: std::time::Duration) {
+        let _ = self.fleet_bodies.set(crate::store::FleetBodies::new(
+            fleet.clone(),
+            body_snapshots,
+        ));
+        if self.fleet.set(fleet).is_err() {
+            tracing::warn!("a store was already set; keeping the first");
+        }
+    }
+
+    /// The Redis store, if this replica is part of a fleet.
+    pub fn fleet(&self) -> Option<&crate::store::Fleet> {
+        self.fleet.get()
+    }
+
+    /// Body sharing, if this replica is part of a fleet.
+    pub fn fleet_bodies(&self) -> Option<&crate::store::FleetBodies> {
+        self.fleet_bodies.get()
+    }
+
+    /// Where admin changes go.
+    pub fn backend(&self) -> crate::store::Backend<'_> {
+        match self.fleet.get() {
+            Some(f) => crate::store::Backend::Redis(f),
+            None => crate::store::Backend::Local(self.journal.as_ref()),
+        }
     }
 
     /// Unix seconds now, as scene clocks read it: never less than an earlier answer (see
@@ -154,6 +190,18 @@ impl AppState {
             .get(id)
             .cloned()
             .ok_or_else(|| ApiError::scene_not_found(id))
+    }
+
+    /// A scene just changed through the shared store: 404 if another replica's change (applied
+    /// in between, in feed order) already removed it.
+    fn applied_scene(&self, id: &str) -> Result<Arc<SceneEntry>, ApiError> {
+        self.scene(id).map_err(|_| {
+            ApiError::new(
+                axum::http::StatusCode::NOT_FOUND,
+                "not_found",
+                format!("scene {id:?} was deleted by a concurrent change through another replica"),
+            )
+        })
     }
 
     /// Every scene, sorted by id.
@@ -219,6 +267,22 @@ impl AppState {
         }
         // Journal the canonical form: what the scene is, with defaults filled in.
         let spec = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
+        if let crate::store::Backend::Redis(fleet) = self.backend() {
+            // The feed applies it here as on every replica (the scene built above is handed
+            // over, not rebuilt); a put that moves the epoch drops the stored clock.
+            let outcome = if old.is_some() {
+                PutOutcome::Replaced
+            } else {
+                PutOutcome::Created
+            };
+            let moved = old.is_some() && given.is_some() && given != old_epoch;
+            let op = Op::ScenePut {
+                scene: id.to_owned(),
+                spec,
+            };
+            fleet.commit(op, Some(scene), moved).await?;
+            return Ok((outcome, self.applied_scene(id)?));
+        }
         self.journal_op(Op::ScenePut {
             scene: id.to_owned(),
             spec,
@@ -250,6 +314,14 @@ impl AppState {
     pub async fn delete_scene(&self, id: &str) -> Result<(), ApiError> {
         let _guard = self.admin_lock.lock().await;
         self.scene(id)?;
+        if let crate::store::Backend::Redis(fleet) = self.backend() {
+            let op = Op::SceneDelete {
+                scene: id.to_owned(),
+            };
+            fleet.commit(op, None, false).await?;
+            fleet.delete_body_log(id).await;
+            return Ok(());
+        }
         self.journal_op(Op::SceneDelete {
             scene: id.to_owned(),
         })
@@ -285,6 +357,15 @@ impl AppState {
             paused: clock.paused(),
             unix: now,
         };
+        if let crate::store::Backend::Redis(fleet) = self.backend() {
+            let op = Op::Clock {
+                scene: id.to_owned(),
+                clock: rec,
+            };
+            fleet.commit(op, None, false).await?;
+            let entry = self.applied_scene(id)?;
+            return Ok(self.read_clock(&entry));
+        }
         self.journal_op(Op::Clock {
             scene: id.to_owned(),
             clock: rec,

@@ -60,6 +60,12 @@ pub async fn create(
 ) -> Result<Response, ApiError> {
     require_admin(&headers, state.admin_token())?;
     let req: SpawnRequest = from_slice(&body)?;
+    if let Some(fleet) = state.fleet_bodies() {
+        // A fleet: through the scene's sequenced log (crate::store::bodies).
+        let out = fleet.spawn(&state, &id, req).await?;
+        tracing::info!(scene = %id, body = out.id, "body spawned (fleet)");
+        return Ok((StatusCode::CREATED, axum::Json(out)).into_response());
+    }
     let entry = state.scene(&id)?;
     let reading = state.read_clock(&entry);
     let cell = state.bodies.get_or_create(
@@ -138,6 +144,10 @@ pub async fn delete(
     require_admin(&headers, state.admin_token())?;
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
+    if let Some(fleet) = state.fleet_bodies() {
+        fleet.remove(&state, &id, bid).await?;
+        return Ok(StatusCode::NO_CONTENT);
+    }
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
     let removed = {
         let mut b = cell.lock();
@@ -168,6 +178,14 @@ pub async fn input(
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let req: InputRequest = from_slice(&body)?;
+    if let Some(fleet) = state.fleet_bodies() {
+        let tick = fleet.input(&state, &id, bid, req).await?;
+        return Ok((
+            StatusCode::ACCEPTED,
+            axum::Json(serde_json::json!({"tick": tick})),
+        )
+            .into_response());
+    }
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
     let (tick, seq) = {
         let mut b = cell.lock();
