@@ -3,30 +3,8 @@
 // the server's generated waves and is checked in live.test.js (FFT cases in fft.test.js).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync } from 'node:fs';
 import { Surface } from '../src/surface.js';
-import { bitsHex } from '../src/math.js';
-
-export const VECTORS = JSON.parse(readFileSync(new URL('../../../proto/vectors/surface_v1.json', import.meta.url)));
-
-/** Compares every field of every time × point of `c` with `surface`; returns the count. */
-export function checkCase(surface, c) {
-  let n = 0;
-  for (const e of c.expected) {
-    const r = surface.query(e.point[0], e.point[1], e.t);
-    const got = {
-      height: bitsHex(r.height),
-      normal: r.normal.map(bitsHex),
-      displacement: r.displacement.map(bitsHex),
-      jacobian: bitsHex(r.jacobian),
-      residual: bitsHex(r.residual),
-      folded: r.folded,
-    };
-    assert.deepEqual(got, e.bits, `${c.name} t=${e.t} point=${e.point}`);
-    n++;
-  }
-  return n;
-}
+import { VECTORS, checkCase } from './golden.js';
 
 test('model version of the vectors is the one this client ports', () => {
   assert.equal(VECTORS.model_version, 2);
