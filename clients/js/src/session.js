@@ -135,16 +135,22 @@ export class SwellSession {
         resolve();
       };
       ws.onmessage = (ev) => this._onMessage(ev.data);
-      ws.onerror = () => {};
-      ws.onclose = (ev) => {
+      // One way down per socket: a close, or an error before the socket opened (Node 20's
+      // WebSocket reports a refused connection with an error and no close event).
+      let down = false;
+      const lost = (code) => {
+        if (down) return;
+        down = true;
         if (this.ws === ws) this.ws = null;
         this._stopPings();
-        for (const [, p] of this.pending) p.reject(new TransportError(`socket closed (${ev.code}) before the answer`));
+        for (const [, p] of this.pending) p.reject(new TransportError(`socket closed (${code}) before the answer`));
         this.pending.clear();
-        this.onClose?.(ev);
-        if (!opened) reject(new TransportError(`cannot open ${this.url} (close ${ev.code})`));
+        this.onClose?.({ code });
+        if (!opened) reject(new TransportError(`cannot open ${this.url} (${code})`));
         if (!this.closed) this._scheduleReconnect();
       };
+      ws.onerror = () => { if (!opened) { lost('error'); try { ws.close(); } catch { /* never opened */ } } };
+      ws.onclose = (ev) => lost(ev.code);
     });
   }
 
