@@ -464,7 +464,7 @@ async function setup() {
     for (const b of bodies.values()) {
       const p = [b.position[0] - origin[0], b.position[1], b.position[2] - origin[1]];
       gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_model'), false, quatMat(b.rotation, hullSize, p));
-      gl.uniform3fv(gl.getUniformLocation(body, 'u_color'), b.mode === 'interpolated' ? [0.85, 0.35, 0.12] : [0.9, 0.8, 0.2]);
+      gl.uniform3fv(gl.getUniformLocation(body, 'u_color'), [0.86, 0.42, 0.16]);
       gl.drawArrays(gl.TRIANGLES, 0, 36);
     }
     gl.bindVertexArray(null);
@@ -475,7 +475,8 @@ async function setup() {
     const tick = state.lastTick;
     $('hud').innerHTML = `<b>${id}</b> · model v${detail.model_version}<br>`
       + `scene time ${t.toFixed(3)} s<br>tick ${tick ? tick.tick : '—'} (${state.tickHz} Hz)<br>`
-      + `RTT ${(st.rtt * 1000).toFixed(2)} ms · clock offset ${st.offset.toFixed(4)} s<br>`
+      + `RTT ${(st.rtt * 1000).toFixed(2)} ms (min ${(st.minRtt * 1000).toFixed(2)})<br>`
+      + `clock offset ${st.offset.toFixed(4)} s ± ${(st.minRtt * 500).toFixed(2)} ms · drift ${(st.drift * 1e6).toFixed(1)} ppm<br>`
       + `bodies ${bodies.size}${[...bodies.values()].slice(0, 3).map((b) => `<br>#${b.id} (${b.position.map((v) => v.toFixed(2)).join(', ')}) ${b.mode}`).join('')}`;
     state.ready = true;
     requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } });

@@ -44,6 +44,12 @@ describe('viewer in headless chromium', { skip }, () => {
     await page.waitFor('window.swellViewer && swellViewer.ready && swellViewer.frames > 3');
     await page.waitFor('swellViewer.lastTick && swellViewer.lastTick.bodies.length > 0');
 
+    const hud = await page.eval(`document.getElementById('hud').textContent`);
+    assert.match(hud, /lake/);
+    assert.match(hud, /scene time \d+\.\d+ s/);
+    assert.match(hud, /tick \d+/);
+    assert.match(hud, /RTT \d+\.\d+ ms/);
+    assert.match(hud, /clock offset/);
     const png = decodePng(await page.screenshot());
     const stats = pixelStats(png);
     console.log(`lake screenshot ${png.width}x${png.height}: luma mean ${stats.mean.toFixed(1)}, std ${stats.std.toFixed(1)}, ${stats.colours} colours`);
