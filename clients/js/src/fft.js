@@ -72,7 +72,13 @@ export function twiddles(n) {
 /** 2-D inverse FFT of an n×n complex grid (row-major, index j·n + i). */
 export function ifft2(re, im, n, tw = twiddles(n)) {
   for (let j = 0; j < n; j++) ifft1(re, im, n, j * n, 1, tw);
-  for (let i = 0; i < n; i++) ifft1(re, im, n, i, n, tw);
+  // Columns through a contiguous scratch line: strided butterflies thrash the cache.
+  const cr = new Float64Array(n), ci = new Float64Array(n);
+  for (let i = 0; i < n; i++) {
+    for (let j = 0; j < n; j++) { cr[j] = re[j * n + i]; ci[j] = im[j * n + i]; }
+    ifft1(cr, ci, n, 0, 1, tw);
+    for (let j = 0; j < n; j++) { re[j * n + i] = cr[j]; im[j * n + i] = ci[j]; }
+  }
 }
 
 const GRIDS = ['h', 'dx', 'dz', 'sx', 'sz', 'jxx', 'jzz', 'jxz'];
@@ -121,6 +127,7 @@ export class FftLayer {
     // Four complex transforms, two real fields each: (h, sx), (sz, dx), (dz, jxx), (jzz, jxz).
     const pairs = [['h', 'sx'], ['sz', 'dx'], ['dz', 'jxx'], ['jzz', 'jxz']];
     const bufs = pairs.map(() => [new Float64Array(N2), new Float64Array(N2)]);
+    const [[b0r, b0i], [b1r, b1i], [b2r, b2i], [b3r, b3i]] = bufs;
     const sc = [0, 0];
     for (let j = 0; j < n; j++) {
       const jm = (n - j) & (n - 1);
@@ -138,24 +145,20 @@ export class FftLayer {
         const hi = (ai * c - ar * s) + (bi * c + br * s);
         if (hr === 0 && hi === 0) continue;
         const k = kl[r];
-        const ux = k > 0 ? kx[r] / k : 0, uz = k > 0 ? kz[r] / k : 0;
-        // Field coefficients (complex): c·h̃ with c = 1, i·kx, i·kz, i·λ·ux, i·λ·uz,
-        // −λ·kx·ux, −λ·kz·uz, −λ·kx·uz.
-        const f = {
-          h: [hr, hi],
-          sx: [-kx[r] * hi, kx[r] * hr],
-          sz: [-kz[r] * hi, kz[r] * hr],
-          dx: [-lambda * ux * hi, lambda * ux * hr],
-          dz: [-lambda * uz * hi, lambda * uz * hr],
-          jxx: [-lambda * kx[r] * ux * hr, -lambda * kx[r] * ux * hi],
-          jzz: [-lambda * kz[r] * uz * hr, -lambda * kz[r] * uz * hi],
-          jxz: [-lambda * kx[r] * uz * hr, -lambda * kx[r] * uz * hi],
-        };
-        pairs.forEach(([a, b], p) => {
-          // Pack A + i·B: both A and B are spectra of real fields.
-          bufs[p][0][r] = f[a][0] - f[b][1];
-          bufs[p][1][r] = f[a][1] + f[b][0];
-        });
+        const kxr = kx[r], kzr = kz[r];
+        const ux = k > 0 ? kxr / k : 0, uz = k > 0 ? kzr / k : 0;
+        // Field spectra c·h̃ with c = 1 (h), i·kx (sx), i·kz (sz), i·λ·ux (dx), i·λ·uz (dz),
+        // −λ·kx·ux (jxx), −λ·kz·uz (jzz), −λ·kx·uz (jxz); two real fields A, B per transform
+        // packed as A + i·B: re = A.re − B.im, im = A.im + B.re.
+        const sxr = -kxr * hi, sxi = kxr * hr;
+        const szr = -kzr * hi, szi = kzr * hr;
+        const dxr = -lambda * ux * hi, dxi = lambda * ux * hr;
+        const dzr = -lambda * uz * hi, dzi = lambda * uz * hr;
+        const cxx = -lambda * kxr * ux, czz = -lambda * kzr * uz, cxz = -lambda * kxr * uz;
+        b0r[r] = hr - sxi; b0i[r] = hi + sxr;
+        b1r[r] = szr - dxi; b1i[r] = szi + dxr;
+        b2r[r] = dzr - cxx * hi; b2i[r] = dzi + cxx * hr;
+        b3r[r] = czz * hr - cxz * hi; b3i[r] = czz * hi + cxz * hr;
       }
     }
     const out = { t };
