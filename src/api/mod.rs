@@ -11,6 +11,7 @@
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
 //! - [`wire`] — JSON/protobuf content negotiation for query bodies and answers.
 //! - [`shader`] — the generated shader, the frame's uniforms, FFT spectra (GPU clients).
+//! - [`viewer`] — the browser viewer's page and scripts (`/viewer`).
 //!
 //! Middleware, outermost first: panic → 500 JSON; trace span; metrics by route and status;
 //! errors re-encoded as protobuf for clients that accept it;
@@ -25,6 +26,7 @@ pub mod query;
 pub mod scenes;
 pub mod shader;
 pub mod types;
+pub mod viewer;
 pub mod wire;
 
 use std::sync::Arc;
@@ -85,6 +87,7 @@ pub fn router(state: AppState) -> Router {
         .route("/metrics", get(ops::metrics))
         .route("/openapi.json", get(ops::openapi))
         .route("/docs", get(ops::docs))
+        .merge(viewer::routes())
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(limits.max_body_bytes))

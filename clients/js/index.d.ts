@@ -1,0 +1,140 @@
+// Types of the swell-client package (hand-written beside the JSDoc'd ES modules in src/).
+
+export type Vec2 = [number, number];
+export type Vec3 = [number, number, number];
+export type Quat = [number, number, number, number];
+export type FieldName = 'height' | 'normal' | 'displacement' | 'jacobian' | 'residual';
+
+export interface Accuracy {
+  method?: 'newton' | 'fixed_point';
+  iterations?: number;
+  tolerance?: number;
+  filter?: 'nearest' | 'bilinear' | 'bicubic';
+  precision?: 'f64' | 'f32';
+  time?: 'grid' | 'exact';
+}
+export interface SampleRequest { t?: number; origin?: Vec2; points: Vec2[]; fields?: FieldName[]; accuracy?: Accuracy }
+export interface SampleResponse {
+  t: number; height?: number[]; normal?: Vec3[]; displacement?: Vec3[];
+  jacobian?: number[]; folded?: boolean[]; residual?: number[];
+}
+export interface BodyFootprint { position: Vec2; yaw?: number; length: number; beam: number; probes?: Vec2[] }
+export interface OrientationRequest { t?: number; bodies: BodyFootprint[] }
+export interface BodyOrientation { heave: number; rotation: Quat; normal: Vec3; pitch: number; roll: number }
+export interface OrientationResponse { t: number; bodies: BodyOrientation[] }
+export interface BodyState {
+  id: number; position: Vec3; rotation: Quat; velocity: Vec3; angular_velocity: Vec3;
+  submerged: number; quarantined: boolean;
+}
+export interface TickFrame { tick: number; t: number; bodies: BodyState[] }
+export interface Wave { amplitude: number; wavenumber: number; omega: number; direction: Vec2; phase: number; steepness: number }
+export interface Spectrum { header: Record<string, any>; n: number; records: Float64Array }
+
+export class ArgumentError extends TypeError { field: string; constructor(field: string, message: string) }
+export class SwellError extends Error { status: number; code: string; serverMessage: string; field?: string }
+export class TransportError extends Error {}
+
+export interface ClientOptions { wire?: 'json' | 'protobuf'; fetch?: typeof fetch; adminToken?: string }
+export class SwellClient {
+  constructor(baseUrl: string, options?: ClientOptions);
+  streamUrl(scene: string): string;
+  scenes(): Promise<{ scenes: { id: string; description: string; layers: string[]; tick_hz: number }[] }>;
+  scene(id: string): Promise<any>;
+  clock(id: string): Promise<{ t: number; tick: number; tick_hz: number; rate: number; paused: boolean; unix: number }>;
+  height(id: string, x: number, z: number, opts?: { t?: number }): Promise<{ t: number; height: number }>;
+  sample(id: string, req: SampleRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<SampleResponse>;
+  orientation(id: string, req: OrientationRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<OrientationResponse>;
+  shader(id: string, lang: 'wgsl' | 'glsl' | 'glsl_es' | 'hlsl' | 'msl', opts?: { entry?: 'swell_vs' | 'swell_probe_vs' | 'swell_probe_fs' }):
+    Promise<{ text: string; modelVersion: number; specHash: string; etag: string }>;
+  uniforms(id: string, opts?: { t?: number; origin?: Vec2 }): Promise<{ t: number; origin: Vec2; waves: number; phases: number[]; block: number[] }>;
+  spectrum(id: string, layer: number): Promise<Spectrum>;
+  bodies(id: string): Promise<{ tick: number; t: number; bodies: BodyState[] }>;
+  body(id: string, bid: number): Promise<BodyState>;
+  spawnBody(id: string, spec: object): Promise<BodyState>;
+  putScene(id: string, spec: object): Promise<any>;
+}
+
+export class ClockSync {
+  constructor(options?: { window?: number; best?: number });
+  offset: number; drift: number; rtt: number; minRtt: number; readonly synced: boolean;
+  add(sent: number, received: number, sceneTime: number): void;
+  sceneTime(clientTime: number): number;
+}
+
+export interface SessionOptions {
+  WebSocket?: any; pingInterval?: number; syncPings?: number; requestTimeout?: number;
+  backoff?: { initial?: number; max?: number; factor?: number };
+  onTick?: (frame: TickFrame) => void; onOpen?: () => void; onClose?: (ev: any) => void;
+  interpolator?: BodyInterpolator; now?: () => number; clock?: { window?: number; best?: number };
+}
+export class SwellSession {
+  constructor(url: string, options?: SessionOptions);
+  connect(): Promise<this>;
+  opened(): Promise<void>;
+  ping(): Promise<{ client_time: number; scene_time: number; tick: number }>;
+  syncNow(n?: number): Promise<ClockSync>;
+  serverTime(): number;
+  clockStats(): { offset: number; drift: number; rtt: number; minRtt: number };
+  sample(req: SampleRequest): Promise<SampleResponse>;
+  orientation(req: OrientationRequest): Promise<OrientationResponse>;
+  subscribe(interest?: { bodies?: number[]; region?: [number, number, number, number] }): void;
+  unsubscribe(): void;
+  close(): void;
+  readonly reconnects: number;
+  readonly lastTick: TickFrame | null;
+}
+
+export interface InterpolatedBody { id: number; t: number; tick: number; position: Vec3; rotation: Quat; mode: 'interpolated' | 'extrapolated' | 'held' }
+export class BodyInterpolator {
+  constructor(options?: { delay?: number; capacity?: number; maxExtrapolation?: number });
+  delay: number;
+  push(frame: TickFrame): void;
+  frameAt(tick: number): { tick: number; t: number; bodies: BodyState[]; byId: Map<number, BodyState> } | null;
+  at(serverTime: number): Map<number, InterpolatedBody>;
+  sample(t: number): Map<number, InterpolatedBody>;
+}
+
+export interface SurfaceSample { d: Vec3; dx: Vec3; dz: Vec3 }
+export interface PointResult { height: number; normal: Vec3; displacement: Vec3; jacobian: number; folded: boolean; residual: number }
+export interface Inversion { method: 'newton' | 'fixed_point'; iterations: number; tolerance: number }
+export const DEFAULT_INVERSION: Inversion;
+export class Surface {
+  constructor(layers: { kind: string; waves?: Wave[] }[], options?: { fft?: (FftLayer | null | undefined)[] });
+  static fromDerived(derived: { layers: any[] }, options?: { fft?: (FftLayer | null | undefined)[] }): Surface;
+  static fromSpec(spec: { gravity?: number; depth?: number | null; layers: any[] }): Surface;
+  readonly horizontal: boolean;
+  analyticWaves(): Wave[];
+  sample(x0: number, z0: number, t: number, derivatives?: boolean): SurfaceSample;
+  invert(x: number, z: number, t: number, derivatives?: boolean, inversion?: Inversion):
+    { source: Vec2; sample: SurfaceSample; residual: number; iterations: number };
+  height(x: number, z: number, t: number, inversion?: Inversion): number;
+  query(x: number, z: number, t: number, fields?: FieldName[], inversion?: Inversion): PointResult;
+  uniforms(t: number, origin?: Vec2): { t: number; origin: Vec2; phases: number[]; block: Float32Array };
+}
+export function normalOf(s: SurfaceSample): Vec3;
+export function jacobianOf(s: SurfaceSample): number;
+
+export class FftLayer {
+  constructor(spectrum: Spectrum, options?: { cacheFrames?: number });
+  readonly n: number; readonly L: number;
+  frame(t: number): { t: number; h: Float64Array; dx: Float64Array; dz: Float64Array; sx: Float64Array; sz: Float64Array; jxx: Float64Array; jzz: Float64Array; jxz: Float64Array };
+  sample(x0: number, z0: number, t: number, derivatives?: boolean): SurfaceSample;
+}
+export function parseSpectrum(bytes: Uint8Array | ArrayBuffer): Spectrum;
+export function ifft2(re: Float64Array, im: Float64Array, n: number): void;
+
+export function reducePhase(x: number): number;
+export function sinCos(x: number, out?: [number, number]): [number, number];
+export function roundTiesAway(x: number): number;
+export function bitsHex(x: number): string;
+export function fromBitsHex(hex: string): number;
+
+export function encodeSampleRequest(req: SampleRequest): Uint8Array;
+export function encodeOrientationRequest(req: OrientationRequest): Uint8Array;
+export function decodeSampleResponse(bytes: Uint8Array): SampleResponse;
+export function decodeOrientationResponse(bytes: Uint8Array): OrientationResponse;
+export function decodeHeightResponse(bytes: Uint8Array): { t: number; height: number };
+export function decodeErrorResponse(bytes: Uint8Array): { code: string; message: string; field?: string };
+export function checkSceneId(id: string): string;
+export function checkSample(req: SampleRequest): SampleRequest;
+export function checkOrientation(req: OrientationRequest): OrientationRequest;

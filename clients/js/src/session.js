@@ -1,0 +1,299 @@
+// The WebSocket session of a scene's stream (`GET /v1/scenes/{id}/stream`, subprotocol
+// `swell.v1.json`; see the README's "WebSocket stream").
+//
+// - Requests carry an `id`; answers are matched by id (they may arrive out of order).
+// - Clock sync: pings every `pingInterval` ms; each pong gives a sample (send time, receive
+//   time, scene time). The offset comes from the samples with the lowest round trip (their
+//   midpoint error is at most RTT/2, and queueing only ever adds delay), the drift from a
+//   least-squares slope over the window; `serverTime()` is then scene time now, in seconds.
+// - Tick subscription with an interest set (`bodies`, `region`); frames go to `onTick` and to an
+//   optional `BodyInterpolator`.
+// - Reconnect: when the socket closes without `close()` having been called, it reopens after
+//   an exponential backoff (with jitter), re-syncs the clock and re-sends the subscription.
+//   Requests in flight when the socket drops are rejected with `TransportError`.
+
+import { ArgumentError, SwellError, TransportError } from './errors.js';
+import { checkOrientation, checkSample, checkFinite } from './client.js';
+
+const monotonicSeconds = () => (globalThis.performance?.now?.() ?? Date.now()) / 1000;
+
+/**
+ * Clock synchronisation from ping/pong samples. Times are seconds: `clientTime` on a local
+ * monotonic clock, `sceneTime` on the scene clock.
+ */
+export class ClockSync {
+  constructor({ window = 32, best = 4 } = {}) {
+    this.window = window;
+    this.best = best;
+    this.samples = [];
+    this.offset = NaN;
+    this.drift = 0;
+    this.ref = 0;
+    this.rtt = NaN;
+  }
+
+  /** Adds a sample: ping sent at `sent`, pong received at `received` (client clock), pong's scene time. */
+  add(sent, received, sceneTime) {
+    const rtt = received - sent;
+    const mid = sent + rtt / 2;
+    this.samples.push({ rtt, mid, offset: sceneTime - mid });
+    if (this.samples.length > this.window) this.samples.shift();
+    this.rtt = rtt;
+    const sorted = [...this.samples].sort((a, b) => a.rtt - b.rtt);
+    const good = sorted.slice(0, Math.min(this.best, sorted.length));
+    // Drift: slope of offset against time over the samples within twice the best RTT (needs a
+    // spread of at least a second to mean anything).
+    const within = this.samples.filter((s) => s.rtt <= 2 * sorted[0].rtt + 1e-3);
+    const m0 = within.reduce((a, s) => a + s.mid, 0) / within.length;
+    const o0 = within.reduce((a, s) => a + s.offset, 0) / within.length;
+    let sxx = 0, sxy = 0;
+    for (const s of within) { sxx += (s.mid - m0) ** 2; sxy += (s.mid - m0) * (s.offset - o0); }
+    const span = within.length > 1 ? within[within.length - 1].mid - within[0].mid : 0;
+    this.drift = span >= 1 && sxx > 0 ? sxy / sxx : 0;
+    // Offset at `ref` from the lowest-RTT samples, each carried to ref along the drift.
+    this.ref = good.reduce((a, s) => a + s.mid, 0) / good.length;
+    this.offset = good.reduce((a, s) => a + s.offset + this.drift * (this.ref - s.mid), 0) / good.length;
+    this.minRtt = sorted[0].rtt;
+  }
+
+  /** Whether there is at least one sample. */
+  get synced() { return this.samples.length > 0; }
+
+  /** Scene time at client time `c` (s). */
+  sceneTime(c) { return c + this.offset + this.drift * (c - this.ref); }
+}
+
+/**
+ * A session on one scene's stream.
+ *
+ * `new SwellSession(client.streamUrl('open-sea'), {onTick})`, then `await session.connect()`.
+ * Options: `WebSocket` (constructor; default the global one: browsers, Node 22+, or Node 20
+ * with `--experimental-websocket`), `pingInterval` (ms, 1000), `syncPings` (pings `connect()`
+ * waits for, 5), `requestTimeout` (ms, 10000), `backoff` (`{initial: 200, max: 5000, factor:
+ * 2}` ms), `onTick(frame)`, `onOpen()`, `onClose(event)`, `interpolator` (a BodyInterpolator fed
+ * every tick frame), `now` (client clock in s; default `performance.now()/1000`).
+ */
+export class SwellSession {
+  constructor(url, options = {}) {
+    if (typeof url !== 'string' || !/^wss?:\/\//.test(url)) {
+      throw new ArgumentError('url', `url must be a ws(s) URL, got ${JSON.stringify(url)}`);
+    }
+    this.url = url;
+    this.WebSocket = options.WebSocket ?? globalThis.WebSocket;
+    if (typeof this.WebSocket !== 'function') {
+      throw new ArgumentError('WebSocket', 'no WebSocket implementation: pass options.WebSocket (Node 20: run with --experimental-websocket)');
+    }
+    this.pingInterval = options.pingInterval ?? 1000;
+    this.syncPings = options.syncPings ?? 5;
+    this.requestTimeout = options.requestTimeout ?? 10000;
+    this.backoff = { initial: 200, max: 5000, factor: 2, ...(options.backoff ?? {}) };
+    this.onTick = options.onTick ?? null;
+    this.onOpen = options.onOpen ?? null;
+    this.onClose = options.onClose ?? null;
+    this.interpolator = options.interpolator ?? null;
+    this.now = options.now ?? monotonicSeconds;
+    this.clock = new ClockSync(options.clock);
+    this.nextId = 1;
+    this.pending = new Map();
+    this.subscription = null;
+    this.ws = null;
+    this.closed = false;
+    this.attempt = 0;
+    this.reconnects = 0;
+    this.lastTick = null;
+    this._timer = null;
+    this._retry = null;
+    this._openWaiters = [];
+  }
+
+  /** Opens the socket and resolves once `syncPings` pongs have arrived. */
+  async connect() {
+    this.closed = false;
+    await this._open();
+    await this.syncNow(this.syncPings);
+    return this;
+  }
+
+  _open() {
+    return new Promise((resolve, reject) => {
+      let ws;
+      try {
+        ws = new this.WebSocket(this.url, 'swell.v1.json');
+      } catch (e) {
+        reject(new TransportError(`cannot open ${this.url}: ${e.message}`, e));
+        return;
+      }
+      this.ws = ws;
+      let opened = false;
+      ws.onopen = () => {
+        opened = true;
+        this.attempt = 0;
+        this._startPings();
+        if (this.subscription) this._send({ type: 'subscribe', ...this.subscription });
+        this.onOpen?.();
+        for (const w of this._openWaiters.splice(0)) w();
+        resolve();
+      };
+      ws.onmessage = (ev) => this._onMessage(ev.data);
+      // One way down per socket: a close, or an error before the socket opened (Node 20's
+      // WebSocket reports a refused connection with an error and no close event).
+      let down = false;
+      const lost = (code) => {
+        if (down) return;
+        down = true;
+        if (this.ws === ws) this.ws = null;
+        this._stopPings();
+        for (const [, p] of this.pending) p.reject(new TransportError(`socket closed (${code}) before the answer`));
+        this.pending.clear();
+        this.onClose?.({ code });
+        if (!opened) reject(new TransportError(`cannot open ${this.url} (${code})`));
+        if (!this.closed) this._scheduleReconnect();
+      };
+      ws.onerror = () => { if (!opened) { lost('error'); try { ws.close(); } catch { /* never opened */ } } };
+      ws.onclose = (ev) => lost(ev.code);
+    });
+  }
+
+  _scheduleReconnect() {
+    const { initial, max, factor } = this.backoff;
+    const base = Math.min(max, initial * factor ** this.attempt);
+    const delay = base * (0.5 + Math.random() * 0.5);
+    this.attempt++;
+    this._retry = setTimeout(() => {
+      this._retry = null;
+      if (this.closed) return;
+      this._open().then(() => { this.reconnects++; }, () => {});
+    }, delay);
+  }
+
+  /** Resolves when the socket is open (now or after a reconnect). */
+  opened() {
+    if (this.ws && this.ws.readyState === 1) return Promise.resolve();
+    return new Promise((r) => this._openWaiters.push(r));
+  }
+
+  _startPings() {
+    this._stopPings();
+    this._timer = setInterval(() => { this.ping().catch(() => {}); }, this.pingInterval);
+  }
+
+  _stopPings() {
+    if (this._timer) clearInterval(this._timer);
+    this._timer = null;
+  }
+
+  _send(msg) {
+    if (!this.ws || this.ws.readyState !== 1) throw new TransportError('the socket is not open');
+    this.ws.send(JSON.stringify(msg));
+  }
+
+  _request(msg) {
+    const id = this.nextId++;
+    return new Promise((resolve, reject) => {
+      const timer = setTimeout(() => {
+        this.pending.delete(id);
+        reject(new TransportError(`no answer to ${msg.type} #${id} within ${this.requestTimeout} ms`));
+      }, this.requestTimeout);
+      this.pending.set(id, {
+        resolve: (v) => { clearTimeout(timer); resolve(v); },
+        reject: (e) => { clearTimeout(timer); reject(e); },
+      });
+      try {
+        this._send({ ...msg, id });
+      } catch (e) {
+        this.pending.get(id)?.reject(e);
+        this.pending.delete(id);
+      }
+    });
+  }
+
+  _onMessage(data) {
+    if (typeof data !== 'string') return;
+    const received = this.now();
+    let m;
+    try { m = JSON.parse(data); } catch { return; }
+    if (m.type === 'tick') {
+      this.lastTick = m;
+      this.interpolator?.push(m);
+      this.onTick?.(m);
+      return;
+    }
+    const p = m.id != null ? this.pending.get(m.id) : undefined;
+    if (!p) return;
+    this.pending.delete(m.id);
+    if (m.type === 'error') {
+      p.reject(new SwellError(0, m.code, m.message, m.field));
+      return;
+    }
+    if (m.type === 'pong') {
+      this.clock.add(m.client_time, received, m.scene_time);
+      this.lastPong = m;
+    }
+    delete m.type;
+    delete m.id;
+    p.resolve(m);
+  }
+
+  /** One ping: resolves to the pong (`{client_time, scene_time, tick}`) and feeds the clock. */
+  ping() { return this._request({ type: 'ping', client_time: this.now() }); }
+
+  /** Sends `n` pings one after another (so their RTTs are not inflated by each other). */
+  async syncNow(n = this.syncPings) {
+    for (let i = 0; i < n; i++) await this.ping();
+    return this.clock;
+  }
+
+  /** Scene time now (s), from the synced clock. */
+  serverTime() {
+    if (!this.clock.synced) throw new TransportError('the clock is not synced yet: await connect()');
+    return this.clock.sceneTime(this.now());
+  }
+
+  /** Clock offset (scene time − client time, s), round trip of the last pong and its minimum (s). */
+  clockStats() {
+    return { offset: this.clock.offset, drift: this.clock.drift, rtt: this.clock.rtt, minRtt: this.clock.minRtt };
+  }
+
+  /** A sample query on the socket: the same answer as POST …/sample. */
+  sample(req) { checkSample(req); return this._request({ type: 'sample', ...req }); }
+
+  /** An orientation query on the socket: the same answer as POST …/orientation. */
+  orientation(req) { checkOrientation(req); return this._request({ type: 'orientation', ...req }); }
+
+  /**
+   * Subscribes to tick frames: `bodies` (ids) and/or `region` ([x0, z0, x1, z1]) pick the bodies
+   * a frame carries (neither: all). Kept and re-sent after a reconnect.
+   */
+  subscribe({ bodies, region } = {}) {
+    const sub = { ticks: true };
+    if (bodies != null) {
+      if (!Array.isArray(bodies) || !bodies.every((b) => Number.isSafeInteger(b) && b >= 0)) {
+        throw new ArgumentError('bodies', 'bodies must be an array of body ids (integers >= 0)');
+      }
+      sub.bodies = bodies;
+    }
+    if (region != null) {
+      if (!Array.isArray(region) || region.length !== 4) throw new ArgumentError('region', 'region must be [x0, z0, x1, z1]');
+      region.forEach((v, i) => checkFinite(`region[${i}]`, v));
+      if (region[0] > region[2] || region[1] > region[3]) throw new ArgumentError('region', 'region needs x0 <= x1 and z0 <= z1');
+      sub.region = region;
+    }
+    this.subscription = sub;
+    if (this.ws && this.ws.readyState === 1) this._send({ type: 'subscribe', ...sub });
+  }
+
+  /** Stops tick frames. */
+  unsubscribe() {
+    this.subscription = null;
+    if (this.ws && this.ws.readyState === 1) this._send({ type: 'subscribe', ticks: false });
+  }
+
+  /** Closes the socket for good (no reconnect). */
+  close() {
+    this.closed = true;
+    this._stopPings();
+    if (this._retry) clearTimeout(this._retry);
+    this._retry = null;
+    this.ws?.close(1000);
+  }
+}

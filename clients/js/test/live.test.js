@@ -1,0 +1,221 @@
+// Against a live `swell` on 127.0.0.1 (see server.js): HTTP and protobuf answers, typed errors,
+// local evaluation and uniforms equal to the server's bits, the WebSocket session (clock sync,
+// queries, subscriptions with interest sets, reconnect after a restart).
+import { describe, test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { SwellProcess, available, freePort } from './server.js';
+import { SwellClient, SwellSession, Surface, SwellError, ArgumentError, BodyInterpolator, bitsHex } from '../src/index.js';
+import { VECTORS, checkCase } from './golden.js';
+
+const EPOCH = 1767225600; // built-in scenes' epoch (README): t = unix − epoch at rate 1
+const skip = available() ? false : 'no swell binary (cargo build --bin swell, or set SWELL_BIN)';
+const wallSeconds = () => (performance.timeOrigin + performance.now()) / 1000;
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+// Every number as its IEEE bits, object keys sorted (answers may list fields in any order).
+const bits = (v) => JSON.stringify(v, (k, x) => {
+  if (typeof x === 'number') return bitsHex(x);
+  if (x && typeof x === 'object' && !Array.isArray(x)) return Object.fromEntries(Object.entries(x).sort(([a], [b]) => (a < b ? -1 : 1)));
+  return x;
+});
+
+describe('live server', { skip }, () => {
+  let srv; let http; let admin;
+  before(async () => {
+    srv = await SwellProcess.start();
+    http = new SwellClient(srv.url);
+    admin = new SwellClient(srv.url, { adminToken: srv.token });
+  });
+  after(async () => { await srv?.dispose(); });
+
+  test('scenes and scene detail', async () => {
+    const { scenes } = await http.scenes();
+    assert.deepEqual(scenes.map((s) => s.id).sort(), ['calm', 'lake', 'open-sea', 'storm']);
+    const lake = await http.scene('lake');
+    assert.equal(lake.model_version, VECTORS.model_version);
+    assert.equal(lake.derived.layers[0].kind, 'gerstner');
+  });
+
+  test('server errors are SwellErrors with the code, message and field', async () => {
+    await assert.rejects(http.scene('atlantis'), (e) => e instanceof SwellError && e.status === 404 && e.code === 'not_found');
+    await assert.rejects(http.sample('calm', { points: [[0, 0]], t: 1e12 }),
+      (e) => e instanceof SwellError && e.status === 400 && e.code === 'invalid_value' && /t/.test(e.field));
+    const pb = new SwellClient(srv.url, { wire: 'protobuf' });
+    await assert.rejects(pb.sample('calm', { points: [[0, 0]], t: 1e12 }),
+      (e) => e instanceof SwellError && e.code === 'invalid_value' && e.serverMessage.length > 0);
+  });
+
+  test('bad arguments throw before any request', async () => {
+    let calls = 0;
+    const counting = new SwellClient(srv.url, { fetch: (...a) => { calls++; return fetch(...a); } });
+    assert.throws(() => counting.scene('Bad Id'), (e) => e instanceof ArgumentError && e.field === 'scene');
+    await assert.rejects(counting.height('calm', NaN, 0), (e) => e instanceof ArgumentError && e.field === 'x');
+    await assert.rejects(counting.sample('calm', { points: [[0, Infinity]] }), (e) => e.field === 'points[0][1]');
+    await assert.rejects(counting.sample('calm', { points: [], fields: ['colour'] }), (e) => e.field === 'fields');
+    await assert.rejects(counting.orientation('calm', { bodies: [{ position: [0, 0], length: -1, beam: 2 }] }),
+      (e) => e.field === 'bodies[0].length');
+    await assert.rejects(counting.shader('calm', 'cobol'), (e) => e.field === 'lang');
+    await assert.rejects(counting.spawnBody('calm', {}), (e) => e.field === 'adminToken');
+    assert.equal(calls, 0);
+  });
+
+  const points = [[0, 0], [13.7, -4.2], [-250.5, 999.25], [1e6 + 0.125, -3e5], [-7.75, 1234.5]];
+  const fields = ['height', 'normal', 'displacement', 'jacobian', 'residual'];
+
+  for (const scene of ['calm', 'lake']) {
+    test(`${scene}: local evaluation equals /sample bit for bit at the scene's now`, async () => {
+      const detail = await http.scene(scene);
+      const surface = Surface.fromDerived(detail.derived);
+      const { t } = await http.clock(scene);
+      assert.ok(t > 2e7, `wall-anchored scene time ${t}`);
+      for (const tt of [t, t + 0.5, 12.345]) {
+        const server = await http.sample(scene, { t: tt, points, fields });
+        points.forEach(([x, z], i) => {
+          const r = surface.query(x, z, tt);
+          assert.equal(bitsHex(r.height), bitsHex(server.height[i]), `${scene} height t=${tt} ${x},${z}`);
+          assert.equal(bits(r.normal), bits(server.normal[i]));
+          assert.equal(bits(r.displacement), bits(server.displacement[i]));
+          assert.equal(bitsHex(r.jacobian), bitsHex(server.jacobian[i]));
+          assert.equal(bitsHex(r.residual), bitsHex(server.residual[i]));
+          assert.equal(r.folded, server.folded[i]);
+        });
+        const h = await http.height(scene, 13.7, -4.2, { t: tt });
+        assert.equal(bitsHex(surface.height(13.7, -4.2, tt)), bitsHex(h.height));
+      }
+    });
+  }
+
+  test('golden lake_gerstner_cascade bit for bit from the server-built cascade waves', async () => {
+    const c = VECTORS.cases.find((k) => k.name === 'lake_gerstner_cascade');
+    const detail = await admin.putScene('golden-lake', { description: 'golden', ...c.spec });
+    const n = checkCase(Surface.fromDerived(detail.derived), c);
+    assert.equal(n, 20);
+  });
+
+  test('frame uniforms computed locally equal GET /uniforms', async () => {
+    for (const scene of ['calm', 'lake', 'open-sea']) {
+      const surface = Surface.fromDerived((await http.scene(scene)).derived);
+      const { t } = await http.clock(scene);
+      for (const origin of [[0, 0], [1e6, -3.5e5], [12.5, 7.25]]) {
+        const server = await http.uniforms(scene, { t, origin });
+        const local = surface.uniforms(t, origin);
+        assert.equal(local.phases.length, server.waves);
+        assert.equal(bits(local.phases), bits(server.phases), `${scene} ${origin}`);
+        assert.deepEqual(Array.from(local.block), server.block);
+      }
+    }
+  });
+
+  test('protobuf answers decode to the JSON answers bit for bit', async () => {
+    const pb = new SwellClient(srv.url, { wire: 'protobuf' });
+    const req = { t: 60, origin: [10000, 20000], points: [[0, 0], [1.5, 2], [-3, 4]], fields, accuracy: { iterations: 12, filter: 'bilinear' } };
+    for (const scene of ['lake', 'open-sea']) {
+      const j = await http.sample(scene, req);
+      const p = await pb.sample(scene, req);
+      assert.equal(bits(p), bits(j), scene);
+    }
+    const oreq = { t: 61, bodies: [{ position: [5, 5], yaw: 0.3, length: 12, beam: 4 }, { position: [-20, 3], length: 30, beam: 8, probes: [[0, 0], [10, 2], [-10, -2]] }] };
+    assert.equal(bits(await pb.orientation('storm', oreq)), bits(await http.orientation('storm', oreq)));
+    assert.equal(bits(await pb.height('lake', 3, 4, { t: 9 })), bits(await http.height('lake', 3, 4, { t: 9 })));
+  });
+
+  test('shader and spectrum fetches carry the version headers', async () => {
+    const s = await http.shader('lake', 'glsl_es', { entry: 'swell_vs' });
+    assert.match(s.text, /swell_sample/);
+    assert.equal(s.modelVersion, VECTORS.model_version);
+    const spec = await http.spectrum('open-sea', 0);
+    assert.equal(spec.records.length, spec.n * spec.n * 3);
+    await assert.rejects(http.spectrum('open-sea', 1), (e) => e instanceof SwellError && e.field === 'layer');
+  });
+
+  describe('WebSocket session', () => {
+    test('clock sync converges: offset within 5 ms of the wall-anchored scene clock', async () => {
+      const s = new SwellSession(http.streamUrl('calm'), { pingInterval: 100, syncPings: 10 });
+      await s.connect();
+      try {
+        await sleep(300);
+        const err = s.serverTime() - (wallSeconds() - EPOCH);
+        const { minRtt } = s.clockStats();
+        console.log(`clock sync: error ${(err * 1e3).toFixed(3)} ms, min RTT ${(minRtt * 1e3).toFixed(3)} ms`);
+        assert.ok(Math.abs(err) < 0.005, `scene time off by ${err} s`);
+      } finally { s.close(); }
+    });
+
+    test('sample and orientation on the socket equal the HTTP answers bit for bit', async () => {
+      const s = new SwellSession(http.streamUrl('lake'));
+      await s.connect();
+      try {
+        const req = { t: 1234.5, origin: [100, -200], points: [[0, 0], [5, 6]], fields };
+        assert.equal(bits(await s.sample(req)), bits(await http.sample('lake', req)));
+        const oreq = { t: 77, bodies: [{ position: [1, 2], yaw: -0.4, length: 10, beam: 3 }] };
+        assert.equal(bits(await s.orientation(oreq)), bits(await http.orientation('lake', oreq)));
+        await assert.rejects(s.sample({ points: [[0, 0]], t: -1e12 }), (e) => e instanceof SwellError && e.code === 'invalid_value');
+        assert.throws(() => s.sample({ points: 'x' }), ArgumentError);
+      } finally { s.close(); }
+    });
+
+    test('tick subscription with interest sets (bodies, region)', async () => {
+      const a = await admin.spawnBody('calm', { mass: 3000, hull: { kind: 'box', length: 8, beam: 3, height: 1.5 }, position: [0, 0.5, 0] });
+      const b = await admin.spawnBody('calm', { mass: 500, hull: { kind: 'box', length: 3, beam: 1.5, height: 1 }, position: [100, 0.5, 100] });
+      const frames = [];
+      const s = new SwellSession(http.streamUrl('calm'), { onTick: (f) => frames.push(f) });
+      await s.connect();
+      try {
+        const next = async (pred) => {
+          for (let i = 0; i < 100; i++) {
+            const f = frames.find(pred);
+            if (f) return f;
+            await sleep(20);
+          }
+          throw new Error('no matching tick frame');
+        };
+        s.subscribe({ bodies: [a.id] });
+        let f = await next((f) => f.bodies.length > 0);
+        assert.deepEqual(f.bodies.map((x) => x.id), [a.id]);
+        assert.equal(f.t, f.tick / 30);
+        frames.length = 0;
+        s.subscribe({ bodies: [], region: [50, 50, 150, 150] });
+        await sleep(150);
+        frames.length = 0;
+        f = await next(() => true);
+        assert.deepEqual(f.bodies.map((x) => x.id), [b.id]);
+        s.unsubscribe();
+        await sleep(150);
+        frames.length = 0;
+        await sleep(200);
+        assert.equal(frames.length, 0, 'no frames after unsubscribe');
+      } finally { s.close(); }
+    });
+  });
+});
+
+describe('reconnect', { skip }, () => {
+  test('the session reconnects after the server restarts and resubscribes', async () => {
+    const port = await freePort();
+    const srv = await SwellProcess.start({ port });
+    const frames = [];
+    const ip = new BodyInterpolator();
+    let closes = 0;
+    const s = new SwellSession(`ws://127.0.0.1:${port}/v1/scenes/calm/stream`, {
+      onTick: (f) => frames.push(f), interpolator: ip, onClose: () => { closes++; }, backoff: { initial: 50, max: 400 }, pingInterval: 200,
+    });
+    try {
+      await s.connect();
+      s.subscribe();
+      while (frames.length < 3) await sleep(20);
+      await srv.stop();
+      await sleep(300);
+      assert.ok(closes >= 1, 'the socket closed with the server');
+      frames.length = 0;
+      await srv.start();
+      await s.opened();
+      for (let i = 0; i < 200 && frames.length < 3; i++) await sleep(20);
+      assert.ok(frames.length >= 3, 'tick frames resume after the restart without a new subscribe');
+      assert.ok(s.reconnects >= 1);
+      await s.syncNow(3);
+      assert.ok(Math.abs(s.serverTime() - (wallSeconds() - EPOCH)) < 0.005);
+    } finally {
+      s.close();
+      await srv.dispose();
+    }
+  });
+});

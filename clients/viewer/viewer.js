@@ -1,0 +1,493 @@
+// The Swell viewer: renders a scene's sea with the server's exported GLSL ES shader (WebGL2),
+// FFT layers computed on the CPU from the exported spectrum and uploaded as textures, foam where
+// the surface folds (Jacobian ≤ 0), the scene's floating bodies from the stream (interpolated),
+// a HUD, a scene picker, an orbit camera and a click probe (server height beside the GPU's).
+// Read-only: only GET endpoints, /sample and the stream. Uses the swell-client package.
+import {
+  SwellClient, SwellSession, BodyInterpolator, Surface, FftLayer,
+} from '/viewer/assets/client/index.js';
+
+const $ = (id) => document.getElementById(id);
+const client = new SwellClient(location.origin);
+const state = {
+  ready: false, scene: null, errors: [], lastTick: null, probe: null, frames: 0,
+  tickHz: 30, origin: [0, 0], t: 0, fftT: NaN,
+};
+// For tests and tools: the viewer's live state and a few calls (see clients/js/test/viewer.test.js).
+window.swellViewer = state;
+
+// --- small matrix helpers (column-major, as GL wants) -------------------------------------------
+function perspective(fovy, aspect, near, far) {
+  const f = 1 / Math.tan(fovy / 2), nf = 1 / (near - far);
+  return [f / aspect, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) * nf, -1, 0, 0, 2 * far * near * nf, 0];
+}
+function lookAt(eye, at, up) {
+  const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+  const norm = (a) => { const l = Math.hypot(...a); return a.map((v) => v / l); };
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const z = norm(sub(eye, at)), x = norm(cross(up, z)), y = cross(z, x);
+  return [x[0], y[0], z[0], 0, x[1], y[1], z[1], 0, x[2], y[2], z[2], 0, -dot(x, eye), -dot(y, eye), -dot(z, eye), 1];
+}
+function mul(a, b) {
+  const o = new Array(16).fill(0);
+  for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) for (let k = 0; k < 4; k++) o[c * 4 + r] += a[k * 4 + r] * b[c * 4 + k];
+  return o;
+}
+function invert(m) {
+  const inv = new Array(16); const [a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, a30, a31, a32, a33] = m;
+  const b00 = a00 * a11 - a01 * a10, b01 = a00 * a12 - a02 * a10, b02 = a00 * a13 - a03 * a10, b03 = a01 * a12 - a02 * a11;
+  const b04 = a01 * a13 - a03 * a11, b05 = a02 * a13 - a03 * a12, b06 = a20 * a31 - a21 * a30, b07 = a20 * a32 - a22 * a30;
+  const b08 = a20 * a33 - a23 * a30, b09 = a21 * a32 - a22 * a31, b10 = a21 * a33 - a23 * a31, b11 = a22 * a33 - a23 * a32;
+  const det = 1 / (b00 * b11 - b01 * b10 + b02 * b09 + b03 * b08 - b04 * b07 + b05 * b06);
+  inv[0] = (a11 * b11 - a12 * b10 + a13 * b09) * det; inv[1] = (a02 * b10 - a01 * b11 - a03 * b09) * det;
+  inv[2] = (a31 * b05 - a32 * b04 + a33 * b03) * det; inv[3] = (a22 * b04 - a21 * b05 - a23 * b03) * det;
+  inv[4] = (a12 * b08 - a10 * b11 - a13 * b07) * det; inv[5] = (a00 * b11 - a02 * b08 + a03 * b07) * det;
+  inv[6] = (a32 * b02 - a30 * b05 - a33 * b01) * det; inv[7] = (a20 * b05 - a22 * b02 + a23 * b01) * det;
+  inv[8] = (a10 * b10 - a11 * b08 + a13 * b06) * det; inv[9] = (a01 * b08 - a00 * b10 - a03 * b06) * det;
+  inv[10] = (a30 * b04 - a31 * b02 + a33 * b00) * det; inv[11] = (a21 * b02 - a20 * b04 - a23 * b00) * det;
+  inv[12] = (a11 * b07 - a10 * b09 - a12 * b06) * det; inv[13] = (a00 * b09 - a01 * b07 + a02 * b06) * det;
+  inv[14] = (a31 * b01 - a30 * b03 - a32 * b00) * det; inv[15] = (a20 * b03 - a21 * b01 + a22 * b00) * det;
+  return inv;
+}
+function quatMat(q, s, p) {
+  const [x, y, z, w] = q;
+  const r = [1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
+    2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+    2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)];
+  return [r[0] * s[0], r[1] * s[0], r[2] * s[0], 0, r[3] * s[1], r[4] * s[1], r[5] * s[1], 0,
+    r[6] * s[2], r[7] * s[2], r[8] * s[2], 0, p[0], p[1], p[2], 1];
+}
+
+// --- shaders ------------------------------------------------------------------------------------
+
+// The exported vertex shader's own `main` is replaced by one that adds the FFT layers (read from
+// a texture the page fills from the CPU FFT) to `swell_sample` before the camera transform; every
+// `swell_*` function, the uniform blocks and the in/out declarations stay as exported.
+function seaVertexShader(exported) {
+  const at = exported.lastIndexOf('void main()');
+  if (at < 0) throw new Error('exported shader has no main()');
+  return `${exported.slice(0, at)}
+uniform highp sampler2D u_fft0;   // (Dx, h, Dz, dDx/dx)
+uniform highp sampler2D u_fft1;   // (dh/dx, dh/dz, dDz/dz, dDx/dz)
+uniform vec4 u_fft;               // (fract(origin.x / L), fract(origin.z / L), 1/L, enabled)
+uniform float u_fft_n;
+uniform mat4 u_view_proj;         // the camera (the exported block's name is naga's to choose)
+vec4 fftFetch(highp sampler2D tex, vec2 uv) {
+  vec2 g = uv * u_fft_n;
+  vec2 i0 = floor(g);
+  vec2 f = g - i0;
+  int n = int(u_fft_n);
+  ivec2 a = ivec2(mod(i0, u_fft_n));
+  ivec2 b = ivec2(mod(i0 + 1.0, u_fft_n));
+  vec4 v00 = texelFetch(tex, ivec2(a.x, a.y), 0), v10 = texelFetch(tex, ivec2(b.x, a.y), 0);
+  vec4 v01 = texelFetch(tex, ivec2(a.x, b.y), 0), v11 = texelFetch(tex, ivec2(b.x, b.y), 0);
+  return mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
+}
+void main() {
+  vec2 p_local = _p2vs_location0;
+  SwellSample s = swell_sample(p_local);
+  if (u_fft.w > 0.5) {
+    vec2 uv = u_fft.xy + p_local * u_fft.z;
+    vec4 a = fftFetch(u_fft0, uv);
+    vec4 b = fftFetch(u_fft1, uv);
+    s.displacement += a.xyz;
+    s.d_dx += vec3(a.w, b.x, b.w);
+    s.d_dz += vec3(b.w, b.y, b.z);
+  }
+  vec3 pos = vec3(p_local.x, 0.0, p_local.y) + s.displacement;
+  gl_Position = u_view_proj * vec4(pos, 1.0);
+  _vs2fs_location0 = pos;
+  _vs2fs_location1 = swell_normal(s);
+  _vs2fs_location2 = swell_jacobian(s);
+}
+`;
+}
+
+const SEA_FS = `#version 300 es
+precision highp float;
+smooth in vec3 _vs2fs_location0;
+smooth in vec3 _vs2fs_location1;
+smooth in float _vs2fs_location2;
+uniform vec3 u_eye;
+out vec4 color;
+void main() {
+  vec3 n = normalize(_vs2fs_location1);
+  vec3 v = normalize(u_eye - _vs2fs_location0);
+  vec3 sun = normalize(vec3(0.4, 0.55, 0.25));
+  float fres = 0.02 + 0.98 * pow(1.0 - max(dot(n, v), 0.0), 5.0);
+  vec3 deep = vec3(0.01, 0.10, 0.16), shallow = vec3(0.05, 0.32, 0.38), sky = vec3(0.55, 0.72, 0.86);
+  float crest = clamp(_vs2fs_location0.y * 0.25 + 0.5, 0.0, 1.0);
+  vec3 water = mix(deep, shallow, crest) * (0.35 + 0.65 * max(dot(n, sun), 0.0));
+  vec3 c = mix(water, sky, fres);
+  c += vec3(1.0, 0.95, 0.85) * pow(max(dot(reflect(-sun, n), v), 0.0), 180.0) * 1.5;
+  // Foam where the horizontal map folds (J <= 0) and fading in just before.
+  float foam = 1.0 - smoothstep(0.0, 0.35, _vs2fs_location2);
+  c = mix(c, vec3(0.92, 0.95, 0.97), foam * 0.85);
+  float fog = 1.0 - exp(-length(u_eye - _vs2fs_location0) * 0.0025);
+  color = vec4(mix(c, sky * 0.9, fog), 1.0);
+}`;
+
+const BODY_VS = `#version 300 es
+layout(location = 0) in vec3 a_pos;
+layout(location = 1) in vec3 a_normal;
+uniform mat4 u_view_proj;
+uniform mat4 u_model;
+out vec3 v_normal;
+void main() {
+  v_normal = mat3(u_model) * a_normal;
+  gl_Position = u_view_proj * u_model * vec4(a_pos, 1.0);
+}`;
+const BODY_FS = `#version 300 es
+precision highp float;
+in vec3 v_normal;
+uniform vec3 u_color;
+out vec4 color;
+void main() {
+  float l = 0.35 + 0.65 * max(dot(normalize(v_normal), normalize(vec3(0.4, 0.8, 0.3))), 0.0);
+  color = vec4(u_color * l, 1.0);
+}`;
+
+function compile(gl, vs, fs, what) {
+  const sh = (type, src) => {
+    const s = gl.createShader(type);
+    gl.shaderSource(s, src);
+    gl.compileShader(s);
+    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(`${what}: ${gl.getShaderInfoLog(s)}`);
+    return s;
+  };
+  const p = gl.createProgram();
+  gl.attachShader(p, sh(gl.VERTEX_SHADER, vs));
+  gl.attachShader(p, sh(gl.FRAGMENT_SHADER, fs));
+  gl.bindAttribLocation(p, 0, '_p2vs_location0');
+  gl.linkProgram(p);
+  if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(`${what} link: ${gl.getProgramInfoLog(p)}`);
+  const nb = gl.getProgramParameter(p, gl.ACTIVE_UNIFORM_BLOCKS);
+  for (let i = 0; i < nb; i++) {
+    gl.uniformBlockBinding(p, i, gl.getActiveUniformBlockName(p, i).startsWith('SwellCamera') ? 1 : 0);
+  }
+  return p;
+}
+
+// --- scene setup --------------------------------------------------------------------------------
+
+const canvas = $('sea');
+const gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true });
+if (!gl) throw new Error('WebGL2 is not available');
+const floatTargets = gl.getExtension('EXT_color_buffer_float');
+
+const camera = { yaw: 0.9, pitch: 0.42, dist: 70, target: [0, 0] };
+const GRID = 160;        // vertices per side of the sea mesh
+const SPAN = 480;        // metres the mesh covers
+const SNAP = SPAN / (GRID - 1); // the origin moves in whole grid cells: vertices stay put
+
+function sceneFromPath() {
+  const m = location.pathname.match(/^\/viewer\/([a-z0-9-]{1,64})\/?$/);
+  return m ? m[1] : null;
+}
+
+async function setup() {
+  const { scenes } = await client.scenes();
+  const wanted = sceneFromPath();
+  const id = wanted ?? (scenes.find((s) => s.id === 'open-sea') ?? scenes[0])?.id;
+  if (!id) throw new Error('the server has no scenes');
+  const sel = $('scene');
+  for (const s of scenes) {
+    const o = document.createElement('option');
+    o.value = s.id; o.textContent = `${s.id} (${s.layers.join(' + ')})`;
+    if (s.id === id) o.selected = true;
+    sel.append(o);
+  }
+  sel.onchange = () => { location.href = `/viewer/${sel.value}`; };
+  state.scene = id;
+
+  const detail = await client.scene(id);
+  state.tickHz = detail.spec.tick_hz ?? 30;
+  const fft = [];
+  const fftLayers = [];
+  for (const [i, l] of detail.derived.layers.entries()) {
+    if (l.kind !== 'fft') continue;
+    fft[i] = new FftLayer(await client.spectrum(id, i), { cacheFrames: 2 });
+    fftLayers.push(fft[i]);
+  }
+  const surface = Surface.fromDerived(detail.derived, { fft });
+  const [vs, pvs, pfs] = await Promise.all([
+    client.shader(id, 'glsl_es', { entry: 'swell_vs' }),
+    client.shader(id, 'glsl_es', { entry: 'swell_probe_vs' }),
+    client.shader(id, 'glsl_es', { entry: 'swell_probe_fs' }),
+  ]);
+  const sea = compile(gl, seaVertexShader(vs.text), SEA_FS, 'sea');
+  const probe = compile(gl, pvs.text, pfs.text, 'probe');
+  const body = compile(gl, BODY_VS, BODY_FS, 'body');
+
+  // Sea mesh: GRID² vertices in local x/z, triangles as an index list.
+  const verts = new Float32Array(GRID * GRID * 2);
+  for (let j = 0; j < GRID; j++) for (let i = 0; i < GRID; i++) {
+    verts[2 * (j * GRID + i)] = -SPAN / 2 + i * SNAP;
+    verts[2 * (j * GRID + i) + 1] = -SPAN / 2 + j * SNAP;
+  }
+  const idx = new Uint32Array((GRID - 1) * (GRID - 1) * 6);
+  let k = 0;
+  for (let j = 0; j < GRID - 1; j++) for (let i = 0; i < GRID - 1; i++) {
+    const a = j * GRID + i, b = a + 1, c = a + GRID, d = c + 1;
+    idx.set([a, c, b, b, c, d], k); k += 6;
+  }
+  const seaVao = gl.createVertexArray();
+  gl.bindVertexArray(seaVao);
+  gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+  gl.bufferData(gl.ARRAY_BUFFER, verts, gl.STATIC_DRAW);
+  gl.enableVertexAttribArray(0);
+  gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+  gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, gl.createBuffer());
+  gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, idx, gl.STATIC_DRAW);
+  gl.bindVertexArray(null);
+
+  // Unit box for hulls (±0.5), with face normals.
+  const boxV = [];
+  const faces = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[-1, 0, 0], [0, 1, 0], [0, 0, -1]], [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
+    [[0, -1, 0], [0, 0, -1], [1, 0, 0]], [[0, 0, 1], [1, 0, 0], [0, 1, 0]], [[0, 0, -1], [-1, 0, 0], [0, 1, 0]]];
+  for (const [n, u, v] of faces) {
+    const c = (su, sv) => [0, 1, 2].map((a) => 0.5 * (n[a] + su * u[a] + sv * v[a]));
+    for (const [su, sv] of [[-1, -1], [1, -1], [1, 1], [-1, -1], [1, 1], [-1, 1]]) boxV.push(...c(su, sv), ...n);
+  }
+  const boxVao = gl.createVertexArray();
+  gl.bindVertexArray(boxVao);
+  gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(boxV), gl.STATIC_DRAW);
+  gl.enableVertexAttribArray(0); gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
+  gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
+  gl.bindVertexArray(null);
+
+  // Uniform buffers: the waves' phases (binding 0) and the camera (binding 1).
+  const phasesUbo = gl.createBuffer();
+  const cameraUbo = gl.createBuffer();
+
+  // FFT textures (first FFT layer; the built-in scenes have one).
+  const fftLayer = fftLayers[0] ?? null;
+  const fftTex = [gl.createTexture(), gl.createTexture()];
+  if (fftLayer) {
+    for (const t of fftTex) {
+      gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, fftLayer.n, fftLayer.n);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    }
+  }
+  const uploadFft = (t) => {
+    const f = fftLayer.frame(t);
+    const n = fftLayer.n;
+    const a = new Float32Array(4 * n * n), b = new Float32Array(4 * n * n);
+    for (let r = 0; r < n * n; r++) {
+      a[4 * r] = f.dx[r]; a[4 * r + 1] = f.h[r]; a[4 * r + 2] = f.dz[r]; a[4 * r + 3] = f.jxx[r];
+      b[4 * r] = f.sx[r]; b[4 * r + 1] = f.sz[r]; b[4 * r + 2] = f.jzz[r]; b[4 * r + 3] = f.jxz[r];
+    }
+    gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, a);
+    gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, b);
+    fftLayer.cache.clear();
+  };
+
+  // The stream: clock sync, body states.
+  const interp = new BodyInterpolator({ delay: 3 / state.tickHz, capacity: 90 });
+  const session = new SwellSession(client.streamUrl(id), {
+    interpolator: interp,
+    onTick: (f) => { state.lastTick = f; },
+  });
+  await session.connect();
+  session.subscribe();
+  state.session = session;
+  state.interp = interp;
+  state.surface = surface;
+
+  /** The streamed state the page holds for `body` at `tick` (null if not buffered). */
+  state.bodyAtTick = (bid, tick) => {
+    const f = interp.frameAt(tick);
+    const b = f?.byId.get(bid);
+    return b ? { tick, t: f.t, position: b.position, rotation: b.rotation } : null;
+  };
+
+  let viewProj = null;
+  let eyeLocal = [0, 0, 0];
+  const frameUniforms = (t) => {
+    const origin = [Math.round(camera.target[0] / SNAP) * SNAP, Math.round(camera.target[1] / SNAP) * SNAP];
+    state.origin = origin;
+    const u = surface.uniforms(t, origin);
+    gl.bindBuffer(gl.UNIFORM_BUFFER, phasesUbo);
+    gl.bufferData(gl.UNIFORM_BUFFER, u.block, gl.DYNAMIC_DRAW);
+    gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, phasesUbo);
+    return origin;
+  };
+
+  /** GPU (exported probe shader) vs server (/sample) vs this client (CPU) at world (x, z). */
+  state.probeAt = async (wx, wz, t = session.serverTime()) => {
+    const origin = frameUniforms(t);
+    const local = [wx - origin[0], wz - origin[1]];
+    let gpu = null;
+    if (floatTargets) {
+      const fb = gl.createFramebuffer();
+      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+      const texs = [0, 1].map((a) => {
+        const tex = gl.createTexture();
+        gl.bindTexture(gl.TEXTURE_2D, tex);
+        gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 1, 1);
+        gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0 + a, gl.TEXTURE_2D, tex, 0);
+        return tex;
+      });
+      gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
+      gl.viewport(0, 0, 1, 1);
+      gl.useProgram(probe);
+      const vao = gl.createVertexArray();
+      gl.bindVertexArray(vao);
+      const vb = gl.createBuffer();
+      gl.bindBuffer(gl.ARRAY_BUFFER, vb);
+      gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([local[0], local[1], 0, 0]), gl.STATIC_DRAW);
+      gl.enableVertexAttribArray(0); gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 16, 0);
+      gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 2, gl.FLOAT, false, 16, 8);
+      gl.drawArrays(gl.POINTS, 0, 1);
+      const px = new Float32Array(4);
+      gl.readBuffer(gl.COLOR_ATTACHMENT1);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.FLOAT, px);
+      gpu = px[3];
+      gl.bindVertexArray(null);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+      gl.deleteFramebuffer(fb); texs.forEach((x) => gl.deleteTexture(x)); gl.deleteBuffer(vb); gl.deleteVertexArray(vao);
+    }
+    const server = (await client.sample(id, { t, points: [[wx, wz]] })).height[0];
+    const cpu = surface.height(wx, wz, t);
+    // Scenes with FFT layers: the exported shader holds the analytic layers only, so the GPU
+    // probe answers for those; the client's CPU evaluation (FFT from the spectrum) covers all.
+    state.probe = { world: [wx, wz], t, server, gpu, cpu, gpuLayers: fftLayers.length ? 'analytic layers only' : 'all layers' };
+    const mm = (v) => (v == null ? 'n/a' : `${v.toFixed(4)} m`);
+    $('probe').innerHTML = `probe (${wx.toFixed(2)}, ${wz.toFixed(2)}) at t = ${t.toFixed(3)} s<br>`
+      + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}${fftLayers.length ? ' (analytic layers)' : ''}`
+      + (gpu != null && !fftLayers.length ? ` · Δ ${((gpu - server) * 1000).toFixed(3)} mm` : '')
+      + `<br>client CPU ${mm(cpu)} · Δ ${((cpu - server) * 1000).toFixed(3)} mm`;
+    return state.probe;
+  };
+
+  // Camera controls.
+  let drag = null;
+  canvas.addEventListener('contextmenu', (e) => e.preventDefault());
+  canvas.addEventListener('mousedown', (e) => { drag = { x: e.clientX, y: e.clientY, moved: 0, pan: e.shiftKey || e.button === 2 }; });
+  window.addEventListener('mouseup', (e) => {
+    if (drag && drag.moved < 4 && e.target === canvas) {
+      const hit = pick(e.clientX, e.clientY);
+      if (hit) state.probeAt(hit[0], hit[1]).catch(report);
+    }
+    drag = null;
+  });
+  window.addEventListener('mousemove', (e) => {
+    if (!drag) return;
+    const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
+    drag.moved += Math.abs(dx) + Math.abs(dy);
+    drag.x = e.clientX; drag.y = e.clientY;
+    if (drag.pan) {
+      const s = camera.dist * 0.002;
+      const c = Math.cos(camera.yaw), sn = Math.sin(camera.yaw);
+      camera.target[0] -= (c * dx + sn * dy) * s * -1;
+      camera.target[1] -= (-sn * dx + c * dy) * s * -1;
+    } else {
+      camera.yaw -= dx * 0.005;
+      camera.pitch = Math.min(1.45, Math.max(0.05, camera.pitch + dy * 0.005));
+    }
+  });
+  canvas.addEventListener('wheel', (e) => {
+    e.preventDefault();
+    camera.dist = Math.min(400, Math.max(8, camera.dist * Math.exp(e.deltaY * 0.001)));
+  }, { passive: false });
+
+  // Screen point → world (x, z) on the plane y = 0.
+  const pick = (cx, cy) => {
+    if (!viewProj) return null;
+    const r = canvas.getBoundingClientRect();
+    const nx = ((cx - r.left) / r.width) * 2 - 1, ny = 1 - ((cy - r.top) / r.height) * 2;
+    const inv = invert(viewProj);
+    const un = (z) => { const v = [0, 1, 2, 3].map((i) => inv[i] * nx + inv[4 + i] * ny + inv[8 + i] * z + inv[12 + i]); return v.slice(0, 3).map((a) => a / v[3]); };
+    const a = un(-1), b = un(1);
+    const dir = b.map((v, i) => v - a[i]);
+    if (Math.abs(dir[1]) < 1e-9) return null;
+    const s = -a[1] / dir[1];
+    if (s < 0) return null;
+    return [state.origin[0] + a[0] + s * dir[0], state.origin[1] + a[2] + s * dir[2]];
+  };
+  state.pick = pick;
+
+  const hullSize = [8, 1.5, 3]; // length (x), height (y), beam (z): hull dimensions are not on the wire yet
+  const render = () => {
+    const dpr = Math.min(window.devicePixelRatio || 1, 2);
+    const w = Math.floor(canvas.clientWidth * dpr), h = Math.floor(canvas.clientHeight * dpr);
+    if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
+    const t = session.serverTime();
+    state.t = t;
+    // FFT frames on the CPU: one transform set per 1/10 s of scene time (they are the slow part).
+    if (fftLayer && !(Math.abs(t - state.fftT) < 0.1)) { uploadFft(t); state.fftT = t; }
+    const origin = frameUniforms(t);
+    const tl = [camera.target[0] - origin[0], camera.target[1] - origin[1]];
+    const eye = [tl[0] + camera.dist * Math.cos(camera.pitch) * Math.cos(camera.yaw), camera.dist * Math.sin(camera.pitch),
+      tl[1] + camera.dist * Math.cos(camera.pitch) * Math.sin(camera.yaw)];
+    eyeLocal = eye;
+    viewProj = mul(perspective(0.9, w / h, 0.5, 3000), lookAt(eye, [tl[0], 0, tl[1]], [0, 1, 0]));
+    gl.bindBuffer(gl.UNIFORM_BUFFER, cameraUbo);
+    gl.bufferData(gl.UNIFORM_BUFFER, new Float32Array(viewProj), gl.DYNAMIC_DRAW);
+    gl.bindBufferBase(gl.UNIFORM_BUFFER, 1, cameraUbo);
+
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.viewport(0, 0, w, h);
+    gl.clearColor(0.5, 0.66, 0.8, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.enable(gl.DEPTH_TEST);
+    gl.useProgram(sea);
+    gl.uniform3fv(gl.getUniformLocation(sea, 'u_eye'), eyeLocal);
+    gl.uniformMatrix4fv(gl.getUniformLocation(sea, 'u_view_proj'), false, viewProj);
+    if (fftLayer) {
+      const L = fftLayer.L;
+      const fr = (v) => { const q = v / L; return q - Math.floor(q); };
+      gl.uniform4f(gl.getUniformLocation(sea, 'u_fft'), fr(origin[0]), fr(origin[1]), 1 / L, 1);
+      gl.uniform1f(gl.getUniformLocation(sea, 'u_fft_n'), fftLayer.n);
+      gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+      gl.uniform1i(gl.getUniformLocation(sea, 'u_fft0'), 0);
+      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
+      gl.uniform1i(gl.getUniformLocation(sea, 'u_fft1'), 1);
+    } else {
+      gl.uniform4f(gl.getUniformLocation(sea, 'u_fft'), 0, 0, 0, 0);
+      gl.uniform1f(gl.getUniformLocation(sea, 'u_fft_n'), 1);
+    }
+    gl.bindVertexArray(seaVao);
+    gl.drawElements(gl.TRIANGLES, idx.length, gl.UNSIGNED_INT, 0);
+
+    // Bodies at server time minus the interpolation delay.
+    const bodies = interp.at(t);
+    gl.useProgram(body);
+    gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_view_proj'), false, viewProj);
+    gl.bindVertexArray(boxVao);
+    for (const b of bodies.values()) {
+      const p = [b.position[0] - origin[0], b.position[1], b.position[2] - origin[1]];
+      gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_model'), false, quatMat(b.rotation, hullSize, p));
+      gl.uniform3fv(gl.getUniformLocation(body, 'u_color'), [0.86, 0.42, 0.16]);
+      gl.drawArrays(gl.TRIANGLES, 0, 36);
+    }
+    gl.bindVertexArray(null);
+    state.bodies = bodies;
+    state.frames++;
+
+    const st = session.clockStats();
+    const tick = state.lastTick;
+    $('hud').innerHTML = `<b>${id}</b> · model v${detail.model_version}<br>`
+      + `scene time ${t.toFixed(3)} s<br>tick ${tick ? tick.tick : '—'} (${state.tickHz} Hz)<br>`
+      + `RTT ${(st.rtt * 1000).toFixed(2)} ms (min ${(st.minRtt * 1000).toFixed(2)})<br>`
+      + `clock offset ${st.offset.toFixed(4)} s ± ${(st.minRtt * 500).toFixed(2)} ms · drift ${(st.drift * 1e6).toFixed(1)} ppm<br>`
+      + `bodies ${bodies.size}${[...bodies.values()].slice(0, 3).map((b) => `<br>#${b.id} (${b.position.map((v) => v.toFixed(2)).join(', ')}) ${b.mode}`).join('')}`;
+    state.ready = true;
+    requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } });
+  };
+  render();
+}
+
+function report(e) {
+  state.errors.push(String(e?.stack ?? e));
+  console.error(e);
+  $('hud').textContent = `error: ${e?.message ?? e}`;
+}
+
+setup().catch(report);

@@ -1,0 +1,97 @@
+//! The browser viewer: `GET /viewer` and `/viewer/{scene}` serve a page that renders a scene's
+//! sea with the exported shaders and its floating bodies from the stream; `/viewer/assets/…`
+//! serves its script and the `swell-client` package it runs on.
+//!
+//! Every asset is built into the binary (`include_str!`): the page works offline and needs no
+//! CDN. It is read-only: it calls GET endpoints, `POST …/sample` and the stream, never an admin
+//! endpoint. Sources: `clients/viewer/` (page and script) and `clients/js/src/` (the package).
+
+use axum::Router;
+use axum::extract::Path;
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+
+use crate::error::ApiError;
+use crate::state::AppState;
+
+const INDEX_HTML: &str = include_str!("../../clients/viewer/index.html");
+const VIEWER_JS: &str = include_str!("../../clients/viewer/viewer.js");
+
+/// The `swell-client` package's modules, by file name (what `viewer.js` imports from
+/// `/viewer/assets/client/`).
+const CLIENT: &[(&str, &str)] = &[
+    ("index.js", include_str!("../../clients/js/src/index.js")),
+    ("client.js", include_str!("../../clients/js/src/client.js")),
+    ("errors.js", include_str!("../../clients/js/src/errors.js")),
+    ("fft.js", include_str!("../../clients/js/src/fft.js")),
+    ("interp.js", include_str!("../../clients/js/src/interp.js")),
+    ("math.js", include_str!("../../clients/js/src/math.js")),
+    ("proto.js", include_str!("../../clients/js/src/proto.js")),
+    (
+        "session.js",
+        include_str!("../../clients/js/src/session.js"),
+    ),
+    (
+        "surface.js",
+        include_str!("../../clients/js/src/surface.js"),
+    ),
+];
+
+/// The viewer's routes (merged into the API router).
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/viewer", get(page))
+        .route("/viewer/", get(page))
+        .route("/viewer/{scene}", get(page))
+        .route("/viewer/assets/viewer.js", get(script))
+        .route("/viewer/assets/client/{file}", get(client_module))
+}
+
+fn asset(content_type: &'static str, body: &'static str) -> Response {
+    let mut r = (StatusCode::OK, body).into_response();
+    let h = r.headers_mut();
+    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
+    // The assets change only with the binary; revalidation is cheap and avoids stale scripts.
+    h.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-cache"));
+    r
+}
+
+/// The page. The scene comes from the path (the script reads it), so an unknown scene still
+/// gets the page, which shows the server's `not_found` and offers the picker.
+async fn page() -> Response {
+    asset("text/html; charset=utf-8", INDEX_HTML)
+}
+
+async fn script() -> Response {
+    asset("text/javascript; charset=utf-8", VIEWER_JS)
+}
+
+async fn client_module(Path(file): Path<String>) -> Result<Response, ApiError> {
+    CLIENT
+        .iter()
+        .find(|(name, _)| *name == file)
+        .map(|(_, body)| asset("text/javascript; charset=utf-8", body))
+        .ok_or_else(|| ApiError::new(StatusCode::NOT_FOUND, "not_found", "no such viewer asset"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every module the package's index imports is served, so the page cannot 404 on an import.
+    #[test]
+    fn every_client_import_is_served() {
+        for (name, body) in CLIENT {
+            for dep in body.split("from './").skip(1) {
+                let file = dep.split('\'').next().unwrap();
+                assert!(
+                    CLIENT.iter().any(|(n, _)| *n == file),
+                    "{name} imports {file}"
+                );
+            }
+        }
+        assert!(VIEWER_JS.contains("/viewer/assets/client/index.js"));
+        assert!(!INDEX_HTML.contains("https://") && !VIEWER_JS.contains("https://"));
+    }
+}
