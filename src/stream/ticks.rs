@@ -43,7 +43,7 @@ const MAX_SLEEP: Duration = Duration::from_millis(50);
 const MIN_SLEEP: Duration = Duration::from_millis(1);
 
 /// Longest wait for the body loop's states of a frame's tick, in tick periods (and never more
-/// than [`MAX_SLEEP`]).
+/// than `MAX_SLEEP`, 50 ms).
 pub const BODY_WAIT_TICKS: f64 = 1.0;
 
 /// The registry of running tick loops, by scene id.
