@@ -40,6 +40,7 @@ pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod frames;
+pub mod impacts;
 pub mod journal;
 pub mod scene;
 pub mod state;

@@ -169,7 +169,8 @@ impl SharedTick {
         match codec {
             Codec::Json => {
                 let tail = format!(
-                    "],\"t\":{},\"tick\":{},\"type\":\"tick\"}}",
+                    "]{},\"t\":{},\"tick\":{},\"type\":\"tick\"}}",
+                    impacts_json(&self.tick),
                     serde_json::to_string(&self.tick.t).unwrap_or_default(),
                     self.tick.tick
                 );
@@ -192,8 +193,10 @@ impl SharedTick {
                     tick: self.tick.tick,
                     t: self.tick.t,
                     bodies: Vec::new(),
+                    impacts: Vec::new(),
                 }
                 .encode_to_vec();
+                let impacts = impacts_protobuf(&self.tick);
                 let body_len: usize = chosen
                     .iter()
                     .map(|&i| {
@@ -201,7 +204,7 @@ impl SharedTick {
                         1 + encoded_len_varint(n as u64) + n
                     })
                     .sum();
-                let tick_len = head.len() + body_len;
+                let tick_len = head.len() + body_len + impacts.len();
                 let mut out = BytesMut::with_capacity(tick_len + 12);
                 encode_key(SERVER_MESSAGE_TICK, WireType::LengthDelimited, &mut out);
                 encode_varint(tick_len as u64, &mut out);
@@ -211,6 +214,7 @@ impl SharedTick {
                     encode_varint(parts[i].len() as u64, &mut out);
                     out.put_slice(&parts[i]);
                 }
+                out.put_slice(&impacts);
                 out.freeze()
             }
         }
@@ -226,6 +230,7 @@ impl SharedTick {
                 .iter()
                 .map(|&i| self.tick.bodies[i])
                 .collect::<Vec<BodyState>>(),
+            impacts: self.tick.impacts.clone(),
         };
         let out = Outgoing {
             id: None,
@@ -237,6 +242,31 @@ impl SharedTick {
             Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
         }
     }
+}
+
+/// The frame's impacts as the JSON fragment `,"impacts":[…]` that sits between `bodies` and
+/// `t` (keys sorted), or nothing when there are none (the field is omitted).
+fn impacts_json(tick: &Tick) -> String {
+    if tick.impacts.is_empty() {
+        return String::new();
+    }
+    format!(
+        ",\"impacts\":{}",
+        serde_json::to_string(&serde_json::to_value(&tick.impacts).unwrap_or_default())
+            .unwrap_or_default()
+    )
+}
+
+/// The frame's impacts as `swell.v1.Tick` field 4 entries (after the bodies, in tag order).
+fn impacts_protobuf(tick: &Tick) -> Vec<u8> {
+    if tick.impacts.is_empty() {
+        return Vec::new();
+    }
+    v1::Tick {
+        impacts: crate::impacts::to_proto(&tick.impacts),
+        ..Default::default()
+    }
+    .encode_to_vec()
 }
 
 fn wrap(codec: Codec, bytes: Bytes) -> Message {
@@ -293,6 +323,7 @@ mod tests {
                 tick: tick_no,
                 t,
                 bodies: (0..7).map(|i| body(i * 3, i as f64 + 0.37)).collect(),
+                impacts: Vec::new(),
             };
             let shared = SharedTick::new(tick.clone());
             for codec in [Codec::Json, Codec::Protobuf] {
@@ -330,6 +361,7 @@ mod tests {
             tick: 1,
             t: 0.5,
             bodies: (0..7).map(|i| body(i * 3, i as f64 + 0.37)).collect(),
+            impacts: Vec::new(),
         };
         let shared = SharedTick::new(tick.clone());
         let ids = |i: &Interest| -> Vec<u64> {
@@ -359,6 +391,7 @@ mod tests {
             tick: 3,
             t: 0.1,
             bodies: vec![body(1, 2.0), bad],
+            impacts: Vec::new(),
         });
         let all = Interest::default();
         let text = String::from_utf8(bytes(shared.message(Codec::Json, &all))).unwrap();

@@ -128,6 +128,11 @@ async fn run(
     mut hook: Option<Box<dyn TickHook>>,
 ) {
     let mut last: Option<i64> = None;
+    // Impacts added before the loop started are not news: a joining client lists them with
+    // `GET …/impacts`; frames carry those accepted since (see `crate::impacts`).
+    let mut impacts_seen = state
+        .scene(&id)
+        .map_or(0, |e| e.scene.impacts.since(u64::MAX).0);
     loop {
         let keep = hook.as_ref().is_some_and(|h| h.keeps_alive());
         let entry = {
@@ -173,7 +178,13 @@ async fn run(
                 None => Vec::new(),
             };
             // An error only means no receiver right now; the next turn decides whether to stop.
-            let _ = tx.send(Arc::new(SharedTick::new(Tick { tick, t, bodies })));
+            let impacts = crate::impacts::frame_events(&entry.scene, &mut impacts_seen);
+            let _ = tx.send(Arc::new(SharedTick::new(Tick {
+                tick,
+                t,
+                bodies,
+                impacts,
+            })));
             metrics::counter!("swell_ticks_total").increment(1);
             last = Some(tick);
         }

@@ -72,6 +72,7 @@
 
 pub mod error;
 pub mod lang;
+pub mod particles;
 pub mod spectrum;
 pub mod translate;
 pub mod uniforms;
