@@ -79,6 +79,7 @@ pub async fn create(
             ));
         }
         let bid = b.spawn(&req)?;
+        cell.publish(&b);
         let seq = journal_events(&state, &id, &mut b);
         (b.state(bid)?, seq)
     };
@@ -141,6 +142,7 @@ pub async fn delete(
     let removed = {
         let mut b = cell.lock();
         if b.remove(bid) {
+            cell.publish(&b);
             Some(journal_events(&state, &id, &mut b)?)
         } else {
             None

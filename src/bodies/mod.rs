@@ -357,28 +357,6 @@ impl SceneBodies {
         }
     }
 
-    /// Steps forward to `target` only if it is ahead by at most [`MAX_CATCH_UP_TICKS`] and the
-    /// scene settings are unchanged; never re-anchors. For readers that run beside the body loop
-    /// (the WebSocket tick hook): they may read the clock a moment before the loop did, and a
-    /// tick behind the world is then lag, not a clock jump. Jumps are the body loop's to handle.
-    pub fn catch_up_to(
-        &mut self,
-        target: i64,
-        surface: &Surface,
-        tick_hz: f64,
-        gravity: f64,
-    ) -> u32 {
-        let now = self.tick();
-        if target <= now
-            || target - now > MAX_CATCH_UP_TICKS
-            || tick_hz != self.tick_hz
-            || gravity != self.gravity
-        {
-            return 0;
-        }
-        self.advance_to(target, surface, tick_hz, gravity).steps
-    }
-
     /// Starts a new world at scene tick `tick` with every body's current state and the inputs
     /// that are not over yet (shifted to the new anchor).
     fn reanchor(&mut self, tick: i64, tick_hz: f64, gravity: f64) {

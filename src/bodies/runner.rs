@@ -1,28 +1,42 @@
 //! The per-scene body loop and the registry of scenes' bodies.
 //!
-//! A scene's loop runs while the scene has bodies: each tick of a tokio interval at the scene's
-//! tick rate it advances the bodies to the scene clock's current tick (off the reactor, in
-//! `spawn_blocking`: 1,000 bodies take milliseconds). Readers take the states from the body
-//! world itself, under its lock: the HTTP body endpoints, and the WebSocket tick loop through
-//! [`BodiesHook`] (which first catches the bodies up to its frame's tick). Nothing is queued for
-//! readers, so a slow one never holds memory or delays the loop. Missed interval ticks are skipped, not bunched: the next iteration simply steps several
-//! fixed ticks to catch up with the clock, so lateness never changes the trajectory.
+//! A scene's loop runs while the scene has bodies, and it is the only thing that steps them: it
+//! wakes when the scene clock crosses a tick boundary, advances the bodies to the clock's current
+//! tick (off the reactor, in `spawn_blocking`: 1,000 bodies take milliseconds) and publishes
+//! their states ([`Published`], a `watch` channel: readers get the latest, nothing is queued for
+//! them, so a slow reader never holds memory or delays the loop). The WebSocket tick loop waits
+//! for the states of its frame's tick there ([`SceneBodiesCell::states_at`]); the HTTP body
+//! endpoints read the world under its lock. A late wake-up is not bunched: the next iteration
+//! simply steps several fixed ticks to catch up with the clock, so lateness never changes the
+//! trajectory.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use tokio::sync::watch;
+
 use super::{BodiesRecord, BodyState, SceneBodies};
 use crate::error::ApiError;
 use crate::state::AppState;
 
-/// One scene's bodies and their loop flag.
+/// The bodies' states as the body loop (or an admin change) last left them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Published {
+    /// Scene tick of the states.
+    pub tick: i64,
+    /// States in id order.
+    pub states: Arc<Vec<BodyState>>,
+}
+
+/// One scene's bodies, their loop flag and their published states.
 #[derive(Debug)]
 pub struct SceneBodiesCell {
     /// The body world. Locked for a step (milliseconds) or a read.
     pub bodies: Mutex<SceneBodies>,
     running: AtomicBool,
+    published: watch::Sender<Published>,
 }
 
 impl SceneBodiesCell {
@@ -30,6 +44,43 @@ impl SceneBodiesCell {
     /// whole states).
     pub fn lock(&self) -> std::sync::MutexGuard<'_, SceneBodies> {
         self.bodies.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Publishes `b`'s states (call with the lock held, after a step or an admin change, so
+    /// publications are in the world's order).
+    pub fn publish(&self, b: &SceneBodies) {
+        self.published.send_replace(Published {
+            tick: b.tick(),
+            states: Arc::new(b.states(None)),
+        });
+    }
+
+    /// The latest published states.
+    pub fn latest(&self) -> Published {
+        self.published.borrow().clone()
+    }
+
+    /// The states the body loop publishes for scene tick `tick`, waiting for them up to `wait`.
+    /// Reached means: published at `tick`, or beyond it in the clock's direction (`forward`: the
+    /// clock runs forward) when the loop has already moved on. On timeout (the loop is
+    /// overloaded, or stopped: no bodies) the latest states come back, and `exact` is false.
+    pub async fn states_at(&self, tick: i64, forward: bool, wait: Duration) -> (Published, bool) {
+        let mut rx = self.published.subscribe();
+        let reached = |p: &Published| {
+            p.tick == tick || (forward && p.tick > tick) || (!forward && p.tick < tick)
+        };
+        let got = tokio::time::timeout(wait, rx.wait_for(|p| reached(p)))
+            .await
+            .ok()
+            .and_then(Result::ok)
+            .map(|p| p.clone());
+        match got {
+            Some(p) => {
+                let exact = p.tick == tick;
+                (p, exact)
+            }
+            None => (self.latest(), false),
+        }
     }
 }
 
@@ -123,9 +174,14 @@ impl BodyRegistry {
 }
 
 fn new_cell(bodies: SceneBodies) -> SceneBodiesCell {
+    let (published, _) = watch::channel(Published {
+        tick: bodies.tick(),
+        states: Arc::new(bodies.states(None)),
+    });
     SceneBodiesCell {
         bodies: Mutex::new(bodies),
         running: AtomicBool::new(false),
+        published,
     }
 }
 
@@ -142,35 +198,18 @@ pub fn ensure_running(state: &AppState, id: &str, cell: &Arc<SceneBodiesCell>) {
     }
 }
 
-fn interval_for(tick_hz: f64) -> tokio::time::Interval {
-    let mut i = tokio::time::interval(Duration::from_secs_f64(1.0 / tick_hz));
-    i.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    i
-}
-
 /// The loop of one scene: see the module docs. Exits when the scene is deleted, has no bodies
 /// left, or the server stops.
 async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
-    let mut hz = match state.scene(&id) {
-        Ok(e) => e.scene.spec.tick_hz,
-        Err(_) => {
-            cell.running.store(false, Ordering::SeqCst);
-            return;
-        }
-    };
-    let mut interval = interval_for(hz);
     tracing::debug!(scene = %id, "body loop started");
+    let mut planned: Option<Instant> = None;
     loop {
-        // The shutdown token ends the loop at once (not a tick later); the final snapshot is
-        // taken after every loop has ended.
-        let scheduled = tokio::select! {
-            () = state.shutdown.cancelled() => break,
-            s = interval.tick() => s,
-        };
-        let lateness = scheduled.elapsed().as_secs_f64();
-        metrics::histogram!("swell_tick_lateness_seconds").record(lateness);
+        if let Some(p) = planned {
+            let lateness = Instant::now().saturating_duration_since(p).as_secs_f64();
+            metrics::histogram!("swell_tick_lateness_seconds").record(lateness);
+        }
         let entry = match state.scene(&id) {
-            Ok(e) if !state.bodies.is_stopping() => e,
+            Ok(e) if !state.bodies.is_stopping() && !state.shutdown.is_cancelled() => e,
             _ => break,
         };
         let still_registered = state
@@ -194,6 +233,9 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             let start = Instant::now();
             let adv = b.advance_to(target, &scene.surface, scene_hz, gravity);
             let took = start.elapsed();
+            if adv.steps > 0 || adv.reanchored {
+                stepping.publish(&b);
+            }
             // A re-anchor is journaled under the same lock, in order with the API's changes
             // (not waited for: nothing was acknowledged; the next commit's fsync covers it).
             if let Err(e) = crate::journal::snapshot::append_body_events(
@@ -236,58 +278,19 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
                 break;
             }
         }
-        if scene_hz != hz {
-            hz = scene_hz;
-            interval = interval_for(hz);
+        // Sleep until the clock crosses the next tick boundary, read after the step so the step's
+        // own duration is not slept again; the tick loop wakes at the same boundary and waits for
+        // this loop's states.
+        let r = state.read_clock(&entry);
+        let wait = crate::stream::ticks::until_next_tick(r.t, r.tick, r.tick_hz, r.rate, r.paused);
+        planned = Some(Instant::now() + wait);
+        // The shutdown token ends the loop at once (not a tick later); the final snapshot is
+        // taken after every loop has ended.
+        tokio::select! {
+            () = state.shutdown.cancelled() => break,
+            () = tokio::time::sleep(wait) => {}
         }
     }
     cell.running.store(false, Ordering::SeqCst);
     tracing::debug!(scene = %id, "body loop stopped");
-}
-
-/// The tick loop's body hook ([`crate::stream::ticks::TickHook`]): before each WebSocket tick
-/// frame, catch the scene's bodies (if any) up to the frame's tick and put their states in it.
-/// Advancing is idempotent, so this and the body loop never step a tick twice; whichever comes
-/// first steps and the other reads. Only the body loop handles clock jumps (seek, reverse):
-/// during one, frames carry the bodies' latest states. The body loop keeps simulating without subscribers, so this
-/// hook does not keep the tick loop alive.
-#[derive(Debug)]
-pub struct BodiesHook {
-    state: AppState,
-    scene: String,
-}
-
-impl BodiesHook {
-    /// The hook for scene `scene`.
-    pub fn new(state: AppState, scene: &str) -> BodiesHook {
-        BodiesHook {
-            state,
-            scene: scene.to_owned(),
-        }
-    }
-}
-
-impl crate::stream::ticks::TickHook for BodiesHook {
-    fn on_tick(
-        &mut self,
-        scene: &crate::scene::Scene,
-        _previous: Option<i64>,
-        tick: i64,
-        _t: f64,
-    ) -> Vec<BodyState> {
-        let Some(cell) = self.state.bodies.get(&self.scene) else {
-            return Vec::new();
-        };
-        let mut b = cell.lock();
-        if b.is_empty() {
-            return Vec::new();
-        }
-        b.catch_up_to(
-            tick,
-            &scene.surface,
-            scene.spec.tick_hz,
-            scene.spec.surface.gravity,
-        );
-        b.states(None)
-    }
 }

@@ -29,13 +29,15 @@ use crate::wire::v1;
 
 use super::messages::{self, Codec, Event, Outgoing, Region};
 
-/// A subscriber's interest set: the bodies a frame carries for it.
+/// A subscriber's interest set: the bodies a frame carries for it, and in which form.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Interest {
     /// Body ids, sorted, without repeats.
     bodies: Vec<u64>,
     /// Bodies whose position (x, z) lies in this rectangle, re-evaluated every frame.
     region: Option<Region>,
+    /// Compact states ([`super::compact`]; protobuf only) instead of the full ones.
+    compact: bool,
 }
 
 impl Interest {
@@ -43,7 +45,17 @@ impl Interest {
     pub fn new(mut bodies: Vec<u64>, region: Option<Region>) -> Self {
         bodies.sort_unstable();
         bodies.dedup();
-        Self { bodies, region }
+        Self {
+            bodies,
+            region,
+            compact: false,
+        }
+    }
+
+    /// The same set with compact body states (protobuf frames only; JSON frames ignore it).
+    #[must_use]
+    pub fn compact(self, compact: bool) -> Self {
+        Self { compact, ..self }
     }
 
     /// Whether this is every body of the scene.
@@ -61,9 +73,32 @@ impl Interest {
     }
 }
 
-/// `swell.v1.ServerMessage.tick` and `swell.v1.Tick.bodies` field numbers.
+/// `swell.v1.ServerMessage.tick`, `swell.v1.Tick.bodies`, `Tick.compact`, `CompactBodies.origin`
+/// and `CompactBodies.bodies` field numbers.
 const SERVER_MESSAGE_TICK: u32 = 5;
 const TICK_BODIES: u32 = 3;
+const TICK_COMPACT: u32 = 4;
+const COMPACT_ORIGIN: u32 = 1;
+const COMPACT_BODIES: u32 = 2;
+
+/// What a subscriber's frame is encoded as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Form {
+    Json,
+    Protobuf,
+    /// Protobuf with [`v1::CompactBodies`].
+    Compact,
+}
+
+impl Form {
+    fn of(codec: Codec, interest: &Interest) -> Form {
+        match codec {
+            Codec::Json => Form::Json,
+            Codec::Protobuf if interest.compact => Form::Compact,
+            Codec::Protobuf => Form::Protobuf,
+        }
+    }
+}
 
 /// Per-codec encodings of the body states, made on first demand.
 #[derive(Default)]
@@ -82,6 +117,9 @@ pub struct SharedTick {
     finite: OnceLock<Vec<bool>>,
     json: Encoded,
     protobuf: Encoded,
+    compact: Encoded,
+    /// The compact form's origin ([`super::compact::origin`] of every body of the frame).
+    origin: OnceLock<[f64; 3]>,
 }
 
 impl std::fmt::Debug for SharedTick {
@@ -100,6 +138,8 @@ impl SharedTick {
             finite: OnceLock::new(),
             json: Encoded::default(),
             protobuf: Encoded::default(),
+            compact: Encoded::default(),
+            origin: OnceLock::new(),
         }
     }
 
@@ -113,24 +153,33 @@ impl SharedTick {
         })
     }
 
-    fn encoded(&self, codec: Codec) -> &Encoded {
-        match codec {
-            Codec::Json => &self.json,
-            Codec::Protobuf => &self.protobuf,
+    fn encoded(&self, form: Form) -> &Encoded {
+        match form {
+            Form::Json => &self.json,
+            Form::Protobuf => &self.protobuf,
+            Form::Compact => &self.compact,
         }
     }
 
-    fn bodies(&self, codec: Codec) -> &[Bytes] {
-        self.encoded(codec).bodies.get_or_init(|| {
+    fn origin(&self) -> [f64; 3] {
+        *self
+            .origin
+            .get_or_init(|| super::compact::origin(&self.tick.bodies))
+    }
+
+    fn bodies(&self, form: Form) -> &[Bytes] {
+        self.encoded(form).bodies.get_or_init(|| {
+            let origin = self.origin();
             self.tick
                 .bodies
                 .iter()
-                .map(|b| match codec {
-                    Codec::Json => Bytes::from(
+                .map(|b| match form {
+                    Form::Json => Bytes::from(
                         serde_json::to_vec(&serde_json::to_value(b).unwrap_or_default())
                             .unwrap_or_default(),
                     ),
-                    Codec::Protobuf => Bytes::from(v1::BodyState::from(*b).encode_to_vec()),
+                    Form::Protobuf => Bytes::from(v1::BodyState::from(*b).encode_to_vec()),
+                    Form::Compact => Bytes::from(super::compact::encode(b, origin).encode_to_vec()),
                 })
                 .collect()
         })
@@ -152,22 +201,24 @@ impl SharedTick {
         if !self.tick.t.is_finite() || chosen.iter().any(|&i| !finite[i]) {
             return self.checked_slow_path(codec, &chosen);
         }
-        let bytes = if interest.is_all() {
-            self.encoded(codec)
+        let form = Form::of(codec, interest);
+        let all = interest.bodies.is_empty() && interest.region.is_none();
+        let bytes = if all {
+            self.encoded(form)
                 .full
-                .get_or_init(|| self.assemble(codec, &chosen))
+                .get_or_init(|| self.assemble(form, &chosen))
                 .clone()
         } else {
-            self.assemble(codec, &chosen)
+            self.assemble(form, &chosen)
         };
         wrap(codec, bytes)
     }
 
     /// Builds the frame carrying the bodies at `chosen` from their pre-encoded states.
-    fn assemble(&self, codec: Codec, chosen: &[usize]) -> Bytes {
-        let parts = self.bodies(codec);
-        match codec {
-            Codec::Json => {
+    fn assemble(&self, form: Form, chosen: &[usize]) -> Bytes {
+        let parts = self.bodies(form);
+        match form {
+            Form::Json => {
                 let tail = format!(
                     "]{},\"t\":{},\"tick\":{},\"type\":\"tick\"}}",
                     impacts_json(&self.tick),
@@ -186,31 +237,48 @@ impl SharedTick {
                 out.put_slice(tail.as_bytes());
                 out.freeze()
             }
-            Codec::Protobuf => {
+            Form::Protobuf | Form::Compact => {
                 // Tick: its scalar fields as prost writes them (defaults omitted), then each body
-                // as a length-delimited field 3; prost writes fields in tag order, so do we.
+                // as a length-delimited field 3, or the compact bodies as field 4 (origin, then
+                // each body); prost writes fields in tag order, so do we.
                 let head = v1::Tick {
                     tick: self.tick.tick,
                     t: self.tick.t,
                     bodies: Vec::new(),
+                    compact: None,
                     impacts: Vec::new(),
                 }
                 .encode_to_vec();
+                // Impacts (field 5) come after the bodies (3) or the compact bodies (4).
                 let impacts = impacts_protobuf(&self.tick);
-                let body_len: usize = chosen
-                    .iter()
-                    .map(|&i| {
-                        let n = parts[i].len();
-                        1 + encoded_len_varint(n as u64) + n
-                    })
-                    .sum();
-                let tick_len = head.len() + body_len + impacts.len();
+                let field_len = |n: usize| 1 + encoded_len_varint(n as u64) + n;
+                let body_len: usize = chosen.iter().map(|&i| field_len(parts[i].len())).sum();
+                let origin = (form == Form::Compact).then(|| {
+                    let [x, y, z] = self.origin();
+                    v1::Vec3 { x, y, z }.encode_to_vec()
+                });
+                let tick_len = head.len()
+                    + match &origin {
+                        Some(o) => field_len(field_len(o.len()) + body_len),
+                        None => body_len,
+                    }
+                    + impacts.len();
                 let mut out = BytesMut::with_capacity(tick_len + 12);
                 encode_key(SERVER_MESSAGE_TICK, WireType::LengthDelimited, &mut out);
                 encode_varint(tick_len as u64, &mut out);
                 out.put_slice(&head);
+                let body_field = if let Some(o) = &origin {
+                    encode_key(TICK_COMPACT, WireType::LengthDelimited, &mut out);
+                    encode_varint((field_len(o.len()) + body_len) as u64, &mut out);
+                    encode_key(COMPACT_ORIGIN, WireType::LengthDelimited, &mut out);
+                    encode_varint(o.len() as u64, &mut out);
+                    out.put_slice(o);
+                    COMPACT_BODIES
+                } else {
+                    TICK_BODIES
+                };
                 for &i in chosen {
-                    encode_key(TICK_BODIES, WireType::LengthDelimited, &mut out);
+                    encode_key(body_field, WireType::LengthDelimited, &mut out);
                     encode_varint(parts[i].len() as u64, &mut out);
                     out.put_slice(&parts[i]);
                 }
@@ -350,6 +418,90 @@ mod tests {
                         "{codec:?} {interest:?}"
                     );
                 }
+            }
+        }
+    }
+
+    /// Compact frames are what prost writes for the same `Tick.compact`, the origin is the
+    /// whole frame's (whatever the interest set), and they decode within the proto's bounds.
+    #[test]
+    fn compact_frames_are_prosts_bytes_and_decode_within_the_bounds() {
+        let tick = Tick {
+            tick: 99,
+            t: 3.3,
+            bodies: (0..7)
+                .map(|i| {
+                    let mut b = body(i * 3, 1000.0 + i as f64 * 11.3);
+                    let q = [0.1 * i as f64, -0.2, 0.3, 0.9];
+                    let n = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+                    b.rotation = q.map(|c| c / n);
+                    b
+                })
+                .collect(),
+            impacts: Vec::new(),
+        };
+        let shared = SharedTick::new(tick.clone());
+        let origin = super::super::compact::origin(&tick.bodies);
+        assert_eq!(origin, [1034.0, -129.0, 0.0]);
+        for interest in [&[][..], &[0u64, 6, 18], &[9]] {
+            let chosen: Vec<&BodyState> = tick
+                .bodies
+                .iter()
+                .filter(|b| interest.is_empty() || interest.contains(&b.id))
+                .collect();
+            let want = v1::ServerMessage {
+                id: None,
+                msg: Some(v1::server_message::Msg::Tick(v1::Tick {
+                    tick: 99,
+                    t: 3.3,
+                    bodies: Vec::new(),
+                    impacts: Vec::new(),
+                    compact: Some(v1::CompactBodies {
+                        origin: Some(v1::Vec3 {
+                            x: origin[0],
+                            y: origin[1],
+                            z: origin[2],
+                        }),
+                        bodies: chosen
+                            .iter()
+                            .map(|b| super::super::compact::encode(b, origin))
+                            .collect(),
+                    }),
+                })),
+            }
+            .encode_to_vec();
+            let set = Interest::new(interest.to_vec(), None).compact(true);
+            let got = bytes(shared.message(Codec::Protobuf, &set));
+            assert_eq!(got, want, "{interest:?}");
+            // Decoded by a client: within the documented bounds of the full states.
+            let Some(v1::server_message::Msg::Tick(t)) =
+                v1::ServerMessage::decode(&got[..]).unwrap().msg
+            else {
+                panic!("not a tick")
+            };
+            let c = t.compact.unwrap();
+            let o = c.origin.unwrap();
+            for (d, b) in c.bodies.iter().zip(&chosen) {
+                let d = super::super::compact::decode(d, [o.x, o.y, o.z]).unwrap();
+                for (k, ok) in origin.iter().enumerate() {
+                    let bound = (b.position[k] - ok).abs() * f64::from(f32::EPSILON);
+                    assert!((d.position[k] - b.position[k]).abs() <= bound);
+                }
+                for k in 0..4 {
+                    assert!((d.rotation[k] - b.rotation[k]).abs() < 2.1e-6);
+                }
+            }
+            // Smaller than the full frame of the same bodies (these have zero components that
+            // the full form omits; real states are ~2.3x smaller, see the proto).
+            let full =
+                bytes(shared.message(Codec::Protobuf, &Interest::new(interest.to_vec(), None)));
+            if chosen.len() > 3 {
+                assert!(
+                    got.len() * 3 < full.len() * 2,
+                    "{} vs {}",
+                    got.len(),
+                    full.len()
+                );
             }
         }
     }

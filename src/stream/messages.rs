@@ -58,6 +58,8 @@ pub enum Request {
         bodies: Vec<u64>,
         /// Also carry the bodies inside this rectangle (with `bodies` empty: only those).
         region: Option<Region>,
+        /// Compact body states (protobuf only).
+        compact: bool,
     },
 }
 
@@ -205,6 +207,8 @@ struct SubscribeBody {
     bodies: Option<Vec<u64>>,
     #[serde(default)]
     region: Option<[f64; 4]>,
+    #[serde(default)]
+    compact: bool,
 }
 
 /// Decodes a JSON text frame.
@@ -253,10 +257,18 @@ pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
         "sample" => json::from_value(rest).map(Request::Sample),
         "orientation" => json::from_value(rest).map(Request::Orientation),
         "subscribe" => json::from_value::<SubscribeBody>(rest).and_then(|s| {
+            if s.compact {
+                return Err(ApiError::invalid(
+                    "compact",
+                    "compact body states are for the protobuf stream (swell.v1.protobuf); \
+                     JSON tick frames carry the full states",
+                ));
+            }
             Ok(Request::Subscribe {
                 ticks: s.ticks,
                 bodies: s.bodies.unwrap_or_default(),
                 region: s.region.map(Region::new).transpose()?,
+                compact: false,
             })
         }),
         other => Err(ApiError::new(
@@ -309,6 +321,7 @@ pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
                 ticks: s.ticks,
                 bodies: s.bodies,
                 region,
+                compact: s.compact,
             }),
         None => Err(ApiError::new(
             StatusCode::BAD_REQUEST,
@@ -403,6 +416,27 @@ mod tests {
     fn json_unknown_type_keeps_the_id() {
         let e = decode_json(r#"{"type":"dance","id":3}"#).unwrap_err();
         assert_eq!((e.id, e.error.code), (Some(3), "unknown_type"));
+    }
+
+    #[test]
+    fn compact_states_are_protobuf_only() {
+        let e =
+            decode_json(r#"{"type":"subscribe","id":4,"ticks":true,"compact":true}"#).unwrap_err();
+        assert_eq!((e.id, e.error.field.as_deref()), (Some(4), Some("compact")));
+        let m = v1::ClientMessage {
+            id: Some(5),
+            msg: Some(client_message::Msg::Subscribe(v1::Subscribe {
+                ticks: true,
+                compact: true,
+                ..Default::default()
+            })),
+        };
+        let Request::Subscribe { compact, .. } =
+            decode_protobuf(&m.encode_to_vec()).unwrap().request
+        else {
+            panic!("not a subscribe")
+        };
+        assert!(compact);
     }
 
     #[test]

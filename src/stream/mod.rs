@@ -4,9 +4,8 @@
 //! - [`messages`] — the messages and their two codecs (`swell.v1.json`, `swell.v1.protobuf`).
 //! - [`frame`] — a tick frame shared by every subscriber, each body state encoded once per
 //!   codec and each subscriber's frame assembled from those bytes.
-//! - [`ticks`] — the per-scene tick loop; its [`ticks::TickHook`] puts the scene's floating
-//!   bodies, caught up to each frame's tick, in the frame
-//!   ([`crate::bodies::runner::BodiesHook`]).
+//! - [`ticks`] — the per-scene tick loop; it puts in each frame the floating bodies' states the
+//!   body loop ([`crate::bodies::runner`], the only stepping path) published for its tick.
 //!
 //! # A session
 //! One task reads the socket and owns the session's state (subscription, filter); a writer task
@@ -31,6 +30,7 @@
 //! [`CLOSE_GRACE`]) and ends. axum's graceful shutdown does not close upgraded connections on its
 //! own.
 
+pub mod compact;
 pub mod frame;
 pub mod messages;
 pub mod ticks;
@@ -396,17 +396,18 @@ fn handle(
             ticks,
             bodies,
             region,
+            compact,
         } => {
             if !ticks {
                 *sub = None;
             } else if let Some(s) = sub {
-                s.interest = Interest::new(bodies, region);
+                s.interest = Interest::new(bodies, region).compact(compact);
             } else if let Err(e) = state.scene(scene_id) {
                 queue.error(id, e);
             } else {
                 *sub = Some(Subscription {
                     rx: state.tickers.subscribe(state, scene_id),
-                    interest: Interest::new(bodies, region),
+                    interest: Interest::new(bodies, region).compact(compact),
                 });
             }
         }

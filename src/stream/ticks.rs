@@ -11,14 +11,13 @@
 //! is paused (a tick is never repeated), and skip when the clock outruns the loop (fast-forward
 //! beyond ~1000 ticks per real second, or a seek).
 //!
-//! # The seam for floating bodies
-//! The loop owns an `Option<Box<dyn TickHook>>` slot. A body world plugs in there: the loop calls
-//! [`TickHook::on_tick`] off the reactor before each frame is broadcast and puts the body states it
-//! returns in the frame, and [`TickHook::keeps_alive`] keeps the loop running with no subscriber
-//! (a simulation must not stop because nobody watches). Every loop gets
-//! [`crate::bodies::runner::BodiesHook`], which advances the scene's bodies to the frame's tick
-//! and returns their states; bodies keep stepping without subscribers in their own loop
-//! ([`crate::bodies::runner`]).
+//! # Floating bodies
+//! The loop never steps bodies: the scene's body loop ([`crate::bodies::runner`]) is the only
+//! stepping path. Before each frame the loop waits (at most [`BODY_WAIT_TICKS`] tick periods)
+//! for the body loop to publish the states of the frame's tick, which it does right after the
+//! same tick boundary, and puts them in the frame. If they do not come in time (an overloaded
+//! server, or a clock jump the body loop has not handled yet) the frame carries the latest states
+//! and `swell_tick_body_lag_total` counts it.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
@@ -27,8 +26,7 @@ use std::time::Duration;
 use tokio::sync::broadcast;
 
 use crate::api::types::{BodyState, Tick};
-use crate::scene::Scene;
-use crate::scene::clock::tick_of;
+use crate::scene::clock::{ClockReading, tick_of};
 use crate::state::AppState;
 use crate::stream::frame::SharedTick;
 
@@ -44,24 +42,9 @@ const MAX_SLEEP: Duration = Duration::from_millis(50);
 /// for) even when the clock is fast-forwarded.
 const MIN_SLEEP: Duration = Duration::from_millis(1);
 
-/// Work done inside a scene's tick loop before each frame is broadcast: the seam for floating
-/// bodies (see the module docs).
-pub trait TickHook: Send + 'static {
-    /// Advances to `tick` (at scene time `t`) from `previous` (the last tick seen, if any) and
-    /// returns the body states to put in the frame. Runs on a blocking thread.
-    fn on_tick(
-        &mut self,
-        scene: &Scene,
-        previous: Option<i64>,
-        tick: i64,
-        t: f64,
-    ) -> Vec<BodyState>;
-
-    /// Whether the loop must keep running with no subscriber.
-    fn keeps_alive(&self) -> bool {
-        false
-    }
-}
+/// Longest wait for the body loop's states of a frame's tick, in tick periods (and never more
+/// than [`MAX_SLEEP`]).
+pub const BODY_WAIT_TICKS: f64 = 1.0;
 
 /// The registry of running tick loops, by scene id.
 #[derive(Debug, Default)]
@@ -89,11 +72,7 @@ impl Tickers {
         let (tx, rx) = broadcast::channel(TICK_CHANNEL);
         loops.insert(id.to_owned(), tx.clone());
         metrics::gauge!("swell_tick_loops").increment(1.0);
-        // Every loop carries the scene's bodies (none is cheap: one map lookup per tick).
-        let hook = crate::bodies::runner::BodiesHook::new(state.clone(), id);
-        state
-            .tasks
-            .spawn(run(state.clone(), id.to_owned(), tx, Some(Box::new(hook))));
+        state.tasks.spawn(run(state.clone(), id.to_owned(), tx));
         rx
     }
 
@@ -104,8 +83,8 @@ impl Tickers {
 }
 
 /// Real time until the clock crosses the next tick boundary in its direction, clamped to
-/// [`MIN_SLEEP`, `MAX_SLEEP`].
-fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> Duration {
+/// [`MIN_SLEEP`, `MAX_SLEEP`]. The body loop sleeps the same way, so both wake together.
+pub fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> Duration {
     if paused || rate == 0.0 {
         return MAX_SLEEP;
     }
@@ -121,12 +100,30 @@ fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> 
         .clamp(MIN_SLEEP, MAX_SLEEP)
 }
 
-async fn run(
-    state: AppState,
-    id: String,
-    tx: broadcast::Sender<Arc<SharedTick>>,
-    mut hook: Option<Box<dyn TickHook>>,
-) {
+/// The bodies to put in the frame of `tick`: the body loop's states for that tick (see the module
+/// docs). No bodies: an empty list, at once.
+async fn bodies_for(
+    state: &AppState,
+    id: &str,
+    tick: i64,
+    reading: &ClockReading,
+) -> Vec<BodyState> {
+    let Some(cell) = state.bodies.get(id) else {
+        return Vec::new();
+    };
+    let latest = cell.latest();
+    if latest.states.is_empty() && cell.lock().is_empty() {
+        return Vec::new();
+    }
+    let wait = Duration::from_secs_f64(BODY_WAIT_TICKS / reading.tick_hz).min(MAX_SLEEP);
+    let (published, exact) = cell.states_at(tick, reading.rate >= 0.0, wait).await;
+    if !exact {
+        metrics::counter!("swell_tick_body_lag_total").increment(1);
+    }
+    Arc::unwrap_or_clone(published.states)
+}
+
+async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>) {
     let mut last: Option<i64> = None;
     // Impacts added before the loop started are not news: a joining client lists them with
     // `GET …/impacts`; frames carry those accepted since (see `crate::impacts`).
@@ -134,13 +131,10 @@ async fn run(
         .scene(&id)
         .map_or(0, |e| e.scene.impacts.since(u64::MAX).0);
     loop {
-        let keep = hook.as_ref().is_some_and(|h| h.keeps_alive());
         let entry = {
             let mut loops = state.tickers.lock();
             let entry = state.scene(&id).ok();
-            let stop = (tx.receiver_count() == 0 && !keep)
-                || entry.is_none()
-                || state.shutdown.is_cancelled();
+            let stop = tx.receiver_count() == 0 || entry.is_none() || state.shutdown.is_cancelled();
             if stop {
                 loops.remove(&id);
                 metrics::gauge!("swell_tick_loops").decrement(1.0);
@@ -154,29 +148,7 @@ async fn run(
         let tick = tick_of(reading.t, reading.tick_hz);
         if last != Some(tick) {
             let t = tick as f64 / reading.tick_hz;
-            let bodies = match hook.take() {
-                Some(mut h) => {
-                    let scene = Arc::clone(&entry.scene);
-                    let previous = last;
-                    // Body simulation is CPU work: off the reactor, like queries.
-                    match tokio::task::spawn_blocking(move || {
-                        let b = h.on_tick(&scene, previous, tick, t);
-                        (h, b)
-                    })
-                    .await
-                    {
-                        Ok((h, b)) => {
-                            hook = Some(h);
-                            b
-                        }
-                        Err(e) => {
-                            tracing::error!(scene = %id, error = %e, "tick hook panicked; bodies dropped");
-                            Vec::new()
-                        }
-                    }
-                }
-                None => Vec::new(),
-            };
+            let bodies = bodies_for(&state, &id, tick, &reading).await;
             // An error only means no receiver right now; the next turn decides whether to stop.
             let impacts = crate::impacts::frame_events(&entry.scene, &mut impacts_seen);
             let _ = tx.send(Arc::new(SharedTick::new(Tick {

@@ -253,6 +253,7 @@ impl From<&Tick> for v1::Tick {
             tick: t.tick,
             t: t.t,
             bodies: t.bodies.iter().map(|&b| b.into()).collect(),
+            compact: None,
             impacts: crate::impacts::to_proto(&t.impacts),
         }
     }

@@ -166,6 +166,9 @@ pub struct Args {
     /// area, re-evaluated by the server every tick).
     #[arg(long, value_parser = parse_area, allow_hyphen_values = true)]
     pub region: Option<Area>,
+    /// Subscribers ask for compact body states (`Subscribe.compact`; needs `--wire protobuf`).
+    #[arg(long)]
+    pub compact: bool,
     /// `mixed`: weights, e.g. `height=90,sample=9,orientation=1`.
     #[arg(long, default_value = "height=90,sample=9,orientation=1", value_parser = parse_mix)]
     pub mix: Mix,
@@ -240,6 +243,8 @@ pub struct Options {
     pub bodies_per_subscriber: usize,
     /// Interest by area.
     pub region: Option<Area>,
+    /// Compact body states.
+    pub compact: bool,
     /// `mixed` weights.
     pub mix: Mix,
     /// Bodies to spawn first.
@@ -421,6 +426,12 @@ impl Args {
         if self.region.is_some() && subscribers == 0 {
             return Err(bad("--region", "applies to stream subscribers only"));
         }
+        if self.compact && (subscribers == 0 || self.wire != Wire::Protobuf) {
+            return Err(bad(
+                "--compact",
+                "compact body states are for stream subscribers with --wire protobuf",
+            ));
+        }
         if self.spawn_bodies > MAX_SPAWN {
             return Err(bad(
                 "--spawn-bodies",
@@ -462,6 +473,7 @@ impl Args {
             subscribers,
             bodies_per_subscriber: self.bodies_per_subscriber,
             region: self.region,
+            compact: self.compact,
             mix: self.mix,
             spawn_bodies: self.spawn_bodies,
             admin_token: self.admin_token,

@@ -147,6 +147,7 @@ pub async fn connect_all(o: &Options, n: usize, ids: &[u64]) -> Result<Vec<Subsc
         o.timeout,
     );
     let region = o.region;
+    let compact = o.compact;
     let mut rng = Rng::new(o.seed ^ 0x0005_EED0_F5E7);
     let interests: Vec<Vec<u64>> = (0..n)
         .map(|_| {
@@ -180,7 +181,7 @@ pub async fn connect_all(o: &Options, n: usize, ids: &[u64]) -> Result<Vec<Subsc
             let _permit = slots.acquire_owned().await.expect("never closed");
             let mut ws = ws::connect(&url, &scene, wire).await?;
             let sync = ws::sync_clock(&mut ws, wire, timeout).await?;
-            ws.send(ws::subscribe(wire, &interest, region))
+            ws.send(ws::subscribe(wire, &interest, region, compact))
                 .await
                 .map_err(|e| format!("subscribe: {e}"))?;
             Ok::<_, String>((

@@ -172,7 +172,7 @@ pub fn decode(wire: Wire, payload: &[u8]) -> Result<ServerMsg, String> {
                 Msg::Tick(t) => ServerMsg::Tick {
                     tick: t.tick,
                     t: t.t,
-                    bodies: t.bodies.len(),
+                    bodies: t.bodies.len() + t.compact.map_or(0, |c| c.bodies.len()),
                 },
                 Msg::SampleResult(r) => ServerMsg::Answer {
                     id: m.id,
@@ -222,8 +222,13 @@ pub fn ping(wire: Wire, id: u64, client_time: f64) -> Message {
     )
 }
 
-/// `subscribe {ticks: true, bodies, region?}`.
-pub fn subscribe(wire: Wire, bodies: &[u64], region: Option<crate::cli::Area>) -> Message {
+/// `subscribe {ticks: true, bodies, region?, compact}` (`compact` only on protobuf).
+pub fn subscribe(
+    wire: Wire,
+    bodies: &[u64],
+    region: Option<crate::cli::Area>,
+    compact: bool,
+) -> Message {
     frame(
         wire,
         match wire {
@@ -246,6 +251,7 @@ pub fn subscribe(wire: Wire, bodies: &[u64], region: Option<crate::cli::Area>) -
                         x1: r.x1,
                         z1: r.z1,
                     }),
+                    compact,
                 })),
             }
             .encode_to_vec(),

@@ -323,6 +323,33 @@ async fn stream_subscribers_get_every_tick_with_their_interest_set() {
     );
     assert_eq!(st.frames_with_unexpected_bodies, 0);
     assert!(st.frames >= 50, "{}", st.frames);
+    let full_bytes = st.bytes_per_s / st.frames_per_s;
+
+    // The same with compact body states: every body still there, in fewer bytes.
+    let r = s
+        .run(&[
+            "stream",
+            "--scene",
+            "calm",
+            "--subscribers",
+            "2",
+            "--wire",
+            "protobuf",
+            "--compact",
+            "--duration",
+            "1s",
+            "--warmup",
+            "200ms",
+        ])
+        .await;
+    let st = r.stream.as_ref().unwrap();
+    assert!((st.bodies_per_frame - 4.0).abs() < 1e-9);
+    assert_eq!((st.gaps, st.frames_with_unexpected_bodies), (0, 0));
+    let compact_bytes = st.bytes_per_s / st.frames_per_s;
+    assert!(
+        compact_bytes * 1.8 < full_bytes,
+        "compact {compact_bytes} B/frame vs full {full_bytes}"
+    );
 
     // Interest by area: the 4 bodies sit on a 20 m grid around the origin (x, z in -20..0), so
     // a region over x, z in [-25, 5] holds all of them and one far away holds none.

@@ -177,3 +177,59 @@ fn velocity_frames_from_the_caller_must_match_the_layers() {
     let e = sea.with_velocity_frames(vec![]).unwrap_err();
     assert_eq!(e.field(), "velocity_frames");
 }
+
+/// The bodies' fast path: `water_lanes` (vectorised inversion) against `water_at` one point at a
+/// time, bit for bit, on seeded random points: steep Gerstner (inversion), Gerstner plus an FFT
+/// layer, sine only (no horizontal motion), with and without a filter that drops waves (the
+/// per-point fallback), under both inversion methods, NaN points included.
+#[test]
+fn water_lanes_equal_water_at_bit_for_bit() {
+    let mut mixed = common::gerstner_spec(5, 8, 0.9);
+    mixed.layers.push(fft_layer(1.2));
+    let seas = [
+        Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap(),
+        Surface::new(&mixed).unwrap(),
+        Surface::new(&common::sine_spec()).unwrap(),
+    ];
+    // SplitMix64 → uniform in [lo, hi): seeded, no RNG crate needed.
+    let mut state = 11u64;
+    let mut uniform = |lo: f64, hi: f64| {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        lo + (hi - lo) * ((z >> 11) as f64 / (1u64 << 53) as f64)
+    };
+    for s in &seas {
+        for method in [
+            swell_waves::InversionMethod::Newton,
+            swell_waves::InversionMethod::FixedPoint,
+        ] {
+            let mut opts = QueryOptions::default();
+            opts.inversion.method = method;
+            opts.inversion.tolerance = 1e-4;
+            let sea = s
+                .at(7.25, QueryFields::HEIGHT, &opts)
+                .unwrap()
+                .with_velocity();
+            for min_wavelength in [0.0, 30.0] {
+                for _ in 0..200 {
+                    let mut pts: [DVec2; 4] = std::array::from_fn(|_| {
+                        DVec2::new(uniform(-300.0, 300.0), uniform(-300.0, 300.0))
+                    });
+                    if uniform(0.0, 1.0) < 0.05 {
+                        pts[2] = DVec2::new(f64::NAN, 1.0);
+                    }
+                    let lanes = sea.water_lanes(&pts, min_wavelength);
+                    for (l, p) in pts.iter().enumerate() {
+                        let one = sea.water_at(*p, min_wavelength);
+                        assert_eq!(lanes[l].height.to_bits(), one.height.to_bits(), "{p}");
+                        let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+                        assert_eq!(bits(lanes[l].velocity), bits(one.velocity), "{p}");
+                    }
+                }
+            }
+        }
+    }
+}

@@ -57,11 +57,52 @@ pub(crate) fn loads(
     let up_y = rot.y_axis.y;
     let side = (1.0 - up_y * up_y).max(0.0).sqrt();
     let inv_vol = 1.0 / model.hull.volume;
-    for cell in &model.hull.cells {
-        let r = *rot * (cell.position - model.com);
-        let c = com + r;
-        let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);
-        let water = sea.water_at(DVec2::new(c.x, c.z), model.min_wavelength);
+    // Cells in blocks of LANES for the vectorised sea ([`SurfaceAt::water_lanes`], bit-identical
+    // to one cell at a time); the sums below still run cell by cell, in order.
+    for block in model.hull.cells.chunks(LANES) {
+        let r: [DVec3; LANES] =
+            std::array::from_fn(|l| *rot * (block[l.min(block.len() - 1)].position - model.com));
+        let at: [DVec2; LANES] = std::array::from_fn(|l| {
+            let c = com + r[l];
+            DVec2::new(c.x, c.z)
+        });
+        let waters = sea.water_lanes(&at, model.min_wavelength);
+        for (l, cell) in block.iter().enumerate() {
+            let (r, water) = (r[l], waters[l]);
+            let c = com + r;
+            let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);
+            loads_of_cell(
+                &mut out, model, cell, r, c, half, water, v, w, rho, g, inv_vol,
+            );
+        }
+    }
+    let frac = out.submerged * inv_vol;
+    out.drag_torque -= w * (model.angular_damping * frac);
+    out.drag_rate_rot += model.angular_damping * frac;
+    out
+}
+
+/// Cells evaluated together by [`loads`].
+const LANES: usize = 4;
+
+/// Adds one cell's buoyancy and drag to `out` (see the module docs).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn loads_of_cell(
+    out: &mut Loads,
+    model: &BodyModel,
+    cell: &super::hull::Cell,
+    r: DVec3,
+    c: DVec3,
+    half: f64,
+    water: super::water::WaterPoint,
+    v: DVec3,
+    w: DVec3,
+    rho: f64,
+    g: f64,
+    inv_vol: f64,
+) {
+    {
         let f = ((water.height - (c.y - half)) / (2.0 * half)).clamp(0.0, 1.0);
         if f.is_nan() || f > 0.0 {
             // NaN falls through to the sums, so the step's finiteness check catches it.
@@ -80,8 +121,4 @@ pub(crate) fn loads(
             out.drag_rate_rot += rate * r.length_squared();
         }
     }
-    let frac = out.submerged * inv_vol;
-    out.drag_torque -= w * (model.angular_damping * frac);
-    out.drag_rate_rot += model.angular_damping * frac;
-    out
 }

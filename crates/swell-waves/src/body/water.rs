@@ -115,4 +115,30 @@ impl SurfaceAt<'_> {
         }
         (best, best_y)
     }
+
+    /// [`SurfaceAt::water_at`] for `B` world points at once, bit-identical per lane: when the
+    /// filter keeps every analytic wave and the snapshot is [`crate::Precision::F64`], the
+    /// heights come from the vectorised [`SurfaceAt::invert_lanes`] (the same iteration and
+    /// best-iterate rule, lane by lane) and only the velocities are summed per point; otherwise
+    /// each lane is [`SurfaceAt::water_at`].
+    pub fn water_lanes<const B: usize>(
+        &self,
+        worlds: &[DVec2; B],
+        min_wavelength: f64,
+    ) -> [WaterPoint; B] {
+        let unfiltered = self.options.precision == crate::Precision::F64
+            && self
+                .surface
+                .layers()
+                .iter()
+                .all(|l| l.waves().iter().all(|w| keeps(w, min_wavelength)));
+        if !unfiltered {
+            return std::array::from_fn(|l| self.water_at(worlds[l], min_wavelength));
+        }
+        let inverted = self.invert_lanes(worlds, false);
+        std::array::from_fn(|l| WaterPoint {
+            height: inverted[l].sample.displacement.y,
+            velocity: self.velocity_filtered(inverted[l].source, min_wavelength),
+        })
+    }
 }
