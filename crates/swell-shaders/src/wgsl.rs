@@ -23,6 +23,9 @@
 //! `swell.phases[i / 4][i % 4]`: `φ_i(t, o)` of [`crate::uniforms::frame`], radians. Positions
 //! are local: `p_local = p_world − o`, with `o` the origin the offsets were computed for.
 //!
+//! A surface with a particle layer adds the particle members to `SwellUniforms` after
+//! `phases` and sums the particles in `swell_sample` (see [`crate::particles`]).
+//!
 //! The entry points are listed in [`crate::Entry`].
 
 use std::fmt::Write as _;
