@@ -180,7 +180,7 @@ impl SceneImpacts {
         g.recent.clear();
     }
 
-    /// The impacts added after addition number `seen` (oldest first, at most [`RECENT`]) and
+    /// The impacts added after addition number `seen` (oldest first, at most the last 1,024) and
     /// the number of the latest addition: a tick loop passes back what it got to see only new
     /// ones next time.
     pub fn since(&self, seen: u64) -> (u64, Vec<Impact>) {

@@ -270,7 +270,7 @@ impl Ambient {
         }
     }
 
-    /// Slow reference of [`Ambient::visit`]'s sums: every particle at every kept scale, in
+    /// Slow reference of the grid-indexed ambient sum: every particle at every kept scale, in
     /// index order, positions from [`Ambient::position`]. Returns `(height, gradient, ∂h/∂t)`.
     pub fn sample_reference(&self, x: DVec2, t: f64, min_wavelength: f64) -> (f64, DVec2, f64) {
         let (mut h, mut g, mut v) = (0.0, DVec2::ZERO, 0.0);
