@@ -318,7 +318,7 @@ impl FrameCache {
     ) -> Result<SurfaceAt<'s>, SpecError> {
         let surface = &scene.surface;
         if !surface.has_fft() || options.reference {
-            return surface.at(t, fields, options);
+            return scene.impacts.apply(surface.at(t, fields, options));
         }
         // Check before computing anything: a bad t or option must not cost a frame.
         if !t.is_finite() {
@@ -341,7 +341,9 @@ impl FrameCache {
                 _ => None,
             })
             .collect();
-        surface.at_with_frames(t, frames, options)
+        scene
+            .impacts
+            .apply(surface.at_with_frames(t, frames, options))
     }
 
     /// Whether [`FrameCache::surface_at`] would find every frame it needs already computed

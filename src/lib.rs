@@ -44,6 +44,7 @@ pub mod config;
 pub mod error;
 pub mod frames;
 pub mod healthcheck;
+pub mod impacts;
 pub mod journal;
 pub mod scene;
 pub mod state;

@@ -17,8 +17,8 @@ async fn lists_builtin_scenes() {
         .iter()
         .map(|s| s["id"].as_str().unwrap())
         .collect();
-    assert_eq!(ids, ["calm", "lake", "open-sea", "storm"]);
-    let open_sea = &v["scenes"][2];
+    assert_eq!(ids, ["calm", "harbour", "lake", "open-sea", "storm"]);
+    let open_sea = &v["scenes"][3];
     assert_eq!(open_sea["layers"], json!(["fft", "gerstner"]));
     assert_eq!(open_sea["tick_hz"], json!(30.0));
     s.stop().await;
@@ -160,33 +160,33 @@ async fn height_sample_and_orientation_answer() {
 #[tokio::test]
 async fn admin_put_replace_delete() {
     let s = TestServer::start(config()).await;
-    let (st, v) = s.put_scene("harbour", &small_spec()).await;
+    let (st, v) = s.put_scene("marina", &small_spec()).await;
     assert_eq!(st, 201, "{v}");
-    assert_eq!(v["id"], "harbour");
+    assert_eq!(v["id"], "marina");
     assert_eq!(v["spec"]["tick_hz"], json!(20.0));
     let hash1 = v["spec_hash"].clone();
-    let (st, v) = s.get_json("/v1/scenes/harbour/height?x=1&z=1&t=0").await;
+    let (st, v) = s.get_json("/v1/scenes/marina/height?x=1&z=1&t=0").await;
     assert_eq!(st, 200, "{v}");
 
     let mut spec2 = small_spec();
     spec2["seed"] = json!(4);
-    let (st, v) = s.put_scene("harbour", &spec2).await;
+    let (st, v) = s.put_scene("marina", &spec2).await;
     assert_eq!(st, 200, "replace answers 200: {v}");
     assert_ne!(v["spec_hash"], hash1);
 
     // Same spec, same hash (stable canonical JSON).
-    let (_, v) = s.put_scene("harbour", &spec2).await;
-    let (_, again) = s.get_json("/v1/scenes/harbour").await;
+    let (_, v) = s.put_scene("marina", &spec2).await;
+    let (_, again) = s.get_json("/v1/scenes/marina").await;
     assert_eq!(v["spec_hash"], again["spec_hash"]);
 
     let (st, _) = s
-        .admin(Method::DELETE, "/v1/scenes/harbour", None, Some(TOKEN))
+        .admin(Method::DELETE, "/v1/scenes/marina", None, Some(TOKEN))
         .await;
     assert_eq!(st, 204);
-    let (st, v) = s.get_json("/v1/scenes/harbour").await;
+    let (st, v) = s.get_json("/v1/scenes/marina").await;
     assert_eq!((st, code(&v)), (404, "not_found"));
     let (st, v) = s
-        .admin(Method::DELETE, "/v1/scenes/harbour", None, Some(TOKEN))
+        .admin(Method::DELETE, "/v1/scenes/marina", None, Some(TOKEN))
         .await;
     assert_eq!((st, code(&v)), (404, "not_found"));
     s.stop().await;

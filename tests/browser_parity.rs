@@ -154,7 +154,28 @@ async fn exported_glsl_es_matches_sample_in_headless_chromium() {
 
     // Built-in scenes; those with FFT layers are probed on a copy without them.
     let mut scenes = vec!["steep".to_owned()];
-    for id in ["calm", "lake", "open-sea", "storm"] {
+    // harbour's particle layer with impact rings around the probes at every run (issue 15).
+    for &t in &TIMES {
+        for (k, o) in ORIGINS.iter().enumerate() {
+            // Rings of radii from about 1 m to 22 m around a point near the origin, so the
+            // probe spiral crosses several of them (24 live rings per time: within the 32 a
+            // shader takes).
+            for age in [0.6, 1.2, 2.0, 3.0, 4.5, 6.0, 8.0, 10.0] {
+                let body = json!({"position": [o[0] + 0.3 + k as f64, o[1] + 0.2],
+                    "t": t - age, "strength": 0.4, "radius": 0.8});
+                let (st, v) = s
+                    .admin(
+                        reqwest::Method::POST,
+                        "/v1/scenes/harbour/impacts",
+                        Some(&body),
+                        Some(common::TOKEN),
+                    )
+                    .await;
+                assert_eq!(st, 202, "{v}");
+            }
+        }
+    }
+    for id in ["calm", "harbour", "lake", "open-sea", "storm"] {
         let (_, d) = s.get_json(&format!("/v1/scenes/{id}")).await;
         let mut spec = d["spec"].clone();
         let layers: Vec<Value> = spec["layers"]

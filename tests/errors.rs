@@ -187,7 +187,7 @@ async fn invalid_spec_is_422_with_the_models_message_and_field() {
     let (st, _) = s.get_json("/v1/scenes/bad").await;
     assert_eq!(st, 404);
     let (_, list) = s.get_json("/v1/scenes").await;
-    assert_eq!(list["scenes"].as_array().unwrap().len(), 4);
+    assert_eq!(list["scenes"].as_array().unwrap().len(), 5);
     s.stop().await;
 }
 

@@ -13,10 +13,10 @@ async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
     let ask = json!({"t": 12.5, "points": pts, "fields": ["height", "normal"]});
 
     let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
-    assert_eq!(s.put_scene("harbour", &small_spec()).await.0, 201);
+    assert_eq!(s.put_scene("marina", &small_spec()).await.0, 201);
     assert_eq!(s.put_scene("tile", &fft_spec()).await.0, 201);
     let (st, _) = s
-        .put_clock("harbour", &json!({"t": 77.0, "paused": true, "rate": 2.0}))
+        .put_clock("marina", &json!({"t": 77.0, "paused": true, "rate": 2.0}))
         .await;
     assert_eq!(st, 200);
     // Deleting a built-in persists too.
@@ -24,13 +24,13 @@ async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
         .admin(Method::DELETE, "/v1/scenes/storm", None, Some(TOKEN))
         .await;
     assert_eq!(st, 204);
-    let (_, before_h) = s.post_json("/v1/scenes/harbour/sample", &ask).await;
+    let (_, before_h) = s.post_json("/v1/scenes/marina/sample", &ask).await;
     let (_, before_f) = s.post_json("/v1/scenes/tile/sample", &ask).await;
     let (_, detail_before) = s.get_json("/v1/scenes/tile").await;
     s.stop().await;
 
     let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
-    let (_, after_h) = s.post_json("/v1/scenes/harbour/sample", &ask).await;
+    let (_, after_h) = s.post_json("/v1/scenes/marina/sample", &ask).await;
     let (_, after_f) = s.post_json("/v1/scenes/tile/sample", &ask).await;
     assert_eq!(before_h, after_h);
     assert_eq!(before_f, after_f);
@@ -39,7 +39,7 @@ async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
     }
     let (_, detail_after) = s.get_json("/v1/scenes/tile").await;
     assert_eq!(detail_before["spec_hash"], detail_after["spec_hash"]);
-    let (_, c) = s.get_json("/v1/scenes/harbour/clock").await;
+    let (_, c) = s.get_json("/v1/scenes/marina/clock").await;
     assert_eq!(
         (c["t"].as_f64(), c["paused"].as_bool(), c["rate"].as_f64()),
         (Some(77.0), Some(true), Some(2.0))
@@ -47,7 +47,7 @@ async fn scenes_and_clocks_survive_a_restart_with_the_same_bits() {
     let (st, _) = s.get_json("/v1/scenes/storm").await;
     assert_eq!(st, 404, "a deleted built-in stays deleted");
     // A query without t at the restored paused clock.
-    let (_, h) = s.get_json("/v1/scenes/harbour/height?x=1.5&z=-2.25").await;
+    let (_, h) = s.get_json("/v1/scenes/marina/height?x=1.5&z=-2.25").await;
     assert_eq!(h["t"], json!(77.0));
     s.stop().await;
 
@@ -64,7 +64,7 @@ async fn a_rejected_put_leaves_disk_and_memory_alone() {
     let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
     let mut bad = small_spec();
     bad["gravity"] = json!(-1);
-    let (st, _) = s.put_scene("harbour", &bad).await;
+    let (st, _) = s.put_scene("marina", &bad).await;
     assert_eq!(st, 422);
     s.stop().await;
     // Nothing was journaled: the final snapshot holds no admin change.
@@ -141,7 +141,7 @@ async fn a_pre_journal_data_dir_is_imported() {
     use swell::scene::store::{ClockRecord, Store};
     let dir = tempfile::tempdir().unwrap();
     let old = Store::open(dir.path()).unwrap();
-    old.put_scene("harbour", &small_spec()).unwrap();
+    old.put_scene("marina", &small_spec()).unwrap();
     old.delete_scene("storm").unwrap();
     let clock = ClockRecord {
         t: 77.0,
@@ -149,14 +149,14 @@ async fn a_pre_journal_data_dir_is_imported() {
         paused: true,
         unix: 1.7e9,
     };
-    old.put_clock("harbour", clock).unwrap();
+    old.put_clock("marina", clock).unwrap();
     for round in 0..2 {
         let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
-        let (st, _) = s.get_json("/v1/scenes/harbour").await;
+        let (st, _) = s.get_json("/v1/scenes/marina").await;
         assert_eq!(st, 200, "round {round}");
         let (st, _) = s.get_json("/v1/scenes/storm").await;
         assert_eq!(st, 404, "round {round}: the deletion was imported too");
-        let (_, c) = s.get_json("/v1/scenes/harbour/clock").await;
+        let (_, c) = s.get_json("/v1/scenes/marina/clock").await;
         assert_eq!(
             (c["t"].as_f64(), c["rate"].as_f64(), c["paused"].as_bool()),
             (Some(77.0), Some(2.0), Some(true)),

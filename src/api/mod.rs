@@ -20,6 +20,7 @@
 pub mod admin;
 pub mod bodies;
 pub mod finite;
+pub mod impacts;
 pub mod json;
 pub mod ops;
 pub mod query;
@@ -77,6 +78,10 @@ pub fn router(state: AppState) -> Router {
         .route(
             "/v1/scenes/{id}/bodies/{bid}/input",
             axum::routing::post(bodies::input),
+        )
+        .route(
+            "/v1/scenes/{id}/impacts",
+            get(impacts::list).post(impacts::create),
         )
         .route("/v1/scenes/{id}/shader", get(shader::shader))
         .route("/v1/scenes/{id}/uniforms", get(shader::uniforms))

@@ -124,6 +124,16 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
         "Force/torque in the body frame from a tick for some ticks (admin): {force, torque, from_tick?, ticks?}",
     ),
     (
+        "post",
+        "/v1/scenes/{id}/impacts",
+        "Add an impact that ripples on the scene's particle layer (admin): {position, t?, strength, radius} → 202 {tick, t}",
+    ),
+    (
+        "get",
+        "/v1/scenes/{id}/impacts",
+        "Impacts that can still be rippling at ?t= (default now) or later, with the tick each applies at",
+    ),
+    (
         "get",
         "/v1/scenes/{id}/stream",
         "WebSocket (subprotocols swell.v1.json, swell.v1.protobuf): ping/pong, sample, orientation, subscribe → tick frames",

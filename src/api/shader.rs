@@ -110,7 +110,9 @@ fn parse_origin(origin: Option<&str>, max: f64) -> Result<DVec2, ApiError> {
 
 fn shader_error(e: ShaderError) -> ApiError {
     match e {
-        ShaderError::TooManyWaves { .. } | ShaderError::NotRepresentable { .. } => ApiError::new(
+        ShaderError::TooManyWaves { .. }
+        | ShaderError::NotRepresentable { .. }
+        | ShaderError::TooManyParticles { .. } => ApiError::new(
             StatusCode::UNPROCESSABLE_ENTITY,
             "shader_unavailable",
             e.to_string(),
@@ -230,7 +232,12 @@ pub async fn uniforms(
     };
     let origin = parse_origin(q.origin.as_deref(), state.limits.max_coordinate)?;
     let scene = Arc::clone(&entry.scene);
-    let u = swell_shaders::uniforms::frame(&scene.surface, t, origin);
+    let u = swell_shaders::uniforms::frame_with_impacts(
+        &scene.surface,
+        &scene.impacts.current(),
+        t,
+        origin,
+    );
     if let Some(i) = u.phases.iter().position(|p| !p.is_finite()) {
         return Err(ApiError::non_finite(format!(
             "phases[{i}] = {}",
@@ -248,6 +255,7 @@ pub async fn uniforms(
         "phases": u.phases,
         "block": block,
         "block_bytes": 4 * u.block.len(),
+        "rings_dropped": u.rings_dropped,
         "layout": "SwellUniforms { phases: array<vec4<f32>, block.len()/4> } at @group(0) @binding(0): upload block as f32 (value i is phases[i/4][i%4])",
         "formula": "phases[i] = wrap(k_i*(d_i . origin) - omega_i*t + phi_i) in f64, wrapped to [-pi, pi]; the shader adds k_i*(d_i . p_local), p_local = p_world - origin",
     });

@@ -325,4 +325,7 @@ pub struct Tick {
     pub t: f64,
     /// Body states at this tick.
     pub bodies: Vec<BodyState>,
+    /// Impacts accepted since the previous frame ([`crate::impacts`]); omitted when none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub impacts: Vec<crate::impacts::ImpactEvent>,
 }

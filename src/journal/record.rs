@@ -51,6 +51,14 @@ pub enum Op {
         /// The change.
         event: BodyEvent,
     },
+    /// An impact was added to a scene ([`crate::impacts`]). Admin part: folded into
+    /// [`AdminState::impacts`]; a later put or delete of the scene clears them.
+    Impact {
+        /// Scene id.
+        scene: String,
+        /// The impact.
+        impact: swell_waves::particles::Impact,
+    },
 }
 
 impl Op {
@@ -77,6 +85,10 @@ pub struct AdminState {
     pub scenes: BTreeMap<String, AdminScene>,
     /// Clocks set by an admin.
     pub clocks: BTreeMap<String, ClockRecord>,
+    /// Impacts added since each scene's last put, in the order they were accepted (absent in
+    /// snapshots written before impacts existed).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub impacts: BTreeMap<String, Vec<swell_waves::particles::Impact>>,
 }
 
 impl AdminState {
@@ -86,10 +98,15 @@ impl AdminState {
             Op::ScenePut { scene, spec } => {
                 self.scenes
                     .insert(scene.clone(), AdminScene::Put(spec.clone()));
+                self.impacts.remove(scene);
             }
             Op::SceneDelete { scene } => {
                 self.scenes.insert(scene.clone(), AdminScene::Deleted);
                 self.clocks.remove(scene);
+                self.impacts.remove(scene);
+            }
+            Op::Impact { scene, impact } => {
+                self.impacts.entry(scene.clone()).or_default().push(*impact);
             }
             Op::Clock { scene, clock } => {
                 self.clocks.insert(scene.clone(), *clock);

@@ -59,6 +59,9 @@ pub fn restore(state: &AppState, rec: Recovered) {
     for (id, c) in &snapshot.admin.clocks {
         set_clock(state, id, c);
     }
+    for (id, list) in &snapshot.admin.impacts {
+        crate::impacts::restore_into(state, id, list);
+    }
     let mut worlds: BTreeMap<String, SceneBodies> = BTreeMap::new();
     for (id, b) in &snapshot.bodies {
         match SceneBodies::from_world_record(&b.world) {
@@ -82,6 +85,9 @@ pub fn restore(state: &AppState, rec: Recovered) {
                 }
             }
             Op::Clock { scene, clock } if admin_new => set_clock(state, scene, clock),
+            Op::Impact { scene, impact } if admin_new => {
+                crate::impacts::restore_into(state, scene, std::slice::from_ref(impact));
+            }
             Op::Body { scene, event } if r.seq > snapshot.body_seq(scene) => {
                 if matches!(event, crate::bodies::BodyEvent::Created { .. }) {
                     match SceneBodies::from_created(event) {

@@ -65,6 +65,24 @@ pub const BUILTIN: &[(&str, &str)] = &[
   ]
 }"#,
     ),
+    (
+        "harbour",
+        r#"{
+  "description": "Harbour: a low Gerstner swell under wave particles (512 seeded particles on a 32 m tile, summed at 33 %, 66 % and 100 % as the seed article does); POST /v1/scenes/harbour/impacts makes splashes that ring out, subdivide and fade for every client alike.",
+  "tick_hz": 30,
+  "seed": 21,
+  "layers": [
+    {"kind": "gerstner",
+     "waves": [
+       {"amplitude": 0.12, "wavelength": 26, "direction": [1, 0.3], "steepness": 0.4},
+       {"amplitude": 0.05, "wavelength": 9, "direction": [0.2, 1], "steepness": 0.4, "phase": 1.3}
+     ]},
+    {"kind": "particles", "count": 512, "tile_size": 32, "radius": 1.0, "amplitude": 0.03,
+     "scales": [0.33, 0.66, 1.0],
+     "ripples": {"particles": 8, "decay": 30, "floor": 0.0001, "lifetime": 60}}
+  ]
+}"#,
+    ),
 ];
 
 /// The built-in scene specs, parsed.

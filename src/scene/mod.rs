@@ -9,6 +9,7 @@
 
 pub mod builtin;
 pub mod clock;
+pub mod particles;
 pub mod store;
 
 use std::sync::{Arc, Mutex};
@@ -204,6 +205,9 @@ pub struct Scene {
     /// This build's identity in the process (a counter): caches key on it, so frames of a
     /// replaced scene are never read for its successor, even one with the same spec.
     pub uid: u64,
+    /// Impact events rippling on its particle layer (empty for a new build: replacing a scene
+    /// starts its impacts afresh).
+    pub impacts: crate::impacts::SceneImpacts,
 }
 
 /// Source of [`Scene::uid`].
@@ -224,6 +228,7 @@ impl Scene {
             surface,
             spec_hash,
             uid: NEXT_UID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            impacts: Default::default(),
         })
     }
 
@@ -279,6 +284,9 @@ impl Scene {
                         "significant_wave_height": 4.0 * f.variance().sqrt(),
                         "rng": RNG_NAME,
                     }),
+                    (Layer::Particles(p), LayerSpec::Particles(s)) => {
+                        crate::scene::particles::derived(p, s)
+                    }
                     // A built layer always has the kind of its spec.
                     (l, _) => serde_json::json!({ "kind": kind_of(l) }),
                 }
@@ -300,6 +308,7 @@ fn kind_of(l: &Layer) -> &'static str {
         Layer::Sine(_) => "sine",
         Layer::Gerstner(_) => "gerstner",
         Layer::Fft(_) => "fft",
+        Layer::Particles(_) => "particles",
     }
 }
 

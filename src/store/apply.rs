@@ -58,7 +58,7 @@ pub fn op(state: &AppState, op: &Op, built: Option<Scene>) {
         }
         Op::SceneDelete { scene } => delete(state, scene),
         Op::Clock { scene, clock: rec } => clock(state, scene, rec),
-        // Body changes are not carried by the admin feed.
-        Op::Body { .. } => {}
+        // Body changes and impacts are not carried by the admin feed.
+        Op::Body { .. } | Op::Impact { .. } => {}
     }
 }

@@ -316,9 +316,9 @@ impl Fleet {
                 serde_json::to_string(clock),
                 String::new(),
             ),
-            Op::Body { .. } => {
+            Op::Body { .. } | Op::Impact { .. } => {
                 return Err(ApiError::internal(
-                    "body changes are not carried by the admin feed",
+                    "body changes and impacts are not carried by the admin feed",
                 ));
             }
         };

@@ -220,7 +220,8 @@ impl SharedTick {
         match form {
             Form::Json => {
                 let tail = format!(
-                    "],\"t\":{},\"tick\":{},\"type\":\"tick\"}}",
+                    "]{},\"t\":{},\"tick\":{},\"type\":\"tick\"}}",
+                    impacts_json(&self.tick),
                     serde_json::to_string(&self.tick.t).unwrap_or_default(),
                     self.tick.tick
                 );
@@ -245,8 +246,11 @@ impl SharedTick {
                     t: self.tick.t,
                     bodies: Vec::new(),
                     compact: None,
+                    impacts: Vec::new(),
                 }
                 .encode_to_vec();
+                // Impacts (field 5) come after the bodies (3) or the compact bodies (4).
+                let impacts = impacts_protobuf(&self.tick);
                 let field_len = |n: usize| 1 + encoded_len_varint(n as u64) + n;
                 let body_len: usize = chosen.iter().map(|&i| field_len(parts[i].len())).sum();
                 let origin = (form == Form::Compact).then(|| {
@@ -257,7 +261,8 @@ impl SharedTick {
                     + match &origin {
                         Some(o) => field_len(field_len(o.len()) + body_len),
                         None => body_len,
-                    };
+                    }
+                    + impacts.len();
                 let mut out = BytesMut::with_capacity(tick_len + 12);
                 encode_key(SERVER_MESSAGE_TICK, WireType::LengthDelimited, &mut out);
                 encode_varint(tick_len as u64, &mut out);
@@ -277,6 +282,7 @@ impl SharedTick {
                     encode_varint(parts[i].len() as u64, &mut out);
                     out.put_slice(&parts[i]);
                 }
+                out.put_slice(&impacts);
                 out.freeze()
             }
         }
@@ -292,6 +298,7 @@ impl SharedTick {
                 .iter()
                 .map(|&i| self.tick.bodies[i])
                 .collect::<Vec<BodyState>>(),
+            impacts: self.tick.impacts.clone(),
         };
         let out = Outgoing {
             id: None,
@@ -303,6 +310,31 @@ impl SharedTick {
             Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
         }
     }
+}
+
+/// The frame's impacts as the JSON fragment `,"impacts":[…]` that sits between `bodies` and
+/// `t` (keys sorted), or nothing when there are none (the field is omitted).
+fn impacts_json(tick: &Tick) -> String {
+    if tick.impacts.is_empty() {
+        return String::new();
+    }
+    format!(
+        ",\"impacts\":{}",
+        serde_json::to_string(&serde_json::to_value(&tick.impacts).unwrap_or_default())
+            .unwrap_or_default()
+    )
+}
+
+/// The frame's impacts as `swell.v1.Tick` field 4 entries (after the bodies, in tag order).
+fn impacts_protobuf(tick: &Tick) -> Vec<u8> {
+    if tick.impacts.is_empty() {
+        return Vec::new();
+    }
+    v1::Tick {
+        impacts: crate::impacts::to_proto(&tick.impacts),
+        ..Default::default()
+    }
+    .encode_to_vec()
 }
 
 fn wrap(codec: Codec, bytes: Bytes) -> Message {
@@ -359,6 +391,7 @@ mod tests {
                 tick: tick_no,
                 t,
                 bodies: (0..7).map(|i| body(i * 3, i as f64 + 0.37)).collect(),
+                impacts: Vec::new(),
             };
             let shared = SharedTick::new(tick.clone());
             for codec in [Codec::Json, Codec::Protobuf] {
@@ -405,6 +438,7 @@ mod tests {
                     b
                 })
                 .collect(),
+            impacts: Vec::new(),
         };
         let shared = SharedTick::new(tick.clone());
         let origin = super::super::compact::origin(&tick.bodies);
@@ -421,6 +455,7 @@ mod tests {
                     tick: 99,
                     t: 3.3,
                     bodies: Vec::new(),
+                    impacts: Vec::new(),
                     compact: Some(v1::CompactBodies {
                         origin: Some(v1::Vec3 {
                             x: origin[0],
@@ -478,6 +513,7 @@ mod tests {
             tick: 1,
             t: 0.5,
             bodies: (0..7).map(|i| body(i * 3, i as f64 + 0.37)).collect(),
+            impacts: Vec::new(),
         };
         let shared = SharedTick::new(tick.clone());
         let ids = |i: &Interest| -> Vec<u64> {
@@ -507,6 +543,7 @@ mod tests {
             tick: 3,
             t: 0.1,
             bodies: vec![body(1, 2.0), bad],
+            impacts: Vec::new(),
         });
         let all = Interest::default();
         let text = String::from_utf8(bytes(shared.message(Codec::Json, &all))).unwrap();

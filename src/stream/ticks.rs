@@ -125,6 +125,11 @@ async fn bodies_for(
 
 async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>) {
     let mut last: Option<i64> = None;
+    // Impacts added before the loop started are not news: a joining client lists them with
+    // `GET …/impacts`; frames carry those accepted since (see `crate::impacts`).
+    let mut impacts_seen = state
+        .scene(&id)
+        .map_or(0, |e| e.scene.impacts.since(u64::MAX).0);
     loop {
         let entry = {
             let mut loops = state.tickers.lock();
@@ -145,7 +150,13 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
             let t = tick as f64 / reading.tick_hz;
             let bodies = bodies_for(&state, &id, tick, &reading).await;
             // An error only means no receiver right now; the next turn decides whether to stop.
-            let _ = tx.send(Arc::new(SharedTick::new(Tick { tick, t, bodies })));
+            let impacts = crate::impacts::frame_events(&entry.scene, &mut impacts_seen);
+            let _ = tx.send(Arc::new(SharedTick::new(Tick {
+                tick,
+                t,
+                bodies,
+                impacts,
+            })));
             metrics::counter!("swell_ticks_total").increment(1);
             last = Some(tick);
         }

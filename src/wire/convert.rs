@@ -254,6 +254,7 @@ impl From<&Tick> for v1::Tick {
             t: t.t,
             bodies: t.bodies.iter().map(|&b| b.into()).collect(),
             compact: None,
+            impacts: crate::impacts::to_proto(&t.impacts),
         }
     }
 }

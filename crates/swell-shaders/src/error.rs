@@ -30,6 +30,16 @@ pub enum ShaderError {
         /// naga's message.
         message: String,
     },
+    /// More ambient particles (or particle layers) than a shader carries.
+    #[error(
+        "the surface has {particles} ambient particles (or particle layers); a shader carries at most {max}"
+    )]
+    TooManyParticles {
+        /// Particles (or particle layers) in the surface.
+        particles: usize,
+        /// The most one shader carries ([`crate::particles::MAX_SHADER_PARTICLES`], or 1 layer).
+        max: usize,
+    },
     /// A layer index that is not a layer of the surface, or not an FFT layer.
     #[error("layer {layer}: {reason}")]
     BadLayer {

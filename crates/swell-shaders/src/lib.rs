@@ -10,6 +10,9 @@
 //!   ([`translate`]).
 //! - The host computes each wave's phase offset for the frame in f64 ([`uniforms`]); the shader
 //!   adds only a small local term (see *Precision* below).
+//! - A particle layer is evaluated in the shader with the model's kernel: its ambient particles'
+//!   positions at t and the live impact rings come in the uniform block, computed by the host
+//!   in f64 ([`particles`]).
 //! - FFT layers are exported as data: the initial spectrum h0(k) and the quantised ω(k), exactly
 //!   as the model draws them ([`spectrum`]).
 //!
@@ -34,6 +37,7 @@
 //!
 //! # Layout
 //! - [`lang`] — [`Lang`] (the output languages) and [`Entry`] (the entry points).
+//! - [`particles`] — the particle layer's shader code and its part of the uniform block.
 //! - [`wgsl`] — the WGSL emitter: the shader's interface (uniform block, functions, entry points).
 //! - [`translate`] — naga: parse, validate, write GLSL / GLSL ES / HLSL / MSL.
 //! - [`uniforms`] — the frame's uniform values: per-wave phase offsets in f64.
@@ -72,6 +76,7 @@
 
 pub mod error;
 pub mod lang;
+pub mod particles;
 pub mod spectrum;
 pub mod translate;
 pub mod uniforms;

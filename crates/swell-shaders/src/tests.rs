@@ -32,9 +32,15 @@ const MIXED: &str = r#"{"seed": 42, "depth": 30, "layers": [
   {"kind": "gerstner", "waves": [{"amplitude": 0.6, "wavelength": 160, "direction": [0.4, 1], "steepness": 0.3}]},
   {"kind": "sine", "waves": [{"amplitude": 0.05, "wavelength": 5, "direction": [-1, 0], "phase": -2}]}]}"#;
 
+/// A low Gerstner swell under a particle layer at three scales (harbour-like, fewer particles).
+const PARTICLES: &str = r#"{"seed": 21, "layers": [
+  {"kind": "gerstner", "waves": [{"amplitude": 0.12, "wavelength": 26, "direction": [1, 0.3], "steepness": 0.4}]},
+  {"kind": "particles", "count": 96, "tile_size": 16, "radius": 1.0, "scales": [0.33, 0.66, 1.0]}]}"#;
+
 fn all_surfaces() -> Vec<(&'static str, Surface)> {
     [
         ("sine", SINE),
+        ("particles", PARTICLES),
         ("gerstner", GERSTNER),
         ("fft", FFT_ONLY),
         ("mixed", MIXED),
@@ -348,4 +354,111 @@ fn spectrum_of_a_non_fft_or_missing_layer_is_an_error() {
     assert!(e.to_string().contains("gerstner layer"), "{e}");
     let e = spectrum::export(&s, 3, &meta).unwrap_err();
     assert!(e.to_string().contains("out of range"), "{e}");
+}
+
+/// The shader's particle arithmetic, replayed in f32 on the CPU from the uploaded block, against
+/// the model's particle layer (ambient at three scales and two live rings), far out and late:
+/// the block layout, the offsets and the formulas agree to f32 rounding.
+#[test]
+fn particle_block_twin_matches_the_model() {
+    use swell_waves::particles::{Impact, Impacts};
+    let s = surface(PARTICLES);
+    let Layer::Particles(layer) = &s.layers()[1] else {
+        panic!("second layer is particles")
+    };
+    let amb = layer.ambient();
+    let origin = DVec2::new(-3.5e5, 1e6);
+    let t = 9876.5;
+    let impacts = Impacts::from_events(vec![
+        Impact {
+            t: t - 2.0,
+            position: [origin.x + 4.0, origin.y - 1.0],
+            strength: 0.5,
+            radius: 0.8,
+        },
+        Impact {
+            t: t - 5.0,
+            position: [origin.x - 6.0, origin.y + 2.0],
+            strength: 0.3,
+            radius: 0.5,
+        },
+    ])
+    .unwrap();
+    let u = crate::uniforms::frame_with_impacts(&s, &impacts, t, origin);
+    let (block, _) = crate::particles::block(layer, &impacts, t, origin);
+    assert_eq!(&u.block[u.block.len() - block.len()..], &block[..]);
+    let field = layer.field(t, Some(&impacts)).unwrap();
+    let rr = (amb.radius() / amb.tile_size()) as f32;
+    let inv_rr2 = 1.0 / (rr * rr);
+    let kernel = |h: &mut f32, g: &mut [f32; 2], d: [f32; 2], a: f32, inv_r2: f32, gs: f32| {
+        let q2 = (d[0] * d[0] + d[1] * d[1]) * inv_r2;
+        if q2 < 1.0 {
+            let w = 1.0 - q2;
+            let k = -6.0 * a * w * w * inv_r2 * gs;
+            *h += a * w * w * w;
+            g[0] += k * d[0];
+            g[1] += k * d[1];
+        }
+    };
+    let mut worst = (0.0f64, 0.0f64);
+    let mut rings_hit = 0;
+    for i in 0..400 {
+        let p = [
+            ((i % 20) as f32 - 10.0) * 0.7,
+            ((i / 20) as f32 - 10.0) * 0.7,
+        ];
+        let (mut h, mut g) = (0.0f32, [0.0f32; 2]);
+        for (k, &sc) in amb.scales().iter().enumerate() {
+            let inv_sl = (1.0 / (sc * amb.tile_size())) as f32;
+            let off = [block[4 + 2 * k], block[4 + 2 * k + 1]];
+            let fr = |v: f32| v - v.floor();
+            let q = [fr(off[0] + p[0] * inv_sl), fr(off[1] + p[1] * inv_sl)];
+            for j in 0..amb.len() {
+                let e = &block[12 + 4 * j..16 + 4 * j];
+                let mut d = [q[0] - e[0], q[1] - e[1]];
+                d[0] -= d[0].round_ties_even();
+                d[1] -= d[1].round_ties_even();
+                kernel(&mut h, &mut g, d, sc as f32 * e[2], inv_rr2, inv_sl);
+            }
+        }
+        let rings = &block[12 + 4 * amb.len().max(1)..];
+        for k in 0..block[0] as usize {
+            let (a, b) = (&rings[8 * k..8 * k + 4], &rings[8 * k + 4..8 * k + 8]);
+            let rel = [p[0] - a[0], p[1] - a[1]];
+            let rho = (rel[0] * rel[0] + rel[1] * rel[1]).sqrt();
+            if (rho - a[2]).abs() >= b[0] {
+                continue;
+            }
+            rings_hit += 1;
+            let n = b[1] as u32;
+            for j in 0..n {
+                let ang = std::f32::consts::TAU * (j as f32 / n as f32);
+                let d = [rel[0] - a[2] * ang.cos(), rel[1] - a[2] * ang.sin()];
+                kernel(&mut h, &mut g, d, a[3], b[2], 1.0);
+            }
+        }
+        let world = origin + DVec2::new(f64::from(p[0]), f64::from(p[1]));
+        let (mh, mg) = field.sample(layer, world, 0.0);
+        worst.0 = worst.0.max((f64::from(h) - mh).abs());
+        worst.1 = worst
+            .1
+            .max((DVec2::new(f64::from(g[0]), f64::from(g[1])) - mg).length());
+    }
+    assert!(
+        rings_hit > 10,
+        "the points should cross the rings: {rings_hit}"
+    );
+    assert!(
+        worst.0 < 2e-5 && worst.1 < 2e-4,
+        "f32 twin vs model: {worst:?}"
+    );
+}
+
+#[test]
+fn too_many_particles_is_an_error() {
+    let s = surface(r#"{"layers": [{"kind": "particles", "count": 600}]}"#);
+    assert!(matches!(
+        export(&s, Lang::Wgsl, None),
+        Err(ShaderError::TooManyParticles { particles: 600, .. })
+    ));
 }

@@ -13,6 +13,7 @@
 
 use glam::DVec2;
 use swell_waves::Surface;
+use swell_waves::particles::Impacts;
 
 use crate::wgsl::phase_vec4s;
 
@@ -27,8 +28,11 @@ pub struct FrameUniforms {
     /// order (layer order, then wave order).
     pub phases: Vec<f64>,
     /// The `SwellUniforms` block as f32s, ready to upload: `phases` rounded to f32 and padded
-    /// with zeros to `4·max(1, ⌈n/4⌉)` values (`phases[i / 4][i % 4]` is value i).
+    /// with zeros to `4·max(1, ⌈n/4⌉)` values (`phases[i / 4][i % 4]` is value i), then, for a
+    /// surface with a particle layer, the particle members ([`crate::particles::block`]).
     pub block: Vec<f32>,
+    /// Live impact rings that did not fit in the block ([`crate::particles::MAX_SHADER_RINGS`]).
+    pub rings_dropped: usize,
 }
 
 /// The uniforms of `surface` at time `t` (s) for render origin `origin` (world x/z, m).
@@ -36,6 +40,16 @@ pub struct FrameUniforms {
 /// Inputs are not checked: a non-finite `t` or `origin` gives NaN phases (callers validate
 /// first, as the server does).
 pub fn frame(surface: &Surface, t: f64, origin: DVec2) -> FrameUniforms {
+    frame_with_impacts(surface, &Impacts::new(), t, origin)
+}
+
+/// [`frame`] with the rings of `impacts` on the surface's particle layer (ignored without one).
+pub fn frame_with_impacts(
+    surface: &Surface,
+    impacts: &Impacts,
+    t: f64,
+    origin: DVec2,
+) -> FrameUniforms {
     let phases: Vec<f64> = surface
         .layers()
         .iter()
@@ -46,11 +60,18 @@ pub fn frame(surface: &Surface, t: f64, origin: DVec2) -> FrameUniforms {
     for (b, p) in block.iter_mut().zip(&phases) {
         *b = *p as f32;
     }
+    let mut rings_dropped = 0;
+    if let Ok(Some(layer)) = crate::particles::layer(surface) {
+        let (more, dropped) = crate::particles::block(layer, impacts, t, origin);
+        block.extend_from_slice(&more);
+        rings_dropped = dropped;
+    }
     FrameUniforms {
         t,
         origin,
         phases,
         block,
+        rings_dropped,
     }
 }
 

@@ -23,6 +23,9 @@
 //! `swell.phases[i / 4][i % 4]`: `φ_i(t, o)` of [`crate::uniforms::frame`], radians. Positions
 //! are local: `p_local = p_world − o`, with `o` the origin the offsets were computed for.
 //!
+//! A surface with a particle layer adds the particle members to `SwellUniforms` after
+//! `phases` and sums the particles in `swell_sample` (see [`crate::particles`]).
+//!
 //! The entry points are listed in [`crate::Entry`].
 
 use std::fmt::Write as _;
@@ -118,6 +121,7 @@ fn lit(v: f32) -> String {
 /// As [`wave_constants`].
 pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
     let consts = wave_constants(surface)?;
+    let particles = crate::particles::layer(surface)?.map(crate::particles::wgsl);
     let m = phase_vec4s(consts.len());
     let mut s = String::with_capacity(4096 + 160 * consts.len());
     let w = &mut s;
@@ -150,6 +154,16 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
                 );
                 continue;
             }
+            Layer::Particles(p) => {
+                let _ = writeln!(
+                    w,
+                    "// layer {li}: particles: {} ambient particles × {} scale(s), positions and \
+                     live rings from the uniforms",
+                    p.ambient().len(),
+                    p.ambient().scales().len()
+                );
+                continue;
+            }
         };
         let _ = writeln!(
             w,
@@ -164,7 +178,7 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
          const SWELL_TAU: f32 = 6.2831855f;\n\
          \n\
          // Phase offsets φ_i(t, o), radians, wave i at phases[i / 4][i % 4] (std140-compatible).\n\
-         struct SwellUniforms {{\n    phases: array<vec4<f32>, {m}>,\n}}\n\
+         struct SwellUniforms {{\n    phases: array<vec4<f32>, {m}>,\n{pm}}}\n\
          @group(0) @binding(0) var<uniform> swell: SwellUniforms;\n\
          \n\
          // The render entry point's camera: clip = view_proj · (local position, 1).\n\
@@ -175,8 +189,12 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
          // derivatives along x0 and z0.\n\
          struct SwellSample {{\n    displacement: vec3<f32>,\n    d_dx: vec3<f32>,\n    d_dz: vec3<f32>,\n}}\n",
         n = consts.len(),
+        pm = particles.as_ref().map_or("", |p| p.0.as_str()),
     );
     w.push_str(WAVE_FN);
+    if let Some((_, funcs, _)) = &particles {
+        w.push_str(funcs);
+    }
     let _ = writeln!(
         w,
         "\n// Every sine and Gerstner wave at the undisplaced local point p (m).\n\
@@ -195,6 +213,9 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
             lit(c.qad[0]),
             lit(c.qad[1]),
         );
+    }
+    if let Some((_, _, calls)) = &particles {
+        w.push_str(calls);
     }
     w.push_str("    return s;\n}\n");
     w.push_str(HELPERS);

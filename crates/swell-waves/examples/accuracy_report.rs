@@ -23,6 +23,8 @@ use glam::{DVec2, DVec3};
 use serde_json::json;
 use swell_waves::fft::{FftFields, FftLayer, SampleFilter};
 use swell_waves::math::SwellRng;
+use swell_waves::particles::kernel::kernel_height;
+use swell_waves::particles::{Impact, Impacts, ParticleLayer, ParticleLayerSpec};
 use swell_waves::spectrum::{DirectionalSpectrum, Dispersion, SpectrumSpec, SpreadingSpec};
 use swell_waves::wave::SurfaceSample;
 use swell_waves::{
@@ -105,6 +107,8 @@ fn main() {
         backend(size),
         gerstner_count(size),
         normals(size),
+        particle_cost(size),
+        ring_subdivision(size),
     ];
     std::fs::create_dir_all(&out).expect("create the output directory");
     let md = markdown(&knobs, quick, started.elapsed().as_secs_f64());
@@ -969,4 +973,203 @@ fn chart(knobs: &[Knob], path: &std::path::Path) {
         .expect("points");
     }
     root.present().expect("write svg");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Wave particles
+
+fn particle_layer(spec: serde_json::Value) -> ParticleLayer {
+    let spec: ParticleLayerSpec = serde_json::from_value(spec).expect("particle spec decodes");
+    ParticleLayer::new(&spec, 7, Dispersion::default(), "report").expect("valid particle layer")
+}
+
+/// `n` random impacts in a 100 m square, times in [0, 10) s, strengths 0.1..1 m, radii
+/// 0.3..1.5 m.
+fn random_impacts(n: usize) -> Impacts {
+    let mut g = SwellRng::new(31, 5);
+    Impacts::from_events(
+        (0..n)
+            .map(|_| Impact {
+                t: 10.0 * g.uniform(),
+                position: [100.0 * g.uniform() - 50.0, 100.0 * g.uniform() - 50.0],
+                strength: 0.1 + 0.9 * g.uniform(),
+                radius: 0.3 + 1.2 * g.uniform(),
+            })
+            .collect(),
+    )
+    .expect("valid impacts")
+}
+
+fn particle_cost(size: Size) -> Knob {
+    let pts = points(12, size.points, 50.0);
+    let t = 12.0;
+    let mut rows = Vec::new();
+    let cases: Vec<(usize, Vec<f64>, usize)> = vec![
+        (128, vec![1.0], 0),
+        (512, vec![1.0], 0),
+        (2048, vec![1.0], 0),
+        (8192, vec![1.0], 0),
+        (512, vec![0.33, 0.66, 1.0], 0),
+        (512, vec![0.33, 0.66, 1.0], 8),
+        (512, vec![0.33, 0.66, 1.0], 64),
+        (512, vec![0.33, 0.66, 1.0], 512),
+    ];
+    for (n, scales, rings) in cases {
+        let layer = particle_layer(json!({"count": n, "scales": scales}));
+        let impacts = random_impacts(rings);
+        let field = layer.field(t, Some(&impacts)).expect("within limits");
+        let live = field.live_rings();
+        let live_particles = field.live_ring_particles();
+        let e: Vec<f64> = pts
+            .iter()
+            .map(|&p| {
+                let (h, g) = field.sample(&layer, p, 0.0);
+                let (hr, gr, _) = field.sample_reference(&layer, p);
+                (h - hr).abs().max((g - gr).length()) * 1e3
+            })
+            .collect();
+        let mut sink = 0.0;
+        let per_point = best_of(size.reps, || {
+            for &p in &pts {
+                sink += field.sample(&layer, p, 0.0).0;
+            }
+        });
+        let per_frame = best_of(size.reps, || {
+            let f = layer.field(t, Some(&impacts)).expect("within limits");
+            sink += f.sample(&layer, pts[0], 0.0).0;
+        });
+        std::hint::black_box(sink);
+        rows.push(row(
+            format!(
+                "{n} particles × {} scale(s), {live} live rings ({live_particles} ring particles); \
+                 frame (list rings, build grids): {:.1} µs",
+                scales.len(),
+                per_frame * 1e6
+            ),
+            format!("N={n}×{} R={live}", scales.len()),
+            &e,
+            per_point * 1e9 / pts.len() as f64,
+        ));
+    }
+    Knob {
+        title: "Wave particles: cost per query and per frame against particles and live ripples",
+        error_unit: "mm (height) or mm/m (slope)",
+        cost_unit: "ns/point",
+        method: format!(
+            "A particle layer alone (tile 32 m, radius 1 m) with N ambient particles at the listed \
+             scales, plus R random impacts (100 m square, t0 in [0, 10) s, strength 0.1–1 m, \
+             radius 0.3–1.5 m) seen at t = 12 s. Error: the grid-indexed fast path against the \
+             brute-force closed-form sum over every particle (`ParticleField::sample_reference`), \
+             max over {} points of |Δh| and |Δ∇h|: only rounding, since the grids skip only \
+             kernels that are exactly zero. Cost: height and gradient per point on one thread; \
+             the per-frame cost (listing the live rings, bucketing every ambient particle, \
+             indexing the rings) is in the setting column.",
+            pts.len()
+        ),
+        rows,
+        advice: "A query reads only the particles near it, so its cost follows the local \
+                 density (N·scales·πr²/L² ambient particles and the ring particles within r), \
+                 not N or R: the default 512 particles cost tens of nanoseconds per scale. The \
+                 per-frame grid build is linear in N and in the live ring particles; it is paid \
+                 once per snapshot, on its first query."
+            .into(),
+    }
+}
+
+/// The exact ring the particles stand for: the kernel smeared along the circle with the line
+/// density of the discrete ring, `H(x) = (a·N/2π)·∫ K(x − c − d·(cos φ, sin φ)) dφ`, by the
+/// periodic trapezoid rule with 64·N nodes (spectrally accurate for this smooth integrand).
+fn exact_ring(x: DVec2, c: DVec2, d: f64, a: f64, n: u32, r: f64) -> f64 {
+    let m = 64 * n as usize;
+    let inv_r2 = 1.0 / (r * r);
+    let mut sum = 0.0;
+    for j in 0..m {
+        let phi = std::f64::consts::TAU * j as f64 / m as f64;
+        let p = c + d * DVec2::new(phi.cos(), phi.sin());
+        sum += kernel_height(1.0, x - p, inv_r2);
+    }
+    a * n as f64 * sum / m as f64
+}
+
+fn ring_subdivision(size: Size) -> Knob {
+    let layer = particle_layer(json!({"count": 0, "ripples": {"decay": 1e6, "floor": 1e-9,
+        "max_ring_particles": 65536}}));
+    let impact = Impact {
+        t: 0.0,
+        position: [0.0, 0.0],
+        strength: 1.0,
+        radius: 0.5,
+    };
+    let impacts = Impacts::from_events(vec![impact]).expect("valid impact");
+    let ring = layer.ring(&impact);
+    let n_pts = (size.points / 4).max(64);
+    let mut rows = Vec::new();
+    for g in 1..=3u32 {
+        let (lo, hi) = (ring.split_distance(g - 1), ring.split_distance(g));
+        // Gap r/3 just after the split into g, 2r/3 halfway, r just before the next split.
+        for (frac, what) in [(1.000001, "r/3"), (2.0, "2r/3"), (2.999999, "r")] {
+            let d = lo * frac;
+            let d = d.min(hi);
+            let t = d / ring.speed;
+            let st = ring.state(t).expect("alive");
+            let field = layer.field(t, Some(&impacts)).expect("within limits");
+            let mut rng = SwellRng::new(u64::from(g), 3);
+            let pts: Vec<DVec2> = (0..n_pts)
+                .map(|_| {
+                    let rho = d + ring.radius * (2.0 * rng.uniform() - 1.0);
+                    let psi = std::f64::consts::TAU * rng.uniform();
+                    rho * DVec2::new(psi.cos(), psi.sin())
+                })
+                .collect();
+            let exact: Vec<f64> = pts
+                .iter()
+                .map(|&p| exact_ring(p, DVec2::ZERO, d, st.amplitude, st.count, ring.radius))
+                .collect();
+            let peak = exact.iter().copied().fold(0.0, f64::max);
+            let e: Vec<f64> = pts
+                .iter()
+                .zip(&exact)
+                .map(|(&p, &h)| (field.sample(&layer, p, 0.0).0 - h).abs() / peak * 100.0)
+                .collect();
+            let mut sink = 0.0;
+            let time = best_of(size.reps, || {
+                for &p in &pts {
+                    sink += field.sample(&layer, p, 0.0).0;
+                }
+            });
+            std::hint::black_box(sink);
+            rows.push(row(
+                format!(
+                    "generation {g} ({} particles), gap {what}: ring radius {d:.1} m, peak {:.2} mm",
+                    st.count,
+                    peak * 1e3
+                ),
+                format!("g{g} gap {what}"),
+                &e,
+                time * 1e9 / pts.len() as f64,
+            ));
+        }
+    }
+    Knob {
+        title: "Subdivided impact rings against an exact expanding ring",
+        error_unit: "% of the ring's peak",
+        cost_unit: "ns/point",
+        method: format!(
+            "One impact (strength 1 m, particle radius 0.5 m, 8 initial particles, no distance \
+             decay) seen at ring radii where the gap between neighbours is r/3 (just after a \
+             split), 2r/3 and r (just before the next). The exact ring is the same kernel \
+             smeared continuously along the circle with the discrete ring's line density \
+             (a·N/2π per radian, integrated by the trapezoid rule on 64·N nodes). Error: \
+             |particles − exact| over {n_pts} random points of the annulus d ± r, as a \
+             percentage of the exact ring's peak height."
+        ),
+        rows,
+        advice: "The error follows the gap between neighbours, not the generation: about \
+                 0.15 % of the ring's peak just after a split (gap r/3), 2–3 % halfway, and \
+                 10–13 % (RMS 5 %) just before the next split, when the particles stand a radius \
+                 apart and the crest ripples between them; each split brings it back down. \
+                 Subdivision conserves the ring's total amplitude exactly, so the ring's mean \
+                 height does not jump at a split."
+            .into(),
+    }
 }

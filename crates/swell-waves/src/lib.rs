@@ -39,6 +39,8 @@
 //! - [`query`] — height with inversion, normal, displacement, Jacobian/fold, residual; batches.
 //! - [`body`] — floating bodies: orientation from probe points, and the deterministic rigid-body
 //!   buoyancy simulation ([`body::World`]).
+//! - [`particles`] — wave particles: seeded ambient particles on a periodic tile and impact
+//!   ripples (rings that expand, subdivide and fade), both in closed form in t.
 //! - [`velocity`] — orbital velocity of the water at the surface (∂/∂t of the displacement).
 //! - [`error`] — [`SpecError`], the typed validation error.
 //!
@@ -55,6 +57,9 @@
 //!   each component travels along +k, like Gerstner), horizontal displacement
 //!   `D = Σ i·λ·(k/|k|)·h̃·e^{i k·x}` (Gerstner-like sharp crests). The inverse transforms are
 //!   unnormalised sums (no 1/N²): h0 carries the physical amplitude.
+//! - Wave particles: a particle of amplitude a and radius r at c adds `a·(1 − |x − c|²/r²)³`
+//!   (zero beyond r) to the elevation only; ambient particles sit at `wrap(p0 + v·t)` on a
+//!   periodic tile, impact rings follow closed forms in t ([`particles`]).
 //! - "Height at (x, z)" is the elevation of the surface point that lies above world (x, z) after
 //!   horizontal displacement: the model solves `p0 + D(p0, t) = (x, z)`. Displacement at the
 //!   undisplaced point is the separate [`SurfaceAt::displacement`].
@@ -94,6 +99,7 @@ pub mod error;
 pub mod fft;
 pub mod gerstner;
 pub mod math;
+pub mod particles;
 pub mod query;
 pub mod sine;
 pub mod spectrum;

@@ -12,6 +12,7 @@ use crate::error::{SpecError, finite, in_range, positive};
 use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec, lerp_samples};
 use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
 use crate::math::splitmix64;
+use crate::particles::{Impacts, ParticleField, ParticleLayer, ParticleLayerSpec};
 use crate::query::{Precision, QueryFields, QueryOptions, TimeSampling};
 use crate::sine::{SineLayer, SineLayerSpec};
 use crate::spectrum::Dispersion;
@@ -63,15 +64,18 @@ pub enum LayerSpec {
     Gerstner(GerstnerLayerSpec),
     /// Tessendorf FFT ocean.
     Fft(FftSpec),
+    /// Wave particles: ambient particles and impact ripples.
+    Particles(ParticleLayerSpec),
 }
 
 impl LayerSpec {
-    /// The layer kind as written on the wire: `sine`, `gerstner` or `fft`.
+    /// The layer kind as written on the wire: `sine`, `gerstner`, `fft` or `particles`.
     pub fn kind(&self) -> &'static str {
         match self {
             LayerSpec::Sine(_) => "sine",
             LayerSpec::Gerstner(_) => "gerstner",
             LayerSpec::Fft(_) => "fft",
+            LayerSpec::Particles(_) => "particles",
         }
     }
 }
@@ -85,15 +89,17 @@ pub enum Layer {
     Gerstner(GerstnerLayer),
     /// FFT ocean (boxed: it holds the spectrum and transform plans).
     Fft(Box<FftLayer>),
+    /// Wave particles (boxed: it holds the ambient particle arrays).
+    Particles(Box<ParticleLayer>),
 }
 
 impl Layer {
-    /// The analytic waves of a sine or Gerstner layer; empty for FFT.
+    /// The analytic waves of a sine or Gerstner layer; empty for FFT and particle layers.
     pub fn waves(&self) -> &[Wave] {
         match self {
             Layer::Sine(l) => l.waves(),
             Layer::Gerstner(l) => l.waves(),
-            Layer::Fft(_) => &[],
+            Layer::Fft(_) | Layer::Particles(_) => &[],
         }
     }
 }
@@ -152,6 +158,12 @@ impl Surface {
                     dispersion,
                     &field,
                 )?)),
+                LayerSpec::Particles(p) => Layer::Particles(Box::new(ParticleLayer::new(
+                    p,
+                    p.seed.unwrap_or(seed),
+                    dispersion,
+                    &field,
+                )?)),
             });
         }
         let gerstner: Vec<Wave> = layers
@@ -167,15 +179,15 @@ impl Surface {
             });
         }
         let horizontal = layers.iter().any(|l| match l {
-            Layer::Sine(_) => false,
+            Layer::Sine(_) | Layer::Particles(_) => false,
             Layer::Gerstner(g) => g.waves().iter().any(|w| w.steepness > 0.0),
             Layer::Fft(f) => f.choppiness() > 0.0,
         });
         let soa = layers
             .iter()
             .map(|l| match l {
-                Layer::Fft(_) => None,
-                _ => Some(WaveSoA::new(l.waves())),
+                Layer::Sine(_) | Layer::Gerstner(_) => Some(WaveSoA::new(l.waves())),
+                Layer::Fft(_) | Layer::Particles(_) => None,
             })
             .collect();
         Ok(Surface {
@@ -210,6 +222,19 @@ impl Surface {
     /// Whether any layer is an FFT ocean.
     pub fn has_fft(&self) -> bool {
         self.layers.iter().any(|l| matches!(l, Layer::Fft(_)))
+    }
+
+    /// Whether any layer is a particle layer.
+    pub fn has_particles(&self) -> bool {
+        self.layers.iter().any(|l| matches!(l, Layer::Particles(_)))
+    }
+
+    /// The first particle layer, the one impacts ripple on ([`SurfaceAt::with_impacts`]).
+    pub fn impact_layer(&self) -> Option<&ParticleLayer> {
+        self.layers.iter().find_map(|l| match l {
+            Layer::Particles(p) => Some(&**p),
+            _ => None,
+        })
     }
 
     /// The FFT fields that queries for `fields` with `options` need from layer `layer`: height
@@ -339,6 +364,19 @@ impl Surface {
                 });
             }
         }
+        // Particle layers at t, without impacts ([`SurfaceAt::with_impacts`] adds them). Cheap:
+        // their grids are built on the first query. Empty when there is no particle layer.
+        let particles = if self.has_particles() {
+            self.layers
+                .iter()
+                .map(|l| match l {
+                    Layer::Particles(p) => p.field(t, None).map(|f| Some(Arc::new(f))),
+                    _ => Ok(None),
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        } else {
+            Vec::new()
+        };
         Ok(SurfaceAt {
             surface: self,
             t,
@@ -346,6 +384,7 @@ impl Surface {
             options: *options,
             velocities: Vec::new(),
             offsets: OnceLock::new(),
+            particles,
         })
     }
 
@@ -451,6 +490,9 @@ pub struct SurfaceAt<'s> {
     /// ([`SurfaceAt::lanes_f32`]), so f64 snapshots never pay for them; the values depend only
     /// on the surface and `t`, so when they are computed changes no bit.
     pub(crate) offsets: OnceLock<Vec<Vec<f64>>>,
+    /// Per layer, the particle layer at `t` (`Some` for particle layers); empty when the
+    /// surface has none.
+    pub(crate) particles: Vec<Option<Arc<ParticleField>>>,
 }
 
 impl SurfaceAt<'_> {
@@ -467,6 +509,57 @@ impl SurfaceAt<'_> {
     /// The query options in force.
     pub fn options(&self) -> &QueryOptions {
         &self.options
+    }
+
+    /// This snapshot with the ripples of `impacts` on the surface's first particle layer
+    /// ([`Surface::impact_layer`]): the rings alive at `t` are listed now, their grid is built
+    /// on the first query. On a surface without a particle layer the impacts change nothing.
+    ///
+    /// # Errors
+    /// More than [`crate::particles::ripple::MAX_LIVE_RINGS`] rings alive at t (field
+    /// `impacts`).
+    pub fn with_impacts(mut self, impacts: &Impacts) -> Result<Self, SpecError> {
+        let surface = self.surface;
+        let first = surface
+            .layers
+            .iter()
+            .enumerate()
+            .find_map(|(i, l)| match l {
+                Layer::Particles(p) => Some((i, p)),
+                _ => None,
+            });
+        if let Some((i, p)) = first {
+            self.particles[i] = Some(Arc::new(p.field(self.t, Some(impacts))?));
+        }
+        Ok(self)
+    }
+
+    /// The particle layer `i` of this snapshot at its time, if layer `i` is a particle layer.
+    pub fn particle_field(&self, i: usize) -> Option<&ParticleField> {
+        self.particles.get(i).and_then(|f| f.as_deref())
+    }
+
+    /// Adds particle layer `i`'s height and slopes at `p` to lane `l` (`y` and its
+    /// derivatives only: particles move the surface vertically).
+    #[inline]
+    fn add_particles<const B: usize>(
+        &self,
+        i: usize,
+        layer: &ParticleLayer,
+        points: &[DVec2; B],
+        derivatives: bool,
+        out: &mut Lanes<B>,
+    ) {
+        if let Some(field) = self.particle_field(i) {
+            for (l, &p) in points.iter().enumerate() {
+                let (h, g) = field.sample(layer, p, 0.0);
+                out.disp[1][l] += h;
+                if derivatives {
+                    out.d_dx[1][l] += g.x;
+                    out.d_dz[1][l] += g.y;
+                }
+            }
+        }
     }
 
     /// Total inverse FFTs run to build this snapshot's frames.
@@ -508,18 +601,22 @@ impl SurfaceAt<'_> {
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = Lanes::<B>::default();
-        for ((layer, frame), soa) in self
+        for (i, ((layer, frame), soa)) in self
             .surface
             .layers
             .iter()
             .zip(&self.frames)
             .zip(&self.surface.soa)
+            .enumerate()
         {
             match (layer, soa) {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
                         add_fft(&mut out, l, &self.fft_sample(f, frame, p0), derivatives);
                     }
+                }
+                (Layer::Particles(p), _) => {
+                    self.add_particles(i, p, points, derivatives, &mut out);
                 }
                 (_, Some(soa)) => soa.accumulate_lanes(&x, &z, self.t, derivatives, &mut out),
                 (_, None) => {}
@@ -540,19 +637,28 @@ impl SurfaceAt<'_> {
         let offsets = self
             .offsets
             .get_or_init(|| self.surface.phase_offsets(self.t));
-        for (((layer, frame), soa), offsets) in self
+        for (i, (((layer, frame), soa), offsets)) in self
             .surface
             .layers
             .iter()
             .zip(&self.frames)
             .zip(&self.surface.soa)
             .zip(offsets)
+            .enumerate()
         {
             match (layer, soa) {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
                         let mut one = Lanes::<1>::default();
                         add_fft(&mut one, 0, &self.fft_sample(f, frame, p0), derivatives);
+                        out.add(l, &one.get(0));
+                    }
+                }
+                (Layer::Particles(p), _) => {
+                    // Summed in f64 like an FFT layer's grid read, then joins the f32 sums.
+                    for (l, &p0) in points.iter().enumerate() {
+                        let mut one = Lanes::<1>::default();
+                        self.add_particles(i, p, &[p0], derivatives, &mut one);
                         out.add(l, &one.get(0));
                     }
                 }
@@ -641,15 +747,25 @@ impl SurfaceAt<'_> {
     }
 
     /// Slow reference for [`SurfaceAt::sample`]: analytic waves with unreduced phases and the
-    /// platform's f64 sin/cos, FFT layers by direct Fourier summation at the exact point.
+    /// platform's f64 sin/cos, FFT layers by direct Fourier summation at the exact point,
+    /// particle layers from their closed forms without grids
+    /// ([`ParticleField::sample_reference`]).
     /// Always computes derivatives. For tests and the accuracy report only.
     pub fn sample_reference(&self, p0: DVec2) -> SurfaceSample {
         let mut out = SurfaceSample::default();
-        for layer in &self.surface.layers {
+        for (i, layer) in self.surface.layers.iter().enumerate() {
             match layer {
                 Layer::Sine(_) | Layer::Gerstner(_) => {
                     for w in layer.waves() {
                         w.accumulate_reference(p0, self.t, &mut out);
+                    }
+                }
+                Layer::Particles(p) => {
+                    if let Some(field) = self.particle_field(i) {
+                        let (h, g, _) = field.sample_reference(p, p0);
+                        out.displacement.y += h;
+                        out.d_dx.y += g.x;
+                        out.d_dz.y += g.y;
                     }
                 }
                 Layer::Fft(f) => {

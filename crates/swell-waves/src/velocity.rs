@@ -115,7 +115,8 @@ impl<'s> SurfaceAt<'s> {
     }
 
     /// [`SurfaceAt::velocity`] leaving out analytic (sine and Gerstner) waves shorter than
-    /// `min_wavelength`, m. FFT layers are never filtered. `min_wavelength = 0` is exactly
+    /// `min_wavelength`, m, and particles narrower than it (`4r < min_wavelength`). FFT layers
+    /// are never filtered. Particles move the surface vertically only (`∂h/∂t`). `min_wavelength = 0` is exactly
     /// [`SurfaceAt::velocity`].
     pub fn velocity_filtered(&self, p0: DVec2, min_wavelength: f64) -> DVec3 {
         let mut out = DVec3::ZERO;
@@ -135,6 +136,11 @@ impl<'s> SurfaceAt<'s> {
                         _ => f.velocity_reference(p0, self.t),
                     };
                 }
+                Layer::Particles(p) => {
+                    if let Some(field) = self.particle_field(i) {
+                        out.y += field.vertical_velocity(p, p0, min_wavelength);
+                    }
+                }
             }
         }
         out
@@ -152,11 +158,16 @@ impl<'s> SurfaceAt<'s> {
     /// platform f64 trig, FFT layers by direct summation. For tests and reports.
     pub fn velocity_reference(&self, p0: DVec2) -> DVec3 {
         let mut out = DVec3::ZERO;
-        for layer in self.surface.layers() {
+        for (i, layer) in self.surface.layers().iter().enumerate() {
             match layer {
                 Layer::Sine(_) | Layer::Gerstner(_) => {
                     for w in layer.waves() {
                         accumulate_velocity_reference(w, p0, self.t, &mut out);
+                    }
+                }
+                Layer::Particles(p) => {
+                    if let Some(field) = self.particle_field(i) {
+                        out.y += field.sample_reference(p, p0).2;
                     }
                 }
                 Layer::Fft(f) => out += f.velocity_reference(p0, self.t),

@@ -180,16 +180,23 @@ fn velocity_frames_from_the_caller_must_match_the_layers() {
 
 /// The bodies' fast path: `water_lanes` (vectorised inversion) against `water_at` one point at a
 /// time, bit for bit, on seeded random points: steep Gerstner (inversion), Gerstner plus an FFT
-/// layer, sine only (no horizontal motion), with and without a filter that drops waves (the
+/// layer, sine only (no horizontal motion), Gerstner plus wave particles (which the filter also
+/// drops), with and without a filter that drops waves (the
 /// per-point fallback), under both inversion methods, NaN points included.
 #[test]
 fn water_lanes_equal_water_at_bit_for_bit() {
     let mut mixed = common::gerstner_spec(5, 8, 0.9);
     mixed.layers.push(fft_layer(1.2));
+    let mut with_particles = common::gerstner_spec(3, 4, 0.6);
+    with_particles.layers.push(
+        serde_json::from_value(serde_json::json!({"kind": "particles", "radius": 4.0}))
+            .expect("a particle layer"),
+    );
     let seas = [
         Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap(),
         Surface::new(&mixed).unwrap(),
         Surface::new(&common::sine_spec()).unwrap(),
+        Surface::new(&with_particles).unwrap(),
     ];
     // SplitMix64 → uniform in [lo, hi): seeded, no RNG crate needed.
     let mut state = 11u64;

@@ -25,7 +25,8 @@ pub struct WaterPoint {
 
 impl SurfaceAt<'_> {
     /// [`SurfaceAt::sample`] leaving out analytic (sine and Gerstner) waves shorter than
-    /// `min_wavelength`, m; FFT layers are never filtered. Always f64 (see the module docs):
+    /// `min_wavelength`, m, and particles narrower than it (`4r < min_wavelength`); FFT layers
+    /// are never filtered. Always f64 (see the module docs):
     /// `min_wavelength = 0` gives exactly the bits of [`SurfaceAt::sample`] on a
     /// [`crate::Precision::F64`] snapshot, not on an `F32` one.
     pub fn sample_filtered(
@@ -35,8 +36,18 @@ impl SurfaceAt<'_> {
         min_wavelength: f64,
     ) -> SurfaceSample {
         let mut out = SurfaceSample::default();
-        for (layer, frame) in self.surface.layers().iter().zip(&self.frames) {
+        for (i, (layer, frame)) in self.surface.layers().iter().zip(&self.frames).enumerate() {
             match layer {
+                Layer::Particles(p) => {
+                    if let Some(field) = self.particle_field(i) {
+                        let (h, g) = field.sample(p, p0, min_wavelength);
+                        out.displacement.y += h;
+                        if derivatives {
+                            out.d_dx.y += g.x;
+                            out.d_dz.y += g.y;
+                        }
+                    }
+                }
                 Layer::Sine(_) | Layer::Gerstner(_) => {
                     for w in layer.waves() {
                         if keeps(w, min_wavelength) {
@@ -115,7 +126,10 @@ impl SurfaceAt<'_> {
         worlds: &[DVec2; B],
         min_wavelength: f64,
     ) -> [WaterPoint; B] {
+        // The filter also drops particles narrower than `min_wavelength` (see
+        // `sample_filtered`): with particles, only no filter at all is the plain sea.
         let unfiltered = self.options.precision == crate::Precision::F64
+            && (min_wavelength == 0.0 || !self.surface.has_particles())
             && self
                 .surface
                 .layers()

@@ -1,0 +1,156 @@
+//! Impact endpoints: `POST /v1/scenes/{id}/impacts` (admin) adds a splash that ripples on the
+//! scene's particle layer; `GET /v1/scenes/{id}/impacts` lists the impacts that can still be
+//! rippling. The set itself is [`crate::impacts`].
+
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::{Deserialize, Serialize};
+use swell_waves::particles::Impact;
+
+use crate::api::admin::require_admin;
+use crate::api::json::{RawBody, from_slice};
+use crate::error::ApiError;
+use crate::impacts::{AddError, ImpactEvent, apply_tick};
+use crate::journal::Op;
+use crate::state::AppState;
+
+/// `POST /v1/scenes/{id}/impacts` body.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImpactRequest {
+    /// World `[x, z]`, m.
+    pub position: [f64; 2],
+    /// Scene time of the impact, s. Default: the start of the scene's next tick, so every
+    /// subscriber gets it in a frame before it starts rippling.
+    #[serde(default)]
+    pub t: Option<f64>,
+    /// Splash height at the impact point, m, in (0, 100].
+    pub strength: f64,
+    /// Particle radius of the ring, m, in [0.01, 1000].
+    pub radius: f64,
+}
+
+/// `POST /v1/scenes/{id}/impacts` answer (202).
+#[derive(Debug, Clone, Serialize)]
+pub struct ImpactAccepted {
+    /// The first tick at or after the impact: `ceil(t·tick_hz)`. Its frame carries the event.
+    pub tick: i64,
+    /// Scene time of the impact, s.
+    pub t: f64,
+}
+
+/// `POST /v1/scenes/{id}/impacts` (admin): validates, adds to the scene's set, journals (durable
+/// before the answer), 202 `{"tick","t"}`.
+///
+/// # Errors
+/// 400 `invalid_value` naming the field; 422 `invalid_spec` for a scene without a particle
+/// layer; 409 `too_many_impacts` over a limit; 404 for an unknown scene.
+pub async fn create(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    RawBody(body): RawBody,
+) -> Result<Response, ApiError> {
+    require_admin(&headers, state.admin_token())?;
+    let req: ImpactRequest = from_slice(&body)?;
+    let entry = state.scene(&id)?;
+    let scene = &entry.scene;
+    let Some(layer) = scene.surface.impact_layer() else {
+        return Err(ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid_spec",
+            format!("scene {id} has no particle layer: impacts ripple on one (add {{\"kind\": \"particles\"}} to its layers)"),
+        )
+        .with_field("layers"));
+    };
+    let hz = scene.spec.tick_hz;
+    let t = match req.t {
+        Some(t) => t,
+        None => (state.read_clock(&entry).tick + 1) as f64 / hz,
+    };
+    let impact = Impact {
+        t,
+        position: req.position,
+        strength: req.strength,
+        radius: req.radius,
+    };
+    impact
+        .validate("")
+        .map_err(|e| ApiError::invalid(e.field(), e.to_string()))?;
+    scene
+        .impacts
+        .add_checked(impact, layer.ripples().lifetime)
+        .map_err(|e| match e {
+            AddError::Full(why) => ApiError::new(StatusCode::CONFLICT, "too_many_impacts", why),
+            AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
+        })?;
+    if let Some(j) = state.journal() {
+        let seq = j
+            .append(Op::Impact {
+                scene: id.clone(),
+                impact,
+            })
+            .map_err(ApiError::internal)?;
+        j.commit(seq).await.map_err(ApiError::internal)?;
+    }
+    metrics::counter!("swell_impacts_total").increment(1);
+    Ok((
+        StatusCode::ACCEPTED,
+        axum::Json(ImpactAccepted {
+            tick: apply_tick(t, hz),
+            t,
+        }),
+    )
+        .into_response())
+}
+
+/// `GET /v1/scenes/{id}/impacts` query.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ListQuery {
+    /// Scene time, s (default: the clock's now).
+    pub t: Option<f64>,
+}
+
+/// `GET /v1/scenes/{id}/impacts` answer: every impact that can be rippling at t or later
+/// (`t0 ≥ t − lifetime`), in canonical order: what a client joining a stream needs.
+#[derive(Debug, Clone, Serialize)]
+pub struct ImpactList {
+    /// The time asked about, s.
+    pub t: f64,
+    /// The impacts.
+    pub impacts: Vec<ImpactEvent>,
+}
+
+/// `GET /v1/scenes/{id}/impacts[?t=]`.
+///
+/// # Errors
+/// 404 for an unknown scene; 400 for a non-finite t.
+pub async fn list(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    Query(q): Query<ListQuery>,
+) -> Result<axum::Json<ImpactList>, ApiError> {
+    let entry = state.scene(&id)?;
+    let t = match q.t {
+        Some(t) if t.is_finite() => t,
+        Some(t) => return Err(ApiError::invalid("t", format!("t must be finite, got {t}"))),
+        None => state.read_clock(&entry).t,
+    };
+    let scene = &entry.scene;
+    let lifetime = scene
+        .surface
+        .impact_layer()
+        .map_or(0.0, |l| l.ripples().lifetime);
+    let set = scene.impacts.current();
+    let ev = set.events();
+    let from = ev.partition_point(|e| e.t < t - lifetime);
+    Ok(axum::Json(ImpactList {
+        t,
+        impacts: ev[from..]
+            .iter()
+            .map(|i| ImpactEvent::new(i, scene.spec.tick_hz))
+            .collect(),
+    }))
+}

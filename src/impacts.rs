@@ -1,0 +1,336 @@
+//! A scene's impact events: what `POST /v1/scenes/{id}/impacts` adds, the journal keeps and tick
+//! frames carry, and what every query of the scene ripples with.
+//!
+//! The model makes the ripples a pure function of the impact set and t
+//! ([`swell_waves::particles`]), so the server only has to agree on the set: every accepted
+//! impact is journaled (an [`crate::journal::Op::Impact`] record, folded into the snapshot's
+//! admin part) before its answer, and a restart or a replica rebuilds the same set. The set is
+//! held per scene ([`SceneImpacts`], on [`crate::scene::Scene`]); replacing or deleting a scene
+//! starts it empty.
+
+use std::collections::VecDeque;
+use std::sync::{Arc, RwLock};
+
+use serde::{Deserialize, Serialize};
+
+use crate::state::AppState;
+use swell_waves::SurfaceAt;
+use swell_waves::error::SpecError;
+use swell_waves::particles::{Impact, Impacts};
+
+/// Most impacts a scene holds (the set is kept for queries at any t; 100,000 impacts are a
+/// few MB and a replay of milliseconds).
+pub const MAX_SCENE_IMPACTS: usize = 100_000;
+/// Most impacts within one ring lifetime of each other: bounds the rings alive at any time
+/// (the model allows 4,096) and so the cost of a snapshot with ripples.
+pub const MAX_NEAR_IMPACTS: usize = 1024;
+
+/// Why [`SceneImpacts::add_checked`] refused an impact.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AddError {
+    /// Over a limit (the message says which).
+    Full(String),
+    /// The model rejected it.
+    Invalid(SpecError),
+}
+
+/// Recently added impacts kept for the tick loop to put in frames (more than a tick's worth
+/// of admin requests can add; one frame carries at most this many).
+const RECENT: usize = 1024;
+
+/// An impact as a tick frame and `GET …/impacts` carry it: the event and the tick it applies
+/// at (`ceil(t·tick_hz)`, the first tick frame at or after it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ImpactEvent {
+    /// First tick at or after the impact.
+    pub tick: i64,
+    /// Scene time of the impact, s.
+    pub t: f64,
+    /// World `[x, z]`, m.
+    pub position: [f64; 2],
+    /// Splash height, m.
+    pub strength: f64,
+    /// Particle radius, m.
+    pub radius: f64,
+}
+
+impl ImpactEvent {
+    /// The event of `impact` in a scene ticking at `tick_hz`.
+    pub fn new(impact: &Impact, tick_hz: f64) -> ImpactEvent {
+        ImpactEvent {
+            tick: apply_tick(impact.t, tick_hz),
+            t: impact.t,
+            position: impact.position,
+            strength: impact.strength,
+            radius: impact.radius,
+        }
+    }
+}
+
+/// The first tick at or after scene time t: `ceil(t·tick_hz)` (saturating).
+pub fn apply_tick(t: f64, tick_hz: f64) -> i64 {
+    (t * tick_hz).ceil() as i64
+}
+
+#[derive(Debug, Default)]
+struct Inner {
+    set: Arc<Impacts>,
+    /// Impacts added so far (never decreases; numbers [`SceneImpacts::since`]).
+    added: u64,
+    /// The last [`RECENT`] additions, `(number, impact)`.
+    recent: VecDeque<(u64, Impact)>,
+}
+
+/// One scene's impacts. Readers clone an `Arc` under a short read lock.
+#[derive(Debug, Default)]
+pub struct SceneImpacts(RwLock<Inner>);
+
+impl SceneImpacts {
+    fn read(&self) -> std::sync::RwLockReadGuard<'_, Inner> {
+        // Writers swap whole values: a poisoned lock still holds a consistent state.
+        self.0.read().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn write(&self) -> std::sync::RwLockWriteGuard<'_, Inner> {
+        self.0.write().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The current set.
+    pub fn current(&self) -> Arc<Impacts> {
+        Arc::clone(&self.read().set)
+    }
+
+    /// Impacts added to this set so far (the numbering [`SceneImpacts::since`] uses).
+    pub fn added(&self) -> u64 {
+        self.read().added
+    }
+
+    /// Number of impacts held.
+    pub fn len(&self) -> usize {
+        self.read().set.len()
+    }
+
+    /// Whether none are held.
+    pub fn is_empty(&self) -> bool {
+        self.read().set.is_empty()
+    }
+
+    /// How many impacts of the set have a time within `window` seconds of `t` (the ones whose
+    /// rings can be alive together with one at t).
+    pub fn near(&self, t: f64, window: f64) -> usize {
+        let g = self.read();
+        let ev = g.set.events();
+        let lo = ev.partition_point(|e| e.t < t - window);
+        let hi = ev.partition_point(|e| e.t <= t + window);
+        hi.saturating_sub(lo)
+    }
+
+    /// Adds an impact unless that would put more than [`MAX_SCENE_IMPACTS`] in the set or more
+    /// than [`MAX_NEAR_IMPACTS`] within `window` seconds of its time (checked and added under
+    /// one lock, so concurrent adds cannot overshoot).
+    ///
+    /// # Errors
+    /// [`AddError::Full`] over a limit; [`AddError::Invalid`] for an impact the model rejects.
+    pub fn add_checked(&self, impact: Impact, window: f64) -> Result<(), AddError> {
+        let mut g = self.write();
+        let ev = g.set.events();
+        let lo = ev.partition_point(|e| e.t < impact.t - window);
+        let hi = ev.partition_point(|e| e.t <= impact.t + window);
+        if hi - lo >= MAX_NEAR_IMPACTS {
+            return Err(AddError::Full(format!(
+                "{} impacts already lie within {window} s (a ring's lifetime) of t = {}: at most \
+                 {MAX_NEAR_IMPACTS} may",
+                hi - lo,
+                impact.t
+            )));
+        }
+        if ev.len() >= MAX_SCENE_IMPACTS {
+            return Err(AddError::Full(format!(
+                "the scene holds {} impacts, the limit",
+                ev.len()
+            )));
+        }
+        Self::push(&mut g, impact).map_err(AddError::Invalid)
+    }
+
+    /// Adds an impact (replaying the journal: no limits, it was accepted once).
+    ///
+    /// # Errors
+    /// The model's: an invalid impact or a full set.
+    pub fn add(&self, impact: Impact) -> Result<(), SpecError> {
+        Self::push(&mut self.write(), impact)
+    }
+
+    fn push(g: &mut Inner, impact: Impact) -> Result<(), SpecError> {
+        g.set = Arc::new(g.set.with(impact)?);
+        g.added += 1;
+        let n = g.added;
+        g.recent.push_back((n, impact));
+        if g.recent.len() > RECENT {
+            g.recent.pop_front();
+        }
+        Ok(())
+    }
+
+    /// Replaces the whole set (restoring from the journal); what was recently added is
+    /// forgotten, so no frame carries restored impacts as new.
+    pub fn restore(&self, impacts: Impacts) {
+        let mut g = self.write();
+        g.set = Arc::new(impacts);
+        g.recent.clear();
+    }
+
+    /// The impacts added after addition number `seen` (oldest first, at most the last 1,024) and
+    /// the number of the latest addition: a tick loop passes back what it got to see only new
+    /// ones next time.
+    pub fn since(&self, seen: u64) -> (u64, Vec<Impact>) {
+        let g = self.read();
+        let new = g
+            .recent
+            .iter()
+            .filter(|(n, _)| *n > seen)
+            .map(|(_, i)| *i)
+            .collect();
+        (g.added, new)
+    }
+
+    /// `sea` with this set's ripples ([`SurfaceAt::with_impacts`]); unchanged when the set is
+    /// empty (no cost for scenes that never had an impact).
+    ///
+    /// # Errors
+    /// `sea`'s error, or more rings alive at its time than the model allows.
+    pub fn apply<'s>(
+        &self,
+        sea: Result<SurfaceAt<'s>, SpecError>,
+    ) -> Result<SurfaceAt<'s>, SpecError> {
+        let sea = sea?;
+        let set = self.current();
+        if set.is_empty() {
+            return Ok(sea);
+        }
+        sea.with_impacts(&set)
+    }
+}
+
+/// Adds journaled impacts to scene `id` at start-up (one that no longer validates is logged and
+/// skipped; an unknown scene's are dropped, as its other records are).
+pub fn restore_into(state: &AppState, id: &str, impacts: &[Impact]) {
+    let Ok(entry) = state.scene(id) else {
+        return;
+    };
+    for i in impacts {
+        if let Err(e) = entry.scene.impacts.add(*i) {
+            tracing::error!(scene = %id, error = %e, "journal: skipping an impact");
+        }
+    }
+}
+
+/// The impacts a scene's next tick frame carries: those added since `seen`, which is moved on.
+/// A replaced scene starts its numbering afresh, so a number above the scene's count means
+/// "from the start".
+pub fn frame_events(scene: &crate::scene::Scene, seen: &mut u64) -> Vec<ImpactEvent> {
+    let (latest, new) = scene.impacts.since(if *seen > scene.impacts.added() {
+        0
+    } else {
+        *seen
+    });
+    *seen = latest;
+    new.iter()
+        .map(|i| ImpactEvent::new(i, scene.spec.tick_hz))
+        .collect()
+}
+
+/// The protobuf form of frame impacts.
+pub fn to_proto(events: &[ImpactEvent]) -> Vec<crate::wire::v1::ImpactEvent> {
+    events
+        .iter()
+        .map(|e| crate::wire::v1::ImpactEvent {
+            tick: e.tick,
+            t: e.t,
+            x: e.position[0],
+            z: e.position[1],
+            strength: e.strength,
+            radius: e.radius,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use axum::extract::ws::Message;
+
+    use super::*;
+    use crate::api::types::Tick;
+    use crate::stream::frame::{Interest, SharedTick};
+    use crate::stream::messages::{self, Codec, Event, Outgoing};
+
+    fn impact(t: f64) -> Impact {
+        Impact {
+            t,
+            position: [1.5, -2.25],
+            strength: 0.4,
+            radius: 0.6,
+        }
+    }
+
+    /// A frame with impacts is assembled to exactly the bytes of the general encoders (JSON
+    /// keys sorted, protobuf field 4 after the bodies), and one without omits the field.
+    #[test]
+    fn frames_carry_impacts_in_both_codecs() {
+        for impacts in [vec![], vec![ImpactEvent::new(&impact(3.01), 30.0)]] {
+            let tick = Tick {
+                tick: 91,
+                t: 91.0 / 30.0,
+                bodies: Vec::new(),
+                impacts: impacts.clone(),
+            };
+            let shared = SharedTick::new(tick.clone());
+            for codec in [Codec::Json, Codec::Protobuf] {
+                let out = Outgoing {
+                    id: None,
+                    event: Event::Tick(Arc::new(tick.clone())),
+                };
+                let want = match codec {
+                    Codec::Json => messages::encode_json(&out).into_bytes(),
+                    Codec::Protobuf => messages::encode_protobuf(out),
+                };
+                let got = match shared.message(codec, &Interest::default()) {
+                    Message::Text(t) => t.as_str().as_bytes().to_vec(),
+                    Message::Binary(b) => b.to_vec(),
+                    other => panic!("{other:?}"),
+                };
+                assert_eq!(got, want, "{codec:?}");
+            }
+            let text = match shared.message(Codec::Json, &Interest::default()) {
+                Message::Text(t) => t.as_str().to_owned(),
+                other => panic!("{other:?}"),
+            };
+            assert_eq!(text.contains("\"impacts\""), !impacts.is_empty(), "{text}");
+        }
+        assert_eq!(ImpactEvent::new(&impact(3.01), 30.0).tick, 91);
+        assert_eq!(ImpactEvent::new(&impact(3.0), 30.0).tick, 90);
+    }
+
+    #[test]
+    fn since_returns_each_addition_once_and_limits_hold() {
+        let s = SceneImpacts::default();
+        let (seen, none) = s.since(0);
+        assert!(none.is_empty());
+        s.add_checked(impact(1.0), 60.0).unwrap();
+        s.add_checked(impact(2.0), 60.0).unwrap();
+        let (seen2, new) = s.since(seen);
+        assert_eq!(new.len(), 2);
+        assert_eq!(s.since(seen2).1.len(), 0);
+        for k in 0..(MAX_NEAR_IMPACTS - 2) {
+            s.add_checked(impact(3.0 + k as f64 * 1e-3), 60.0).unwrap();
+        }
+        assert!(matches!(
+            s.add_checked(impact(5.0), 60.0),
+            Err(AddError::Full(_))
+        ));
+        // Far enough away in time, it fits.
+        s.add_checked(impact(500.0), 60.0).unwrap();
+    }
+}
