@@ -273,19 +273,30 @@ async function setup() {
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
     }
   }
-  const uploadFft = (t) => {
-    const f = fftLayer.frame(t);
-    const n = fftLayer.n;
-    const a = new Float32Array(4 * n * n), b = new Float32Array(4 * n * n);
-    for (let r = 0; r < n * n; r++) {
-      a[4 * r] = f.dx[r]; a[4 * r + 1] = f.h[r]; a[4 * r + 2] = f.dz[r]; a[4 * r + 3] = f.jxx[r];
-      b[4 * r] = f.sx[r]; b[4 * r + 1] = f.sz[r]; b[4 * r + 2] = f.jzz[r]; b[4 * r + 3] = f.jxz[r];
-    }
-    gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, a);
-    gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, b);
-    fftLayer.cache.clear();
+  // FFT frames come from a worker (a 256² frame is tens of ms of JavaScript): the page asks for
+  // the frame 0.1 s of scene time ahead and uploads it when it arrives; the sea meanwhile keeps
+  // the last frame (it moves in steps of 0.1 s, never blocks the render loop).
+  let fftBusy = false;
+  const fftWorker = fftLayer ? new Worker('/viewer/assets/fft-worker.js', { type: 'module' }) : null;
+  if (fftWorker) {
+    fftWorker.onerror = (e) => report(new Error(`FFT worker: ${e.message}`));
+    fftWorker.postMessage({ type: 'spectrum', spectrum: { header: fftLayer.header, n: fftLayer.n, records: fftLayer.records } });
+    fftWorker.onmessage = (ev) => {
+      const { t, a, b } = ev.data;
+      const n = fftLayer.n;
+      gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, a);
+      gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
+      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, b);
+      state.fftT = t;
+      state.fftFrames = (state.fftFrames ?? 0) + 1;
+      fftBusy = false;
+    };
+  }
+  const requestFft = (t) => {
+    if (fftBusy) return;
+    fftBusy = true;
+    fftWorker.postMessage({ type: 'frame', t });
   };
 
   // The stream: clock sync, body states.
@@ -420,8 +431,8 @@ async function setup() {
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
     const t = session.serverTime();
     state.t = t;
-    // FFT frames on the CPU: one transform set per 1/10 s of scene time (they are the slow part).
-    if (fftLayer && !(Math.abs(t - state.fftT) < 0.1)) { uploadFft(t); state.fftT = t; }
+    // FFT frames on the CPU, in the worker: one per 1/10 s of scene time.
+    if (fftLayer && !(Math.abs(t - state.fftT) < 0.1)) requestFft(t + 0.05);
     const origin = frameUniforms(t);
     const tl = [camera.target[0] - origin[0], camera.target[1] - origin[1]];
     const eye = [tl[0] + camera.dist * Math.cos(camera.pitch) * Math.cos(camera.yaw), camera.dist * Math.sin(camera.pitch),
@@ -440,7 +451,7 @@ async function setup() {
     gl.useProgram(sea);
     gl.uniform3fv(gl.getUniformLocation(sea, 'u_eye'), eyeLocal);
     gl.uniformMatrix4fv(gl.getUniformLocation(sea, 'u_view_proj'), false, viewProj);
-    if (fftLayer) {
+    if (fftLayer && state.fftFrames) {
       const L = fftLayer.L;
       const fr = (v) => { const q = v / L; return q - Math.floor(q); };
       gl.uniform4f(gl.getUniformLocation(sea, 'u_fft'), fr(origin[0]), fr(origin[1]), 1 / L, 1);

@@ -1,6 +1,7 @@
 //! The browser viewer: `GET /viewer` and `/viewer/{scene}` serve a page that renders a scene's
 //! sea with the exported shaders and its floating bodies from the stream; `/viewer/assets/…`
-//! serves its script and the `swell-client` package it runs on.
+//! serves its scripts (the page's, and the worker that runs FFT layers off the main thread) and
+//! the `swell-client` package they run on.
 //!
 //! Every asset is built into the binary (`include_str!`): the page works offline and needs no
 //! CDN. It is read-only: it calls GET endpoints, `POST …/sample` and the stream, never an admin
@@ -17,6 +18,7 @@ use crate::state::AppState;
 
 const INDEX_HTML: &str = include_str!("../../clients/viewer/index.html");
 const VIEWER_JS: &str = include_str!("../../clients/viewer/viewer.js");
+const FFT_WORKER_JS: &str = include_str!("../../clients/viewer/fft-worker.js");
 
 /// The `swell-client` package's modules, by file name (what `viewer.js` imports from
 /// `/viewer/assets/client/`).
@@ -45,6 +47,7 @@ pub fn routes() -> Router<AppState> {
         .route("/viewer/", get(page))
         .route("/viewer/{scene}", get(page))
         .route("/viewer/assets/viewer.js", get(script))
+        .route("/viewer/assets/fft-worker.js", get(fft_worker))
         .route("/viewer/assets/client/{file}", get(client_module))
 }
 
@@ -65,6 +68,10 @@ async fn page() -> Response {
 
 async fn script() -> Response {
     asset("text/javascript; charset=utf-8", VIEWER_JS)
+}
+
+async fn fft_worker() -> Response {
+    asset("text/javascript; charset=utf-8", FFT_WORKER_JS)
 }
 
 async fn client_module(Path(file): Path<String>) -> Result<Response, ApiError> {
@@ -92,6 +99,8 @@ mod tests {
             }
         }
         assert!(VIEWER_JS.contains("/viewer/assets/client/index.js"));
+        assert!(VIEWER_JS.contains("/viewer/assets/fft-worker.js"));
+        assert!(FFT_WORKER_JS.contains("/viewer/assets/client/fft.js"));
         assert!(!INDEX_HTML.contains("https://") && !VIEWER_JS.contains("https://"));
     }
 }

@@ -33,3 +33,13 @@ test('bit helpers round-trip', () => {
   for (const x of [0, -0, 1, -1.5, 1e-310, Math.PI]) assert.ok(Object.is(fromBitsHex(bitsHex(x)), x));
   assert.equal(bitsHex(1), '3ff0000000000000');
 });
+
+test('model code uses no platform transcendental maths (Math.sin etc. are not specified to the bit)', async () => {
+  const { readFileSync } = await import('node:fs');
+  for (const f of ['math.js', 'surface.js', 'fft.js']) {
+    const code = readFileSync(new URL(`../src/${f}`, import.meta.url), 'utf8')
+      .split('\n').filter((l) => !l.trim().startsWith('//')).join('\n');
+    const bad = code.match(/Math\.(sin|cos|tan|asin|acos|atan2?|sinh|cosh|tanh|exp|expm1|log|log2|log10|log1p|pow|hypot|cbrt)\b/g);
+    assert.equal(bad, null, `${f}: ${bad}`);
+  }
+});

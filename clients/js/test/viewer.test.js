@@ -35,6 +35,7 @@ describe('viewer in headless chromium', { skip }, () => {
     assert.match(page.headers.get('content-type'), /text\/html/);
     assert.doesNotMatch(await page.text(), /https?:\/\//);
     assert.equal((await fetch(`${srv.url}/viewer/assets/client/surface.js`)).status, 200);
+    assert.equal((await fetch(`${srv.url}/viewer/assets/fft-worker.js`)).status, 200);
     assert.equal((await fetch(`${srv.url}/viewer/assets/client/nope.js`)).status, 404);
   });
 
@@ -95,7 +96,7 @@ describe('viewer in headless chromium', { skip }, () => {
       await admin.spawnBody('open-sea', { mass: 3000, hull: hull(8, 3, 1.5), position: [x, 0.5, z], yaw });
     }
     const page = await browser.open(`${srv.url}/viewer`);
-    await page.waitFor('window.swellViewer && swellViewer.ready && swellViewer.frames > 3 && swellViewer.bodies.size === 4');
+    await page.waitFor('window.swellViewer && swellViewer.ready && swellViewer.frames > 3 && swellViewer.bodies.size === 4 && swellViewer.fftFrames > 1');
     assert.equal(await page.eval('swellViewer.scene'), 'open-sea', '/viewer opens open-sea');
     await sleep(500);
     const shot = await page.screenshot();
