@@ -99,7 +99,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     let (r1, others) = (&rs[0], &rs[1..]);
 
     // Scene put (created) through replica 1.
-    let (st, put) = admin(&c, r1, Method::PUT, "/v1/scenes/harbour", Some(spec(0.4))).await;
+    let (st, put) = admin(&c, r1, Method::PUT, "/v1/scenes/marina", Some(spec(0.4))).await;
     assert_eq!(st, 201, "{put}");
     let hash = put["spec_hash"].as_str().unwrap().to_owned();
     let epoch = put["spec"]["epoch"].as_f64().unwrap();
@@ -107,13 +107,13 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     let mut lags = Vec::new();
     for r in others {
         lags.push(
-            until(&c, r, "/v1/scenes/harbour", t0, |st, v| {
+            until(&c, r, "/v1/scenes/marina", t0, |st, v| {
                 st == 200 && v["spec_hash"] == hash.as_str()
             })
             .await,
         );
         // The same spec, epoch included (to the bit), on every replica.
-        let (_, v) = get(&c, r, "/v1/scenes/harbour").await;
+        let (_, v) = get(&c, r, "/v1/scenes/marina").await;
         assert_eq!(v["spec"], put["spec"]);
         assert_eq!(
             v["spec"]["epoch"].as_f64().unwrap().to_bits(),
@@ -127,7 +127,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
         &c,
         &rs[1],
         Method::PUT,
-        "/v1/scenes/harbour",
+        "/v1/scenes/marina",
         Some(spec(0.7)),
     )
     .await;
@@ -138,7 +138,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     let mut lags = Vec::new();
     for r in [&rs[0], &rs[2]] {
         lags.push(
-            until(&c, r, "/v1/scenes/harbour", t0, |st, v| {
+            until(&c, r, "/v1/scenes/marina", t0, |st, v| {
                 st == 200 && v["spec_hash"] == hash2.as_str()
             })
             .await,
@@ -151,7 +151,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
         &c,
         r1,
         Method::PUT,
-        "/v1/scenes/harbour/clock",
+        "/v1/scenes/marina/clock",
         Some(json!({"t": 100.0, "paused": true})),
     )
     .await;
@@ -161,7 +161,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     let mut lags = Vec::new();
     for r in others {
         lags.push(
-            until(&c, r, "/v1/scenes/harbour/clock", t0, |st, v| {
+            until(&c, r, "/v1/scenes/marina/clock", t0, |st, v| {
                 st == 200 && v["paused"] == true && v["t"].as_f64() == Some(100.0)
             })
             .await,
@@ -174,7 +174,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
         &c,
         r1,
         Method::PUT,
-        "/v1/scenes/harbour/clock",
+        "/v1/scenes/marina/clock",
         Some(json!({"rate": 2.0, "paused": false})),
     )
     .await;
@@ -185,12 +185,12 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     let mut lags = Vec::new();
     for r in others {
         lags.push(
-            until(&c, r, "/v1/scenes/harbour/clock", t0, |st, v| {
+            until(&c, r, "/v1/scenes/marina/clock", t0, |st, v| {
                 st == 200 && v["paused"] == false && v["rate"].as_f64() == Some(2.0)
             })
             .await,
         );
-        let (_, v) = get(&c, r, "/v1/scenes/harbour/clock").await;
+        let (_, v) = get(&c, r, "/v1/scenes/marina/clock").await;
         assert!(
             (base(&v) - ours).abs() < 1e-5,
             "replica :{} anchors the clock elsewhere: {v} vs {clk}",
@@ -200,12 +200,12 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     check_within("clock rate + resume", &lags);
 
     // Delete through replica 1 → 404 everywhere.
-    let (st, _) = admin(&c, r1, Method::DELETE, "/v1/scenes/harbour", None).await;
+    let (st, _) = admin(&c, r1, Method::DELETE, "/v1/scenes/marina", None).await;
     assert_eq!(st, 204);
     let t0 = Instant::now();
     let mut lags = Vec::new();
     for r in others {
-        lags.push(until(&c, r, "/v1/scenes/harbour", t0, |st, _| st == 404).await);
+        lags.push(until(&c, r, "/v1/scenes/marina", t0, |st, _| st == 404).await);
     }
     check_within("scene delete", &lags);
 
@@ -235,7 +235,7 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     // A replica started now catches up from the store alone.
     let late = Replica::spawn(&redis.url(), &[]);
     late.wait_ready(&c).await;
-    let (st, v) = get(&c, &late, "/v1/scenes/harbour").await;
+    let (st, v) = get(&c, &late, "/v1/scenes/marina").await;
     assert_eq!(st, 404, "{v}");
     let (_, v) = get(&c, &late, "/v1/scenes/calm/clock").await;
     assert_eq!(v["t"].as_f64().unwrap().to_bits(), t_bits, "{v}");
