@@ -308,3 +308,36 @@ proptest::proptest! {
         }
     }
 }
+
+/// Regression (issue 11, the `config_toml` fuzz target): `tile_size = 1e308` built a layer whose
+/// heights were NaN. The tile side is now bounded, and the error names it.
+#[test]
+fn a_tile_size_out_of_range_is_an_error_naming_it() {
+    for tile in [1e308, 1e6, 0.5, 0.0, -3.0] {
+        let spec: SurfaceSpec = serde_json::from_value(json!({"layers": [{"kind": "fft",
+            "resolution": 64, "tile_size": tile, "wind_direction": [0.0, 5.5],
+            "spectrum": {"kind": "jonswap", "wind_speed": 0.4, "fetch": 200.0}}]}))
+        .unwrap();
+        let e = Surface::new(&spec).unwrap_err();
+        assert_eq!(e.field(), "layers[0].tile_size", "tile {tile}: {e}");
+    }
+    // The bounds themselves build, and answer finite heights.
+    for tile in [
+        swell_waves::fft::MIN_TILE_SIZE,
+        swell_waves::fft::MAX_TILE_SIZE,
+    ] {
+        let s = fft(
+            64,
+            tile,
+            1.0,
+            json!({"kind": "jonswap", "wind_speed": 0.4, "fetch": 200.0}),
+            7,
+        );
+        let at = s
+            .at(3.0, QueryFields::HEIGHT, &QueryOptions::default())
+            .unwrap();
+        for p in [(0.0, 17.25), (-401.5, 3.0)] {
+            assert!(at.height(p.0, p.1).is_finite(), "tile {tile} at {p:?}");
+        }
+    }
+}

@@ -22,6 +22,15 @@ pub const MAX_RESOLUTION: u32 = 1024;
 /// and 10 bounds the damage a typo can do.
 pub const MAX_CHOPPINESS: f64 = 10.0;
 
+/// Smallest tile side L, m: below a metre every wave of the grid is a capillary ripple the model
+/// does not describe.
+pub const MIN_TILE_SIZE: f64 = 1.0;
+
+/// Largest tile side L, m (100 km). Far beyond it the spectrum's lowest modes and the
+/// wrap of positions into the tile stop being finite (found by the `config_toml` fuzz target:
+/// `tile_size = 1e308` answered NaN heights).
+pub const MAX_TILE_SIZE: f64 = 100_000.0;
+
 /// One entry of the half plane `m = 0 … N/2 − 1`: the wave vector k = Δk·(m, n), its quantised
 /// frequency and the amplitudes of the waves along +k and −k.
 #[derive(Debug, Clone, Copy, Default)]
@@ -150,7 +159,8 @@ impl FftLayer {
     /// # Errors
     /// [`SpecError`] naming the field, when:
     /// - `{field}.resolution` is not a power of two in 16..=1024;
-    /// - `{field}.tile_size` or `{field}.repeat_period` is not finite and > 0;
+    /// - `{field}.tile_size` is not in [[`MIN_TILE_SIZE`], [`MAX_TILE_SIZE`]] m;
+    /// - `{field}.repeat_period` is not finite and > 0;
     /// - `{field}.choppiness` is not in [0, 10];
     /// - `{field}.time_step` is not finite and in [[`MIN_TIME_STEP`], `repeat_period`];
     /// - `{field}.wind_direction` is not finite or is the zero vector;
@@ -172,7 +182,12 @@ impl FftLayer {
                 allowed: format!("a power of two in {MIN_RESOLUTION}..={MAX_RESOLUTION}"),
             });
         }
-        let tile_size = positive(&format!("{field}.tile_size"), spec.tile_size)?;
+        let tile_size = in_range(
+            &format!("{field}.tile_size"),
+            spec.tile_size,
+            MIN_TILE_SIZE,
+            MAX_TILE_SIZE,
+        )?;
         let choppiness = in_range(
             &format!("{field}.choppiness"),
             spec.choppiness,

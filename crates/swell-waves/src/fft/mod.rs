@@ -62,7 +62,10 @@ mod velocity;
 
 pub use fields::{FftFields, FftGrid};
 pub use frame::FftFrame;
-pub use layer::{FftLayer, GridPosition, MAX_CHOPPINESS, MAX_RESOLUTION, MIN_RESOLUTION};
+pub use layer::{
+    FftLayer, GridPosition, MAX_CHOPPINESS, MAX_RESOLUTION, MAX_TILE_SIZE, MIN_RESOLUTION,
+    MIN_TILE_SIZE,
+};
 pub use sample::{FftSample, SampleFilter, lerp_samples, sample_between};
 pub use velocity::FftVelocityFrame;
 
