@@ -29,7 +29,7 @@ describe('live server', { skip }, () => {
 
   test('scenes and scene detail', async () => {
     const { scenes } = await http.scenes();
-    assert.deepEqual(scenes.map((s) => s.id).sort(), ['calm', 'lake', 'open-sea', 'storm']);
+    assert.deepEqual(scenes.map((s) => s.id).sort(), ['calm', 'harbour', 'lake', 'open-sea', 'storm']);
     const lake = await http.scene('lake');
     assert.equal(lake.model_version, VECTORS.model_version);
     assert.equal(lake.derived.layers[0].kind, 'gerstner');
