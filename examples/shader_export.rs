@@ -1,6 +1,9 @@
 //! Writes the GLSL outputs of every built-in scene (GLSL 4.50 and GLSL ES 3.00, every entry
 //! point) into a directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that
-//! `glslangValidator` picks the stage from the extension. `.ci/shader-check` compiles them.
+//! `glslangValidator` picks the stage from the extension, and the engine includes,
+//! `{scene}.hlsl_include.hlsl` and `{scene}.gdshaderinc`. `.ci/shader-check` compiles them
+//! (the includes inside small test shaders), `.ci/godot-check` runs the Godot ones through
+//! Godot.
 //!
 //! `cargo run --example shader_export -- DIR`
 
@@ -29,7 +32,16 @@ fn main() -> anyhow::Result<()> {
                 written += 1;
             }
         }
+        for (lang, ext) in [
+            (Lang::HlslInclude, "hlsl_include.hlsl"),
+            (Lang::Gdshaderinc, "gdshaderinc"),
+        ] {
+            let text = swell_shaders::export(&scene.surface, lang, None)?;
+            let path = format!("{dir}/{id}.{ext}");
+            std::fs::write(&path, text).with_context(|| path.clone())?;
+            written += 1;
+        }
     }
-    println!("wrote {written} GLSL files to {dir}");
+    println!("wrote {written} GLSL files and engine includes to {dir}");
     Ok(())
 }

@@ -5,7 +5,15 @@ mod common;
 use common::{TestServer, bits, code, config, into_json};
 use serde_json::{Value, json};
 
-const LANGS: [&str; 5] = ["wgsl", "glsl", "glsl_es", "hlsl", "msl"];
+const LANGS: [&str; 7] = [
+    "wgsl",
+    "glsl",
+    "glsl_es",
+    "hlsl",
+    "msl",
+    "hlsl_include",
+    "gdshaderinc",
+];
 
 fn header<'a>(r: &'a reqwest::Response, name: &str) -> &'a str {
     r.headers()
@@ -38,6 +46,15 @@ async fn shader_in_every_language_for_every_builtin_scene_with_version_headers_a
                 "glsl" => assert!(text.starts_with("#version 450")),
                 "glsl_es" => assert!(text.starts_with("#version 300 es")),
                 "hlsl" => assert!(text.contains("cbuffer swell")),
+                "hlsl_include" => {
+                    assert!(text.contains("cbuffer SwellUniforms {"));
+                    assert!(text.contains("float3 swell_to_unity(float3 v)"));
+                    assert!(!text.contains("swell_vs") && !text.contains("register("));
+                }
+                "gdshaderinc" => {
+                    assert!(text.contains("uniform vec4 swell_u_phases["));
+                    assert!(!text.contains("#version") && !text.contains("void main()"));
+                }
                 _ => assert!(text.contains("metal_stdlib")),
             }
             // Revalidation: 304, no body, same tag.
@@ -87,6 +104,10 @@ async fn shader_errors_name_the_parameter() {
         ("?lang=spirv", "lang"),
         ("?lang=GLSL", "lang"),
         ("?lang=glsl&entry=main", "entry"),
+        // The engine includes hold no entry point: naming one is a mistake, not ignored.
+        ("?lang=hlsl_include&entry=swell_vs", "entry"),
+        ("?lang=gdshaderinc&entry=swell_probe_fs", "entry"),
+        ("?lang=godot", "lang"),
     ] {
         let (st, v) = s.get_json(&format!("/v1/scenes/calm/shader{q}")).await;
         assert_eq!((st, code(&v)), (400, "invalid_value"), "{q}: {v}");
@@ -97,6 +118,16 @@ async fn shader_errors_name_the_parameter() {
     assert!(
         v["error"]["message"].as_str().unwrap().contains("glsl_es"),
         "the message lists the languages: {v}"
+    );
+    let (_, v) = s
+        .get_json("/v1/scenes/calm/shader?lang=hlsl_include&entry=swell_vs")
+        .await;
+    assert!(
+        v["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("no entry point"),
+        "{v}"
     );
     let (st, v) = s.get_json("/v1/scenes/nope/shader?lang=wgsl").await;
     assert_eq!((st, code(&v)), (404, "not_found"));

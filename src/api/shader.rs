@@ -1,7 +1,9 @@
 //! What a GPU client needs to render a scene's sea: the generated shader, the frame's uniform
 //! values, and an FFT layer's spectrum. Thin handlers over [`swell_shaders`].
 //!
-//! - `GET /v1/scenes/{id}/shader?lang=wgsl|glsl|glsl_es|hlsl|msl[&entry=]` — source text.
+//! - `GET /v1/scenes/{id}/shader?lang=wgsl|glsl|glsl_es|hlsl|msl[&entry=]` — source text;
+//!   `lang=hlsl_include|gdshaderinc` — the engine includes (Unity/Unreal HLSL, Godot), which
+//!   hold no entry point and take no `entry`.
 //! - `GET /v1/scenes/{id}/uniforms?[t=][&origin=x,z]` — the frame's phase offsets (f64 maths).
 //! - `GET /v1/scenes/{id}/spectrum?layer=N` — binary `swell-spectrum/1` (see
 //!   [`swell_shaders::spectrum`]).
@@ -181,6 +183,16 @@ pub async fn shader(
     let q = query(q)?;
     let lang = parse_lang(q.lang.as_deref())?;
     let entry = parse_entry(q.entry.as_deref())?;
+    if let (true, Some(e)) = (lang.is_include(), entry) {
+        return Err(ApiError::invalid(
+            "entry",
+            format!(
+                "lang={} is an include with no entry point: drop entry={}",
+                lang.name(),
+                e.name()
+            ),
+        ));
+    }
     let scene = Arc::clone(&entry_.scene);
     // The text is a pure function of these (the spec through its hash), so the tag is known
     // before the work and a revalidation costs nothing.

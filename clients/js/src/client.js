@@ -12,7 +12,7 @@ import { parseSpectrum } from './fft.js';
 const PROTOBUF = 'application/x-protobuf';
 const SCENE_ID = /^[a-z0-9-]{1,64}$/;
 const FIELDS = ['height', 'normal', 'displacement', 'jacobian', 'residual'];
-const LANGS = ['wgsl', 'glsl', 'glsl_es', 'hlsl', 'msl'];
+const LANGS = ['wgsl', 'glsl', 'glsl_es', 'hlsl', 'msl', 'hlsl_include', 'gdshaderinc'];
 const ENTRIES = ['swell_vs', 'swell_probe_vs', 'swell_probe_fs'];
 const ACCURACY = {
   method: ['newton', 'fixed_point'],

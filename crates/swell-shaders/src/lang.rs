@@ -13,11 +13,25 @@ pub enum Lang {
     Hlsl,
     /// Metal Shading Language 2.1.
     Msl,
+    /// An HLSL include for Unity and Unreal: the functions, a `cbuffer SwellUniforms` with no
+    /// explicit register, coordinate helpers; no entry point ([`crate::engines::hlsl`]).
+    HlslInclude,
+    /// A Godot 4 `.gdshaderinc`: the functions and `uniform vec4 swell_u_*[]` arrays; no entry
+    /// point ([`crate::engines::godot`]).
+    Gdshaderinc,
 }
 
 impl Lang {
     /// Every language, in the order the API lists them.
-    pub const ALL: [Lang; 5] = [Lang::Wgsl, Lang::Glsl, Lang::GlslEs, Lang::Hlsl, Lang::Msl];
+    pub const ALL: [Lang; 7] = [
+        Lang::Wgsl,
+        Lang::Glsl,
+        Lang::GlslEs,
+        Lang::Hlsl,
+        Lang::Msl,
+        Lang::HlslInclude,
+        Lang::Gdshaderinc,
+    ];
 
     /// The name used in the API's `lang` parameter.
     pub fn name(self) -> &'static str {
@@ -27,6 +41,8 @@ impl Lang {
             Lang::GlslEs => "glsl_es",
             Lang::Hlsl => "hlsl",
             Lang::Msl => "msl",
+            Lang::HlslInclude => "hlsl_include",
+            Lang::Gdshaderinc => "gdshaderinc",
         }
     }
 
@@ -38,6 +54,12 @@ impl Lang {
     /// Whether an output holds exactly one entry point (GLSL renames it `main`).
     pub fn single_entry(self) -> bool {
         matches!(self, Lang::Glsl | Lang::GlslEs)
+    }
+
+    /// Whether the output is an engine include: functions and uniforms, no entry point (an
+    /// `entry` does not apply to it).
+    pub fn is_include(self) -> bool {
+        matches!(self, Lang::HlslInclude | Lang::Gdshaderinc)
     }
 }
 

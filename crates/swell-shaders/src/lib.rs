@@ -7,7 +7,8 @@
 //!   constants baked in ([`wgsl::emit`]).
 //! - [`naga`] (pinned to exactly [`NAGA_VERSION`]) validates that module and translates it to
 //!   **GLSL 4.50**, **GLSL ES 3.00** (WebGL2), **HLSL** (shader model 5.1) and **MSL** (2.1)
-//!   ([`translate`]).
+//!   ([`translate`]); and packages the functions as engine includes: an HLSL include for Unity
+//!   and Unreal and a Godot `.gdshaderinc` ([`engines`]).
 //! - The host computes each wave's phase offset for the frame in f64 ([`uniforms`]); the shader
 //!   adds only a small local term (see *Precision* below).
 //! - A particle layer is evaluated in the shader with the model's kernel: its ambient particles'
@@ -40,6 +41,7 @@
 //! - [`particles`] — the particle layer's shader code and its part of the uniform block.
 //! - [`wgsl`] — the WGSL emitter: the shader's interface (uniform block, functions, entry points).
 //! - [`translate`] — naga: parse, validate, write GLSL / GLSL ES / HLSL / MSL.
+//! - [`engines`] — engine-ready includes: HLSL for Unity and Unreal, a Godot `.gdshaderinc`.
 //! - [`uniforms`] — the frame's uniform values: per-wave phase offsets in f64.
 //! - [`spectrum`] — the binary export of an FFT layer's h0(k) and ω(k).
 //! - [`error`] — [`ShaderError`].
@@ -74,6 +76,7 @@
 //! measured by the browser parity test (`docs/clients.md`).
 #![warn(missing_docs)]
 
+pub mod engines;
 pub mod error;
 pub mod lang;
 pub mod particles;
@@ -98,7 +101,8 @@ pub const NAGA_VERSION: &str = "30.0.1";
 ///
 /// `entry` picks the entry point for the languages that hold one per output (GLSL and GLSL ES:
 /// default [`Entry::Vertex`]); HLSL and MSL write only `entry` when given, else all three; WGSL
-/// is the whole module whatever `entry` says.
+/// is the whole module whatever `entry` says, and the engine includes
+/// ([`Lang::is_include`]) hold no entry point, so `entry` does not change them.
 ///
 /// # Errors
 /// [`ShaderError::TooManyWaves`] or [`ShaderError::NotRepresentable`] when the surface cannot be

@@ -37,7 +37,8 @@ const PARTICLES: &str = r#"{"seed": 21, "layers": [
   {"kind": "gerstner", "waves": [{"amplitude": 0.12, "wavelength": 26, "direction": [1, 0.3], "steepness": 0.4}]},
   {"kind": "particles", "count": 96, "tile_size": 16, "radius": 1.0, "scales": [0.33, 0.66, 1.0]}]}"#;
 
-fn all_surfaces() -> Vec<(&'static str, Surface)> {
+/// Every test surface, named (shared with `engines/tests.rs`).
+pub(crate) fn all_surfaces() -> Vec<(&'static str, Surface)> {
     [
         ("sine", SINE),
         ("particles", PARTICLES),
@@ -92,6 +93,11 @@ fn every_language_and_entry_point_translates_and_validates() {
                     Lang::Msl => {
                         assert!(out.contains("#include <metal_stdlib>"));
                         assert!(out.contains(entry.name()));
+                    }
+                    // No entry point whatever `entry` says (engines/tests.rs checks the rest).
+                    Lang::HlslInclude | Lang::Gdshaderinc => {
+                        assert_eq!(out, export(&s, lang, None).unwrap());
+                        assert!(!out.contains(Entry::Vertex.name()), "{name} {lang:?}");
                     }
                 }
             }

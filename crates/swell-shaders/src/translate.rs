@@ -58,6 +58,8 @@ pub fn translate(source: &str, lang: Lang, entry: Option<Entry>) -> Result<Strin
         ),
         Lang::Hlsl => write_hlsl(&module, &info, entry),
         Lang::Msl => write_msl(&module, &info, entry),
+        Lang::HlslInclude => crate::engines::hlsl::include(source),
+        Lang::Gdshaderinc => crate::engines::godot::include(source),
     }
 }
 
@@ -112,7 +114,8 @@ fn write_glsl(
     Ok(out)
 }
 
-fn write_hlsl(
+/// naga's HLSL of `module` (every entry point when `entry` is `None`).
+pub(crate) fn write_hlsl(
     module: &naga::Module,
     info: &ModuleInfo,
     entry: Option<Entry>,
