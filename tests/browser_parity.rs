@@ -1,12 +1,21 @@
-//! GPU parity in a real browser: the exported GLSL ES, run by headless Chromium's WebGL2
-//! (SwiftShader, no GPU needed), against `/sample` at the same world points.
+//! GPU parity in a real browser: the exported shaders, run by headless Chromium on SwiftShader
+//! (a CPU implementation of a GPU: no GPU needed), against `/sample` at the same world points.
+//! Two halves, over the same scenes, frames and probes:
+//!
+//! - **WebGL2 / GLSL ES**: each scene's `swell_probe_vs` / `swell_probe_fs` GLSL ES draws one
+//!   point per probe into two RGBA32F targets, read back with `readPixels`; the page is a file
+//!   run with `chromium --headless --dump-dom`, which writes the result into the DOM.
+//! - **WebGPU / WGSL**: each scene's WGSL module, with a compute entry point appended by the page
+//!   (`swell_probe_cs`: per probe, exactly what `swell_probe_fs` computes, from the exported
+//!   `swell_sample`, `swell_invert`, `swell_normal` and `swell_jacobian`), writes into a storage
+//!   buffer that is copied and mapped back. WebGPU needs a secure origin and is asynchronous, so
+//!   this page is served from `http://127.0.0.1` by the test and posts its result back to it.
+//!   Where Chromium offers no WebGPU adapter the half says so and is skipped, unless
+//!   `SWELL_REQUIRE_WEBGPU=1` (set by `.ci/browser-parity`: SwiftShader's WebGPU works on the
+//!   CI machine, so losing it is a failure there).
 //!
 //! Ignored by `cargo test` (it needs Chromium); `.ci/browser-parity` installs Chromium if
-//! missing and runs it with `--ignored`. The test fetches each scene's `swell_probe_vs` /
-//! `swell_probe_fs` GLSL ES and the frame's `/uniforms` over HTTP, writes a page that draws one
-//! point per probe into two RGBA32F targets and writes what it reads back into the DOM, runs
-//! `chromium --headless --dump-dom` on it, and compares with `/sample` (height, normal,
-//! displacement) at the world points `origin + local`.
+//! missing and runs it with `--ignored`. Each frame's uniform block comes from `/uniforms`.
 //!
 //! Bounds (issue 13): sine/Gerstner height and displacement ≤ 2 mm, normal ≤ 0.1°. FFT layers
 //! are not in the exported shader, so scenes with them are tested on their analytic layers only
@@ -124,6 +133,97 @@ try { result = { ok: true, cases: run() }; } catch (e) { result = { ok: false, e
 document.getElementById('out').textContent = JSON.stringify(result);
 "#;
 
+/// The WebGPU page: per scene, the exported WGSL plus a compute entry point that evaluates what
+/// `swell_probe_fs` does at each probe into a storage buffer; per run, the frame's block in the
+/// uniform buffer, one dispatch, a copy, a map. The result (same shape as the WebGL2 page's) is
+/// POSTed to `/result`; an unavailable adapter is reported as such, not as a failure.
+const GPU_PAGE_JS: &str = r#"
+const KERNEL = `
+@group(1) @binding(0) var<storage, read> swell_probe_in: array<vec2<f32>>;
+@group(1) @binding(1) var<storage, read_write> swell_probe_out: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn swell_probe_cs(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&swell_probe_in)) {
+        return;
+    }
+    let p = swell_probe_in[i];
+    let at = swell_sample(p);
+    let above = swell_sample(swell_invert(p));
+    swell_probe_out[2u * i] = vec4<f32>(at.displacement, swell_jacobian(above));
+    swell_probe_out[2u * i + 1u] = vec4<f32>(swell_normal(above), above.displacement.y);
+}
+`;
+async function run() {
+  if (!navigator.gpu) return { ok: false, unavailable: 'navigator.gpu is undefined' };
+  const adapter = await navigator.gpu.requestAdapter();
+  if (!adapter) return { ok: false, unavailable: 'requestAdapter() gave no adapter' };
+  const info = adapter.info || {};
+  const device = await adapter.requestDevice();
+  const errors = [];
+  device.addEventListener('uncapturederror', (e) => errors.push(String(e.error.message)));
+  const out = [];
+  for (const c of CASES) {
+    const module = device.createShaderModule({ code: c.wgsl + KERNEL });
+    const ci = await module.getCompilationInfo();
+    const bad = ci.messages.filter((m) => m.type === 'error');
+    if (bad.length) throw new Error(c.scene + ': ' + bad.map((m) => m.lineNum + ': ' + m.message).join('; '));
+    device.pushErrorScope('validation');
+    const pipeline = device.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'swell_probe_cs' } });
+    const n = c.probes.length;
+    const probes = new Float32Array(2 * n);
+    c.probes.forEach((p, i) => probes.set(p, 2 * i));
+    const inBuf = device.createBuffer({ size: probes.byteLength, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
+    device.queue.writeBuffer(inBuf, 0, probes);
+    const outBytes = 2 * 16 * n;
+    const outBuf = device.createBuffer({ size: outBytes, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC });
+    const ubo = device.createBuffer({ size: 4 * c.runs[0].block.length, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+    const g0 = device.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [{ binding: 0, resource: { buffer: ubo } }] });
+    const g1 = device.createBindGroup({ layout: pipeline.getBindGroupLayout(1), entries: [
+      { binding: 0, resource: { buffer: inBuf } }, { binding: 1, resource: { buffer: outBuf } }] });
+    const scope = await device.popErrorScope();
+    if (scope) throw new Error(c.scene + ': ' + scope.message);
+    const runs = [];
+    for (const r of c.runs) {
+      device.queue.writeBuffer(ubo, 0, new Float32Array(r.block));
+      const read = device.createBuffer({ size: outBytes, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
+      const enc = device.createCommandEncoder();
+      const pass = enc.beginComputePass();
+      pass.setPipeline(pipeline);
+      pass.setBindGroup(0, g0);
+      pass.setBindGroup(1, g1);
+      pass.dispatchWorkgroups(Math.ceil(n / 64));
+      pass.end();
+      enc.copyBufferToBuffer(outBuf, 0, read, 0, outBytes);
+      device.queue.submit([enc.finish()]);
+      await read.mapAsync(GPUMapMode.READ);
+      const v = new Float32Array(read.getMappedRange().slice(0));
+      read.unmap();
+      read.destroy();
+      const a = [], b = [];
+      for (let i = 0; i < n; i++) {
+        for (let j = 0; j < 4; j++) {
+          const x = v[8 * i + j], y = v[8 * i + 4 + j];
+          a.push(Number.isFinite(x) ? x : null);
+          b.push(Number.isFinite(y) ? y : null);
+        }
+      }
+      runs.push({ a, b });
+    }
+    out.push({ scene: c.scene, runs });
+  }
+  if (errors.length) throw new Error('device errors: ' + errors.join('; '));
+  return { ok: true, adapter: [info.vendor, info.architecture, info.description].filter(Boolean).join(' '), cases: out };
+}
+(async () => {
+  let result;
+  try { result = await run(); } catch (e) { result = { ok: false, error: String(e) }; }
+  document.getElementById('out').textContent = JSON.stringify(result).slice(0, 200);
+  await fetch('/result', { method: 'POST', headers: { 'content-type': 'application/json' }, body: JSON.stringify(result) });
+})();
+"#;
+
 fn unescape_html(s: &str) -> String {
     s.replace("&lt;", "<")
         .replace("&gt;", ">")
@@ -136,11 +236,180 @@ struct Case {
     scene: String,
     /// `(t, origin)` per run, in page order.
     runs: Vec<(f64, [f64; 2])>,
+    /// `/sample` at each run's world points: height, normal, displacement.
+    expected: Vec<Value>,
+}
+
+/// Largest errors of one scene or of all: height (m), displacement (m), normal angle (°).
+#[derive(Debug, Clone, Copy, Default)]
+struct Worst {
+    height: f64,
+    displacement: f64,
+    normal_deg: f64,
+}
+
+impl Worst {
+    fn max(self, o: Worst) -> Worst {
+        Worst {
+            height: self.height.max(o.height),
+            displacement: self.displacement.max(o.displacement),
+            normal_deg: self.normal_deg.max(o.normal_deg),
+        }
+    }
+}
+
+/// Compares a page's readback (`cases[*].runs[*].{a, b}`: per probe `(Dx, y, Dz, J)` and
+/// `(normal, height)`) with `/sample`; prints each scene's maxima and asserts the bounds.
+fn compare(half: &str, cases: &[Case], result: &Value, probes: usize) -> Worst {
+    let mut overall = Worst::default();
+    let got_cases = result["cases"].as_array().expect("cases");
+    assert_eq!(got_cases.len(), cases.len(), "{half}: one result per scene");
+    for (case, got) in cases.iter().zip(got_cases) {
+        assert_eq!(got["scene"], json!(case.scene));
+        let mut worst = Worst::default();
+        let got_runs = got["runs"].as_array().unwrap();
+        assert_eq!(got_runs.len(), case.runs.len(), "{half} {}", case.scene);
+        for (((t, o), run), v) in case.runs.iter().zip(got_runs).zip(&case.expected) {
+            let px = |k: &str, i: usize| {
+                run[k][i].as_f64().unwrap_or_else(|| {
+                    panic!("{half} {} t={t} o={o:?}: non-finite value", case.scene)
+                })
+            };
+            for i in 0..probes {
+                let d = &v["displacement"][i];
+                let n = &v["normal"][i];
+                let dv = |j: usize| d[j].as_f64().unwrap();
+                let nv = |j: usize| n[j].as_f64().unwrap();
+                let disp_err = (0..3)
+                    .map(|j| (px("a", 4 * i + j) - dv(j)).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let h_err = (px("b", 4 * i + 3) - v["height"][i].as_f64().unwrap()).abs();
+                let g = [px("b", 4 * i), px("b", 4 * i + 1), px("b", 4 * i + 2)];
+                let dot = (0..3).map(|j| g[j] * nv(j)).sum::<f64>();
+                let len = (0..3).map(|j| g[j] * g[j]).sum::<f64>().sqrt();
+                let ang = (dot / len).clamp(-1.0, 1.0).acos().to_degrees();
+                worst = worst.max(Worst {
+                    height: h_err,
+                    displacement: disp_err,
+                    normal_deg: ang,
+                });
+            }
+        }
+        eprintln!(
+            "{half:<7} {:<20} max |Δheight| {:.3e} m, max |Δdisplacement| {:.3e} m, max normal angle {:.3e}°",
+            case.scene, worst.height, worst.displacement, worst.normal_deg
+        );
+        overall = overall.max(worst);
+        assert!(
+            worst.height <= HEIGHT_BOUND_M && worst.displacement <= HEIGHT_BOUND_M,
+            "{half} {}: height {} m / displacement {} m over {HEIGHT_BOUND_M} m",
+            case.scene,
+            worst.height,
+            worst.displacement
+        );
+        assert!(
+            worst.normal_deg <= NORMAL_BOUND_DEG,
+            "{half} {}: normal {}° over {NORMAL_BOUND_DEG}°",
+            case.scene,
+            worst.normal_deg
+        );
+    }
+    overall
+}
+
+/// Serves `page` at `http://127.0.0.1:PORT/` (WebGPU needs a secure origin: a file is not
+/// one, loopback HTTP is) and hands the body POSTed to `/result` to the receiver.
+async fn serve_page(
+    page: String,
+) -> (
+    std::net::SocketAddr,
+    tokio::sync::mpsc::Receiver<String>,
+    tokio::task::JoinHandle<()>,
+) {
+    use axum::routing::{get, post};
+    let (tx, rx) = tokio::sync::mpsc::channel::<String>(1);
+    let app = axum::Router::new()
+        .route(
+            "/",
+            get(move || {
+                let page = page.clone();
+                async move { axum::response::Html(page) }
+            }),
+        )
+        .route(
+            "/result",
+            post(move |body: String| {
+                let tx = tx.clone();
+                async move {
+                    let _ = tx.send(body).await;
+                    axum::http::StatusCode::NO_CONTENT
+                }
+            }),
+        );
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let task = tokio::spawn(async move {
+        let _ = axum::serve(listener, app).await;
+    });
+    (addr, rx, task)
+}
+
+/// The WebGPU half: the page on loopback HTTP, Chromium with SwiftShader's WebGPU adapter, the
+/// result posted back; `Err` with the reason when this Chromium offers no WebGPU adapter.
+async fn run_webgpu_page(dir: &std::path::Path, page_cases: &Value) -> Result<Value, String> {
+    let page = format!(
+        "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\nconst CASES = {page_cases};\n{GPU_PAGE_JS}</script></body></html>"
+    );
+    let (addr, mut rx, server) = serve_page(page).await;
+    let log = dir.join("chromium-webgpu.log");
+    let mut child = Command::new(chromium())
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-dev-shm-usage",
+            "--enable-unsafe-webgpu",
+            "--use-webgpu-adapter=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--ignore-gpu-blocklist",
+            "--no-first-run",
+            "--no-default-browser-check",
+            "--disable-background-networking",
+            "--disable-extensions",
+        ])
+        .arg(format!(
+            "--user-data-dir={}",
+            dir.join("profile-webgpu").display()
+        ))
+        .arg(format!("http://{addr}/"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("chromium runs (set CHROMIUM to its path)");
+    let got = tokio::time::timeout(std::time::Duration::from_secs(180), rx.recv()).await;
+    // Chromium does not exit by itself with a page open: stop it either way.
+    let _ = child.kill();
+    let _ = child.wait();
+    server.abort();
+    let stderr = || std::fs::read_to_string(&log).unwrap_or_default();
+    let body = match got {
+        Ok(Some(b)) => b,
+        _ => panic!(
+            "webgpu: no result from the page in 180 s; chromium stderr:\n{}",
+            stderr()
+        ),
+    };
+    let v: Value = serde_json::from_str(&body)
+        .unwrap_or_else(|e| panic!("webgpu page result is not JSON ({e}): {body}"));
+    match v["unavailable"].as_str() {
+        Some(why) => Err(why.to_owned()),
+        None => Ok(v),
+    }
 }
 
 #[tokio::test(flavor = "multi_thread")]
 #[ignore = "needs chromium: run by .ci/browser-parity"]
-async fn exported_glsl_es_matches_sample_in_headless_chromium() {
+async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
     let s = TestServer::start(config()).await;
     // The acceptance-style steep Gerstner sea: fold number 0.9.
     let steep = json!({"description": "fold 0.9", "seed": 5, "layers": [{"kind": "gerstner",
@@ -204,8 +473,8 @@ async fn exported_glsl_es_matches_sample_in_headless_chromium() {
     let mut page_cases = Vec::new();
     let mut cases = Vec::new();
     for id in &scenes {
-        let text = |entry: &'static str| {
-            let url = format!("/v1/scenes/{id}/shader?lang=glsl_es&entry={entry}");
+        let text = |query: String| {
+            let url = format!("/v1/scenes/{id}/shader?{query}");
             let s = &s;
             async move {
                 let r = s.get(&url).await;
@@ -213,9 +482,12 @@ async fn exported_glsl_es_matches_sample_in_headless_chromium() {
                 r.text().await.unwrap()
             }
         };
-        let (vs, fs) = (text("swell_probe_vs").await, text("swell_probe_fs").await);
+        let vs = text("lang=glsl_es&entry=swell_probe_vs".into()).await;
+        let fs = text("lang=glsl_es&entry=swell_probe_fs".into()).await;
+        let wgsl = text("lang=wgsl".into()).await;
         let mut runs = Vec::new();
         let mut page_runs = Vec::new();
+        let mut expected = Vec::new();
         for &t in &TIMES {
             for o in ORIGINS {
                 let (st, u) = s
@@ -227,23 +499,36 @@ async fn exported_glsl_es_matches_sample_in_headless_chromium() {
                 assert_eq!(st, 200, "{u}");
                 page_runs.push(json!({"block": u["block"]}));
                 runs.push((t, o));
+                let world: Vec<[f64; 2]> =
+                    probes.iter().map(|p| [o[0] + p[0], o[1] + p[1]]).collect();
+                let (st, v) = s
+                    .post_json(
+                        &format!("/v1/scenes/{id}/sample"),
+                        &json!({"t": t, "points": world, "fields": ["height", "normal", "displacement"]}),
+                    )
+                    .await;
+                assert_eq!(st, 200, "{v}");
+                expected.push(v);
             }
         }
-        page_cases
-            .push(json!({"scene": id, "vs": vs, "fs": fs, "probes": probes, "runs": page_runs}));
+        page_cases.push(
+            json!({"scene": id, "vs": vs, "fs": fs, "wgsl": wgsl, "probes": probes, "runs": page_runs}),
+        );
         cases.push(Case {
             scene: id.clone(),
             runs,
+            expected,
         });
     }
+    let page_cases = Value::Array(page_cases);
 
+    // WebGL2: a file page, its result in the DOM.
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("parity.html");
     std::fs::write(
         &page,
         format!(
-            "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\nconst CASES = {};\n{PAGE_JS}</script></body></html>",
-            Value::Array(page_cases)
+            "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\nconst CASES = {page_cases};\n{PAGE_JS}</script></body></html>"
         ),
     )
     .unwrap();
@@ -283,75 +568,67 @@ async fn exported_glsl_es_matches_sample_in_headless_chromium() {
         .unwrap_or_else(|e| panic!("page result is not JSON ({e}): {body}"));
     assert_eq!(result["ok"], json!(true), "page failed: {result}");
     eprintln!(
-        "chromium ran {} scenes × {} frames × {} probes in {:.1} s",
+        "chromium ran {} scenes × {} frames × {} probes in {:.1} s (WebGL2, GLSL ES)",
         cases.len(),
         TIMES.len() * ORIGINS.len(),
         probes.len(),
         started.elapsed().as_secs_f64()
     );
-
-    let points: Vec<[f64; 2]> = probes.clone();
-    let mut overall = (0.0f64, 0.0f64, 0.0f64);
-    for (case, got) in cases.iter().zip(result["cases"].as_array().unwrap()) {
-        assert_eq!(got["scene"], json!(case.scene));
-        let mut worst = (0.0f64, 0.0f64, 0.0f64); // height, displacement, normal (deg)
-        for ((t, o), run) in case.runs.iter().zip(got["runs"].as_array().unwrap()) {
-            let world: Vec<[f64; 2]> = points.iter().map(|p| [o[0] + p[0], o[1] + p[1]]).collect();
-            let (st, v) = s
-                .post_json(
-                    &format!("/v1/scenes/{}/sample", case.scene),
-                    &json!({"t": t, "points": world, "fields": ["height", "normal", "displacement"]}),
-                )
-                .await;
-            assert_eq!(st, 200, "{v}");
-            let px = |k: &str, i: usize| {
-                run[k][i]
-                    .as_f64()
-                    .unwrap_or_else(|| panic!("{} t={t} o={o:?}: non-finite pixel", case.scene))
-            };
-            for i in 0..world.len() {
-                let d = &v["displacement"][i];
-                let n = &v["normal"][i];
-                let dv = |j: usize| d[j].as_f64().unwrap();
-                let nv = |j: usize| n[j].as_f64().unwrap();
-                let disp_err = (0..3)
-                    .map(|j| (px("a", 4 * i + j) - dv(j)).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                let h_err = (px("b", 4 * i + 3) - v["height"][i].as_f64().unwrap()).abs();
-                let g = [px("b", 4 * i), px("b", 4 * i + 1), px("b", 4 * i + 2)];
-                let dot = (0..3).map(|j| g[j] * nv(j)).sum::<f64>();
-                let len = (0..3).map(|j| g[j] * g[j]).sum::<f64>().sqrt();
-                let ang = (dot / len).clamp(-1.0, 1.0).acos().to_degrees();
-                worst = (worst.0.max(h_err), worst.1.max(disp_err), worst.2.max(ang));
-            }
-        }
-        eprintln!(
-            "{:<20} max |Δheight| {:.3e} m, max |Δdisplacement| {:.3e} m, max normal angle {:.3e}°",
-            case.scene, worst.0, worst.1, worst.2
-        );
-        overall = (
-            overall.0.max(worst.0),
-            overall.1.max(worst.1),
-            overall.2.max(worst.2),
-        );
-        assert!(
-            worst.0 <= HEIGHT_BOUND_M && worst.1 <= HEIGHT_BOUND_M,
-            "{}: height {} m / displacement {} m over {HEIGHT_BOUND_M} m",
-            case.scene,
-            worst.0,
-            worst.1
-        );
-        assert!(
-            worst.2 <= NORMAL_BOUND_DEG,
-            "{}: normal {}° over {NORMAL_BOUND_DEG}°",
-            case.scene,
-            worst.2
-        );
-    }
+    let gl = compare("webgl2", &cases, &result, probes.len());
+    let gl_result = result;
     eprintln!(
-        "PARITY all scenes: height {:.3e} m, displacement {:.3e} m, normal {:.3e}°",
-        overall.0, overall.1, overall.2
+        "PARITY webgl2 (GLSL ES), all scenes: height {:.3e} m, displacement {:.3e} m, normal {:.3e}°",
+        gl.height, gl.displacement, gl.normal_deg
     );
+
+    // WebGPU: the same cases through the WGSL, on loopback HTTP.
+    let started = std::time::Instant::now();
+    match run_webgpu_page(dir.path(), &page_cases).await {
+        Ok(result) => {
+            assert_eq!(result["ok"], json!(true), "webgpu page failed: {result}");
+            eprintln!(
+                "chromium ran {} scenes × {} frames × {} probes in {:.1} s (WebGPU, WGSL; adapter {})",
+                cases.len(),
+                TIMES.len() * ORIGINS.len(),
+                probes.len(),
+                started.elapsed().as_secs_f64(),
+                result["adapter"]
+            );
+            let gpu = compare("webgpu", &cases, &result, probes.len());
+            // Both halves run on SwiftShader's one Vulkan implementation (ANGLE and Dawn each
+            // sit on it): how many read-back values agree to the bit says whether the two
+            // paths differ at all.
+            let values = |r: &Value| -> Vec<Option<f64>> {
+                r["cases"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .flat_map(|c| c["runs"].as_array().unwrap().iter())
+                    .flat_map(|run| ["a", "b"].map(|k| run[k].as_array().unwrap().clone()))
+                    .flatten()
+                    .map(|v| v.as_f64())
+                    .collect()
+            };
+            let (a, b) = (values(&gl_result), values(&result));
+            let same = a.iter().zip(&b).filter(|(x, y)| x == y).count();
+            eprintln!(
+                "webgpu vs webgl2 read-backs: {same} of {} values identical",
+                a.len()
+            );
+            eprintln!(
+                "PARITY webgpu (WGSL), all scenes: height {:.3e} m, displacement {:.3e} m, normal {:.3e}°",
+                gpu.height, gpu.displacement, gpu.normal_deg
+            );
+        }
+        Err(why) => {
+            assert!(
+                std::env::var("SWELL_REQUIRE_WEBGPU").as_deref() != Ok("1"),
+                "WebGPU unavailable in this chromium ({why}) and SWELL_REQUIRE_WEBGPU=1"
+            );
+            eprintln!(
+                "webgpu half skipped: WebGPU unavailable in this chromium ({why}); the WebGL2 half ran"
+            );
+        }
+    }
     s.stop().await;
 }
