@@ -91,7 +91,12 @@ impl BodyImpactSpec {
     pub fn validate(&self, field: &str) -> Result<(), SpecError> {
         let f = |name: &str| format!("{field}.{name}");
         positive_at_most(&f("splash_speed"), self.splash_speed, 100.0)?;
-        in_range(&f("splash_strength"), self.splash_strength, 0.0, MAX_STRENGTH)?;
+        in_range(
+            &f("splash_strength"),
+            self.splash_strength,
+            0.0,
+            MAX_STRENGTH,
+        )?;
         in_range(
             &f("splash_radius"),
             self.splash_radius,
@@ -115,7 +120,7 @@ impl BodyImpactSpec {
         let hit = step.submerged_before == 0.0
             && step.submerged_after > 0.0
             && -step.before.velocity.y >= self.splash_speed;
-        (hit && self.splash_strength > 0.0).then(|| Impact {
+        (hit && self.splash_strength > 0.0).then_some(Impact {
             t,
             position: [step.after.position.x, step.after.position.z],
             strength: self.splash_strength,
@@ -141,7 +146,7 @@ impl BodyImpactSpec {
             return None;
         }
         *travel -= self.wake_spacing;
-        if !(*travel < self.wake_spacing) {
+        if *travel >= self.wake_spacing {
             *travel = 0.0;
         }
         Some(Impact {
@@ -179,7 +184,10 @@ mod tests {
         assert_eq!(hit.position, [1.0, 2.0]);
         assert_eq!((hit.t, hit.strength, hit.radius), (10.0, 0.3, 1.0));
         assert!(s.splash(&step(-1.0, 0.0, 0.2), 10.0).is_none(), "too slow");
-        assert!(s.splash(&step(-3.0, 0.1, 0.2), 10.0).is_none(), "wet before");
+        assert!(
+            s.splash(&step(-3.0, 0.1, 0.2), 10.0).is_none(),
+            "wet before"
+        );
         assert!(s.splash(&step(-3.0, 0.0, 0.0), 10.0).is_none(), "still dry");
         let off = BodyImpactSpec {
             splash_strength: 0.0,
@@ -235,10 +243,7 @@ mod tests {
             splash_radius: f64::NAN,
             ..Default::default()
         };
-        assert_eq!(
-            bad.validate("b").unwrap_err().field(),
-            "b.splash_radius"
-        );
+        assert_eq!(bad.validate("b").unwrap_err().field(), "b.splash_radius");
         BodyImpactSpec::default().validate("b").unwrap();
     }
 }
