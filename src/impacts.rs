@@ -2,11 +2,19 @@
 //! frames carry, and what every query of the scene ripples with.
 //!
 //! The model makes the ripples a pure function of the impact set and t
-//! ([`swell_waves::particles`]), so the server only has to agree on the set: every accepted
-//! impact is journaled (an [`crate::journal::Op::Impact`] record, folded into the snapshot's
-//! admin part) before its answer, and a restart or a replica rebuilds the same set. The set is
-//! held per scene ([`SceneImpacts`], on [`crate::scene::Scene`]); replacing or deleting a scene
-//! starts it empty.
+//! ([`swell_waves::particles`]), so the server only has to agree on the set. It has two parts:
+//! - **API impacts**: every accepted one is journaled (an [`crate::journal::Op::Impact`] record,
+//!   folded into the snapshot's admin part) before its answer, or in a fleet stored in Redis
+//!   with a change-feed entry that every replica applies ([`crate::store::fleet`]); a restart or
+//!   a replica rebuilds the same set. Replacing or deleting a scene starts it empty.
+//! - **Body impacts**: splashes and wakes the scene's bodies make when its particle layer has
+//!   `body_impacts`, derived while they are stepped ([`crate::bodies::SceneBodies`]) and
+//!   mirrored here ([`SceneImpacts::sync_bodies`]). They are a pure function of the body log, so
+//!   they are never logged: every path that steps the bodies derives them again.
+//!
+//! The set is held per scene ([`SceneImpacts`], on [`crate::scene::Scene`]); queries see the
+//! union of both parts. Bodies do not feel impact ripples (they step on the surface without
+//! them), so a body's trajectory never depends on when an impact arrived.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, RwLock};
@@ -74,14 +82,49 @@ pub fn apply_tick(t: f64, tick_hz: f64) -> i64 {
 
 #[derive(Debug, Default)]
 struct Inner {
+    /// What queries see: the union of `api` and `bodies`.
     set: Arc<Impacts>,
+    /// Impacts accepted through the API (journaled, or shared through the fleet's store).
+    api: Arc<Impacts>,
+    /// Impacts the scene's bodies made, as [`crate::bodies::SceneBodies`] last derived them.
+    bodies: Arc<Impacts>,
+    /// The [`crate::bodies::SceneBodies::impacts_version`] `bodies` mirrors.
+    body_version: u64,
     /// Impacts added so far (never decreases; numbers [`SceneImpacts::since`]).
     added: u64,
     /// The last [`RECENT`] additions, `(number, impact)`.
     recent: VecDeque<(u64, Impact)>,
 }
 
-/// One scene's impacts. Readers clone an `Arc` under a short read lock.
+impl Inner {
+    /// Recomputes the union after `api` or `bodies` changed. Both hold at most
+    /// [`MAX_SCENE_IMPACTS`] + [`crate::bodies::MAX_BODY_IMPACTS`], far below the model's
+    /// limit, so the merge cannot fail; if it did, the API part alone is kept.
+    fn remerge(&mut self) {
+        self.set = if self.bodies.is_empty() {
+            Arc::clone(&self.api)
+        } else if self.api.is_empty() {
+            Arc::clone(&self.bodies)
+        } else {
+            match Impacts::merged(&self.api, &self.bodies) {
+                Ok(u) => Arc::new(u),
+                Err(_) => Arc::clone(&self.api),
+            }
+        };
+    }
+
+    fn announce(&mut self, impact: Impact) {
+        self.added += 1;
+        let n = self.added;
+        self.recent.push_back((n, impact));
+        if self.recent.len() > RECENT {
+            self.recent.pop_front();
+        }
+    }
+}
+
+/// One scene's impacts: those accepted through the API and those its bodies made. Readers
+/// clone an `Arc` under a short read lock.
 #[derive(Debug, Default)]
 pub struct SceneImpacts(RwLock<Inner>);
 
@@ -95,9 +138,14 @@ impl SceneImpacts {
         self.0.write().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// The current set.
+    /// The current set: API impacts and body impacts together, in canonical order.
     pub fn current(&self) -> Arc<Impacts> {
         Arc::clone(&self.read().set)
+    }
+
+    /// The impacts accepted through the API (what the journal or the fleet's store holds).
+    pub fn api(&self) -> Arc<Impacts> {
+        Arc::clone(&self.read().api)
     }
 
     /// Impacts added to this set so far (the numbering [`SceneImpacts::since`] uses).
@@ -118,42 +166,33 @@ impl SceneImpacts {
     /// How many impacts of the set have a time within `window` seconds of `t` (the ones whose
     /// rings can be alive together with one at t).
     pub fn near(&self, t: f64, window: f64) -> usize {
-        let g = self.read();
-        let ev = g.set.events();
-        let lo = ev.partition_point(|e| e.t < t - window);
-        let hi = ev.partition_point(|e| e.t <= t + window);
-        hi.saturating_sub(lo)
+        near_in(self.read().set.events(), t, window)
     }
 
-    /// Adds an impact unless that would put more than [`MAX_SCENE_IMPACTS`] in the set or more
-    /// than [`MAX_NEAR_IMPACTS`] within `window` seconds of its time (checked and added under
-    /// one lock, so concurrent adds cannot overshoot).
+    /// Checks the limits an API impact must fit: fewer than [`MAX_NEAR_IMPACTS`] impacts (API
+    /// and body ones) within `window` seconds of its time, fewer than [`MAX_SCENE_IMPACTS`]
+    /// API impacts.
+    ///
+    /// # Errors
+    /// [`AddError::Full`] over a limit.
+    pub fn check_room(&self, impact: &Impact, window: f64) -> Result<(), AddError> {
+        let g = self.read();
+        room(&g, impact, window)
+    }
+
+    /// Adds an API impact unless that would break a limit of [`SceneImpacts::check_room`]
+    /// (checked and added under one lock, so concurrent adds cannot overshoot).
     ///
     /// # Errors
     /// [`AddError::Full`] over a limit; [`AddError::Invalid`] for an impact the model rejects.
     pub fn add_checked(&self, impact: Impact, window: f64) -> Result<(), AddError> {
         let mut g = self.write();
-        let ev = g.set.events();
-        let lo = ev.partition_point(|e| e.t < impact.t - window);
-        let hi = ev.partition_point(|e| e.t <= impact.t + window);
-        if hi - lo >= MAX_NEAR_IMPACTS {
-            return Err(AddError::Full(format!(
-                "{} impacts already lie within {window} s (a ring's lifetime) of t = {}: at most \
-                 {MAX_NEAR_IMPACTS} may",
-                hi - lo,
-                impact.t
-            )));
-        }
-        if ev.len() >= MAX_SCENE_IMPACTS {
-            return Err(AddError::Full(format!(
-                "the scene holds {} impacts, the limit",
-                ev.len()
-            )));
-        }
+        room(&g, &impact, window)?;
         Self::push(&mut g, impact).map_err(AddError::Invalid)
     }
 
-    /// Adds an impact (replaying the journal: no limits, it was accepted once).
+    /// Adds an API impact (replaying the journal, or applying the fleet's feed: no limits, it
+    /// was accepted once).
     ///
     /// # Errors
     /// The model's: an invalid impact or a full set.
@@ -162,22 +201,51 @@ impl SceneImpacts {
     }
 
     fn push(g: &mut Inner, impact: Impact) -> Result<(), SpecError> {
-        g.set = Arc::new(g.set.with(impact)?);
-        g.added += 1;
-        let n = g.added;
-        g.recent.push_back((n, impact));
-        if g.recent.len() > RECENT {
-            g.recent.pop_front();
-        }
+        g.api = Arc::new(g.api.with(impact)?);
+        g.remerge();
+        g.announce(impact);
         Ok(())
     }
 
-    /// Replaces the whole set (restoring from the journal); what was recently added is
-    /// forgotten, so no frame carries restored impacts as new.
-    pub fn restore(&self, impacts: Impacts) {
+    /// Replaces the API impacts (restoring from the journal or re-reading the fleet's store).
+    /// With `announce`, impacts not held before are numbered as new (so tick frames carry
+    /// them); without, what was recently added is forgotten, so no frame carries restored
+    /// impacts as new.
+    pub fn restore(&self, impacts: Impacts, announce: bool) {
         let mut g = self.write();
-        g.set = Arc::new(impacts);
-        g.recent.clear();
+        let fresh = if announce {
+            missing(g.api.events(), impacts.events())
+        } else {
+            g.recent.clear();
+            Vec::new()
+        };
+        g.api = Arc::new(impacts);
+        g.remerge();
+        for i in fresh {
+            g.announce(i);
+        }
+    }
+
+    /// Mirrors the impacts `bodies` derived (call under its lock, after stepping and before
+    /// publishing its states, so a tick frame that waited for the states also finds the
+    /// impacts). The ones made since the last call are numbered as new (tick frames carry
+    /// them) when `announce`; a restore passes false. Cheap when nothing changed.
+    pub fn sync_bodies(&self, bodies: &mut crate::bodies::SceneBodies, announce: bool) {
+        let fresh = bodies.take_fresh_impacts();
+        let version = bodies.impacts_version();
+        if version == self.read().body_version && fresh.is_empty() {
+            return;
+        }
+        let derived = Arc::new(bodies.derived_impacts());
+        let mut g = self.write();
+        g.bodies = derived;
+        g.body_version = version;
+        g.remerge();
+        if announce {
+            for i in fresh {
+                g.announce(i);
+            }
+        }
     }
 
     /// The impacts added after addition number `seen` (oldest first, at most the last 1,024) and
@@ -210,6 +278,48 @@ impl SceneImpacts {
         }
         sea.with_impacts(&set)
     }
+}
+
+/// How many of `events` (canonical order) lie within `window` seconds of `t`.
+fn near_in(events: &[Impact], t: f64, window: f64) -> usize {
+    let lo = events.partition_point(|e| e.t < t - window);
+    let hi = events.partition_point(|e| e.t <= t + window);
+    hi.saturating_sub(lo)
+}
+
+fn room(g: &Inner, impact: &Impact, window: f64) -> Result<(), AddError> {
+    let near = near_in(g.set.events(), impact.t, window);
+    if near >= MAX_NEAR_IMPACTS {
+        return Err(AddError::Full(format!(
+            "{near} impacts already lie within {window} s (a ring's lifetime) of t = {}: at most \
+             {MAX_NEAR_IMPACTS} may",
+            impact.t
+        )));
+    }
+    if g.api.len() >= MAX_SCENE_IMPACTS {
+        return Err(AddError::Full(format!(
+            "the scene holds {} impacts, the limit",
+            g.api.len()
+        )));
+    }
+    Ok(())
+}
+
+/// The impacts of `new` that `old` does not hold (both canonical; duplicates counted).
+fn missing(old: &[Impact], new: &[Impact]) -> Vec<Impact> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    for n in new {
+        while i < old.len() && old[i].canonical_cmp(n).is_lt() {
+            i += 1;
+        }
+        if i < old.len() && old[i].canonical_cmp(n).is_eq() {
+            i += 1;
+        } else {
+            out.push(*n);
+        }
+    }
+    out
 }
 
 /// Adds journaled impacts to scene `id` at start-up (one that no longer validates is logged and

@@ -371,6 +371,158 @@ async fn redis_down_serves_read_only_and_a_restart_resyncs_every_replica() {
     );
 }
 
+/// Heights (as bits) along a line through `[0, 0]` on scene `harbour` at `t`, from `r`.
+async fn harbour_heights(c: &Client, r: &Replica, t: f64) -> Vec<u64> {
+    let points: Vec<[f64; 2]> = (0..64).map(|i| [i as f64 * 0.25, 0.5]).collect();
+    let resp = c
+        .post(r.url("/v1/scenes/harbour/sample"))
+        .json(&json!({"t": t, "points": points}))
+        .send()
+        .await
+        .expect("sample");
+    assert_eq!(resp.status().as_u16(), 200);
+    let v: Value = resp.json().await.unwrap();
+    v["height"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|h| h.as_f64().unwrap().to_bits())
+        .collect()
+}
+
+/// Issue 15 in a fleet: an impact posted through replica 1 used to ripple on replica 1 only
+/// (the admin feed did not carry impacts), so replicas answered different bits for the same t
+/// and point. Now it is stored in Redis with a feed entry: every replica ripples with it within
+/// the admin-change bound, tick frames on another replica carry it, and it survives a Redis
+/// restart and reaches a replica that starts later.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_impact_through_one_replica_ripples_identically_on_every_replica() {
+    use futures_util::{SinkExt as _, StreamExt as _};
+    use tokio_tungstenite::tungstenite::Message;
+    let _serial = SERIAL.lock().await;
+    let mut redis = Redis::start();
+    let c = client();
+    let rs = replicas(&redis.url(), 3, &c).await;
+    // A tick subscriber on replica 2 (the impact goes in through replica 1).
+    let mut ws = tokio_tungstenite::connect_async(format!(
+        "ws://127.0.0.1:{}/v1/scenes/harbour/stream",
+        rs[1].port
+    ))
+    .await
+    .expect("upgrade")
+    .0;
+    ws.send(Message::text(r#"{"type":"subscribe","ticks":true}"#))
+        .await
+        .unwrap();
+    // A time a little ahead of the clock: the ring starts at t0 and is 1.5 s old at `at`.
+    let (_, clk) = get(&c, &rs[0], "/v1/scenes/harbour/clock").await;
+    let t0 = (clk["t"].as_f64().unwrap() + 5.0).floor();
+    let at = t0 + 1.5;
+    let before = harbour_heights(&c, &rs[0], at).await;
+    for r in &rs[1..] {
+        assert_eq!(harbour_heights(&c, r, at).await, before);
+    }
+
+    let (st, v) = admin(
+        &c,
+        &rs[0],
+        Method::POST,
+        "/v1/scenes/harbour/impacts",
+        Some(json!({"position": [2.0, 0.5], "t": t0, "strength": 0.4, "radius": 0.8})),
+    )
+    .await;
+    assert_eq!(st, 202, "{v}");
+    assert_eq!(v["t"].as_f64(), Some(t0), "{v}");
+    let posted = Instant::now();
+    // Read-your-writes: the replica that answered ripples with it already.
+    let after = harbour_heights(&c, &rs[0], at).await;
+    let moved = after.iter().zip(&before).filter(|(a, b)| a != b).count();
+    assert!(moved > 5, "the ring moves heights along the line: {moved}");
+    // The others within the admin-change bound, to the bit.
+    let mut lags = Vec::new();
+    for r in &rs[1..] {
+        loop {
+            if harbour_heights(&c, r, at).await == after {
+                lags.push(posted.elapsed());
+                break;
+            }
+            assert!(
+                posted.elapsed() < Duration::from_secs(5),
+                "replica :{} never rippled with the impact\nlog:\n{}",
+                r.port,
+                r.log()
+            );
+            tokio::time::sleep(Duration::from_millis(2)).await;
+        }
+    }
+    check_within("impact", &lags);
+    // Replica 2's tick frames carry it.
+    let framed = tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            let Some(Ok(Message::Text(t))) = ws.next().await else {
+                panic!("the stream ended");
+            };
+            let f: Value = serde_json::from_str(t.as_str()).unwrap();
+            if let Some(list) = f["impacts"].as_array() {
+                return list[0].clone();
+            }
+        }
+    })
+    .await
+    .expect("a tick frame with the impact on replica 2");
+    assert_eq!(framed["t"].as_f64(), Some(t0), "{framed}");
+    assert_eq!(framed["position"], json!([2.0, 0.5]), "{framed}");
+    assert_eq!(
+        framed["tick"].as_i64(),
+        Some((t0 * 30.0) as i64),
+        "{framed}"
+    );
+    drop(ws);
+    // Listed the same everywhere.
+    let path = format!("/v1/scenes/harbour/impacts?t={t0}");
+    let (_, l1) = get(&c, &rs[0], &path).await;
+    assert_eq!(l1["impacts"].as_array().map(Vec::len), Some(1), "{l1}");
+    for r in &rs[1..] {
+        assert_eq!(get(&c, r, &path).await.1, l1);
+    }
+
+    // Redis restarts (AOF): the impact is still there; every replica still ripples with it
+    // once reconnected, and a replica started now does too.
+    redis.kill9();
+    redis.restart();
+    for r in &rs {
+        until(&c, r, "/readyz", Instant::now(), |st, v| {
+            st == 200 && v["store"]["connected"] == true
+        })
+        .await;
+        assert_eq!(harbour_heights(&c, r, at).await, after);
+    }
+    let late = Replica::spawn(&redis.url(), &[]);
+    late.wait_ready(&c).await;
+    assert_eq!(harbour_heights(&c, &late, at).await, after);
+    assert_eq!(get(&c, &late, &path).await.1, l1);
+
+    // Replacing the scene through replica 3 starts its impacts afresh everywhere (and in
+    // Redis: the late replica agrees).
+    let (_, spec) = get(&c, &rs[0], "/v1/scenes/harbour").await;
+    let (st, v) = admin(
+        &c,
+        &rs[2],
+        Method::PUT,
+        "/v1/scenes/harbour",
+        Some(spec["spec"].clone()),
+    )
+    .await;
+    assert_eq!(st, 200, "{v}");
+    for r in rs.iter().chain([&late]) {
+        until(&c, r, &path, Instant::now(), |st, v| {
+            st == 200 && v["impacts"].as_array().is_some_and(Vec::is_empty)
+        })
+        .await;
+        assert_eq!(harbour_heights(&c, r, at).await, before);
+    }
+}
+
 /// A query as sent: method, path, body, content type, accept.
 #[derive(Clone)]
 struct Query {

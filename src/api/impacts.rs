@@ -11,7 +11,7 @@ use swell_waves::particles::Impact;
 use crate::api::admin::require_admin;
 use crate::api::json::{RawBody, from_slice};
 use crate::error::ApiError;
-use crate::impacts::{AddError, ImpactEvent, apply_tick};
+use crate::impacts::{AddError, ImpactEvent, MAX_SCENE_IMPACTS, apply_tick};
 use crate::journal::Op;
 use crate::state::AppState;
 
@@ -41,11 +41,13 @@ pub struct ImpactAccepted {
 }
 
 /// `POST /v1/scenes/{id}/impacts` (admin): validates, adds to the scene's set, journals (durable
-/// before the answer), 202 `{"tick","t"}`.
+/// before the answer), 202 `{"tick","t"}`. In a fleet the impact is stored in Redis instead and
+/// applied by every replica from the change feed (this one before it answers).
 ///
 /// # Errors
 /// 400 `invalid_value` naming the field; 422 `invalid_spec` for a scene without a particle
-/// layer; 409 `too_many_impacts` over a limit; 404 for an unknown scene.
+/// layer; 409 `too_many_impacts` over a limit; 404 for an unknown scene; 503
+/// `store_unavailable` in a fleet whose Redis is unreachable.
 pub async fn create(
     State(state): State<AppState>,
     Path(id): Path<String>,
@@ -78,13 +80,33 @@ pub async fn create(
     impact
         .validate("")
         .map_err(|e| ApiError::invalid(e.field(), e.to_string()))?;
+    let refused = |e: AddError| match e {
+        AddError::Full(why) => ApiError::new(StatusCode::CONFLICT, "too_many_impacts", why),
+        AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
+    };
+    if let Some(fleet) = state.fleet() {
+        // A fleet: into the scene's impact list in Redis with the feed entry that makes every
+        // replica (this one included, before the answer) add it (crate::store::fleet). The
+        // ring-lifetime limit is checked against this replica's set; the total in Redis.
+        scene
+            .impacts
+            .check_room(&impact, layer.ripples().lifetime)
+            .map_err(refused)?;
+        fleet.add_impact(&id, impact, MAX_SCENE_IMPACTS).await?;
+        metrics::counter!("swell_impacts_total").increment(1);
+        return Ok((
+            StatusCode::ACCEPTED,
+            axum::Json(ImpactAccepted {
+                tick: apply_tick(t, hz),
+                t,
+            }),
+        )
+            .into_response());
+    }
     scene
         .impacts
         .add_checked(impact, layer.ripples().lifetime)
-        .map_err(|e| match e {
-            AddError::Full(why) => ApiError::new(StatusCode::CONFLICT, "too_many_impacts", why),
-            AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
-        })?;
+        .map_err(refused)?;
     if let Some(j) = state.journal() {
         let seq = j
             .append(Op::Impact {

@@ -126,7 +126,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "post",
         "/v1/scenes/{id}/impacts",
-        "Add an impact that ripples on the scene's particle layer (admin): {position, t?, strength, radius} → 202 {tick, t}",
+        "Add an impact that ripples on the scene's particle layer (admin; shared by every replica of a fleet): {position, t?, strength, radius} → 202 {tick, t}",
     ),
     (
         "get",

@@ -90,6 +90,13 @@ pub struct WorldRecord {
     /// What each body's last step measured (reported until its next step), by id.
     #[serde(default)]
     pub statuses: BTreeMap<u64, BodyStatus>,
+    /// The impacts the bodies made that are still kept (derived state, like the states: a
+    /// world rebuilt from this record ripples the same sea as the one it was taken from).
+    #[serde(default)]
+    pub impacts: Vec<swell_waves::particles::Impact>,
+    /// Per body, the distance travelled since its last wake impact, m.
+    #[serde(default)]
+    pub wake: BTreeMap<u64, f64>,
 }
 
 /// Most ticks a replay steps between two events (or from the last event to the clock at
@@ -120,6 +127,8 @@ impl SceneBodies {
                 .bodies()
                 .map(|(id, b)| (id, *b.status()))
                 .collect(),
+            impacts: self.derived.clone(),
+            wake: self.wake.clone(),
         }
     }
 
@@ -148,7 +157,29 @@ impl SceneBodies {
             tick_hz: rec.tick_hz,
             gravity: rec.gravity,
             events: Vec::new(),
+            derived: Vec::new(),
+            fresh: Vec::new(),
+            impacts_version: 0,
+            wake: BTreeMap::new(),
         };
+        // Keep only what validates, in the order derived (a damaged record cannot put an
+        // impact the model rejects into a scene).
+        b.derived = rec
+            .impacts
+            .iter()
+            .filter(|i| i.validate("").is_ok())
+            .copied()
+            .collect();
+        b.derived.sort_by(|a, c| a.canonical_cmp(c));
+        let excess = b.derived.len().saturating_sub(super::MAX_BODY_IMPACTS);
+        b.derived.drain(..excess);
+        b.impacts_version = u64::from(!b.derived.is_empty());
+        b.wake = rec
+            .wake
+            .iter()
+            .filter(|(id, d)| rec.bodies.iter().any(|r| r.id == **id) && d.is_finite())
+            .map(|(id, d)| (*id, *d))
+            .collect();
         for r in &rec.bodies {
             let status = rec.statuses.get(&r.id).copied().unwrap_or_default();
             match b.world.restore_body(r.id, &r.spec, r.state, status) {
@@ -202,7 +233,7 @@ impl SceneBodies {
         }
         let options = super::step_options();
         while self.tick() < target {
-            if self.world.step_surface(surface, &options).is_err() {
+            if !self.step_once(surface, &options) {
                 break;
             }
         }
@@ -238,6 +269,7 @@ impl SceneBodies {
             },
             BodyEvent::Removed { id, .. } => {
                 self.specs.remove(id);
+                self.wake.remove(id);
                 self.world.remove(*id);
             }
             BodyEvent::Input { input, .. } => {

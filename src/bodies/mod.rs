@@ -31,6 +31,18 @@ pub const MAX_CATCH_UP_TICKS: i64 = 60;
 /// settles within a few oscillations, as players expect, instead of bobbing forever.
 pub const DEFAULT_DAMPING_RATIO: f64 = 0.3;
 
+/// Most body impacts (splashes, wakes) a scene's bodies may make within one ring lifetime before
+/// the newest: beyond it a new one is dropped. Half of the API's [`crate::impacts::MAX_NEAR_IMPACTS`],
+/// so API impacts keep room, and together far below the model's 4,096 live rings. The count
+/// covers body impacts only, so what is dropped depends on the bodies alone (deterministic).
+pub const MAX_BODY_NEAR_IMPACTS: usize = 512;
+/// Most body impacts kept (the oldest go first): bounds memory and snapshots.
+pub const MAX_BODY_IMPACTS: usize = 16_384;
+/// How long body impacts are kept behind the bodies' time, s: the longest ring lifetime a
+/// particle layer allows (an hour), so queries of the past hour see the ripples they saw live
+/// (within [`MAX_BODY_IMPACTS`]).
+pub const BODY_IMPACT_HISTORY: f64 = 3600.0;
+
 /// Inversion settings for body probes: 0.1 mm is far below what a hull cell resolves, and a looser
 /// tolerance than the query default saves Newton steps on every cell of every body every tick.
 fn step_options() -> QueryOptions {
@@ -162,6 +174,16 @@ pub struct SceneBodies {
     /// Changes made since the owner last took them ([`SceneBodies::take_events`]), in order:
     /// what the journal records so a restart replays the same world.
     events: Vec<BodyEvent>,
+    /// Impacts the bodies made (the particle layer's `body_impacts`), in canonical order (time
+    /// first), pruned to [`BODY_IMPACT_HISTORY`] behind the bodies' time: derived state,
+    /// like the states, so it is in [`WorldRecord`]s too.
+    derived: Vec<swell_waves::particles::Impact>,
+    /// Derived since the owner last took them ([`SceneBodies::take_fresh_impacts`]).
+    fresh: Vec<swell_waves::particles::Impact>,
+    /// Bumped whenever `derived` changes.
+    impacts_version: u64,
+    /// Per body, horizontal distance travelled since its last wake impact, m.
+    wake: BTreeMap<u64, f64>,
 }
 
 /// One body as persisted.
@@ -206,6 +228,10 @@ impl SceneBodies {
                 tick_hz,
                 gravity,
             }],
+            derived: Vec::new(),
+            fresh: Vec::new(),
+            impacts_version: 0,
+            wake: BTreeMap::new(),
         })
     }
 
@@ -271,6 +297,7 @@ impl SceneBodies {
     /// Removes a body; whether it existed.
     pub fn remove(&mut self, id: u64) -> bool {
         self.specs.remove(&id);
+        self.wake.remove(&id);
         let existed = self.world.remove(id);
         if existed {
             self.events.push(BodyEvent::Removed {
@@ -345,7 +372,7 @@ impl SceneBodies {
         let mut steps = 0;
         while self.tick() < target {
             // Options are valid, so stepping cannot fail.
-            if self.world.step_surface(surface, &options).is_err() {
+            if !self.step_once(surface, &options) {
                 break;
             }
             steps += 1;
@@ -392,6 +419,131 @@ impl SceneBodies {
         self.anchor = tick;
         self.tick_hz = tick_hz;
         self.gravity = gravity;
+        self.prune_impacts();
+    }
+
+    /// One fixed step of every body, then the impacts the step made when `surface`'s particle
+    /// layer has `body_impacts` (see [`swell_waves::particles::body_impacts`]). Every path that
+    /// steps bodies (the live loop, a fleet's follower, a journal replay) comes through here, so
+    /// all of them derive the same impacts at the same ticks. Returns false if stepping failed.
+    fn step_once(&mut self, surface: &Surface, options: &QueryOptions) -> bool {
+        let rules = surface
+            .impact_layer()
+            .and_then(|l| l.body_impacts().map(|r| (*r, l.ripples().lifetime)));
+        // Only scenes that make body impacts pay for this copy.
+        let before: Vec<(u64, swell_waves::body::BodyState, f64)> = match rules {
+            Some(_) => self
+                .world
+                .bodies()
+                .map(|(id, b)| (id, *b.state(), b.status().submerged))
+                .collect(),
+            None => Vec::new(),
+        };
+        if self.world.step_surface(surface, options).is_err() {
+            return false;
+        }
+        if let Some((rules, lifetime)) = rules {
+            self.derive_impacts(&rules, lifetime, &before);
+        }
+        true
+    }
+
+    /// Applies the body-impact rules to the step just taken, in body id order (splash before
+    /// wake), within the limits ([`MAX_BODY_NEAR_IMPACTS`], [`MAX_BODY_IMPACTS`]).
+    fn derive_impacts(
+        &mut self,
+        rules: &swell_waves::particles::BodyImpactSpec,
+        lifetime: f64,
+        before: &[(u64, swell_waves::body::BodyState, f64)],
+    ) {
+        let t = self.world.time();
+        let dt = 1.0 / self.tick_hz;
+        let mut made = Vec::new();
+        for (id, state, submerged) in before {
+            let Some(body) = self.world.body(*id) else {
+                continue;
+            };
+            let step = swell_waves::particles::BodyStep {
+                before: *state,
+                submerged_before: *submerged,
+                after: *body.state(),
+                submerged_after: body.status().submerged,
+            };
+            if let Some(i) = rules.splash(&step, t) {
+                made.push(i);
+            }
+            let travel = self.wake.entry(*id).or_insert(0.0);
+            if let Some(i) = rules.wake(&step, dt, travel, t) {
+                made.push(i);
+            }
+        }
+        let mut changed = false;
+        self.prune_impacts();
+        for i in made {
+            // Off the model's map (|x| > 1e9 m): not an impact it can ripple; dropped.
+            if i.validate("").is_err() {
+                continue;
+            }
+            let near = self.derived.len() - self.derived.partition_point(|e| e.t < i.t - lifetime);
+            if near >= MAX_BODY_NEAR_IMPACTS {
+                metrics::counter!("swell_body_impacts_dropped_total").increment(1);
+                continue;
+            }
+            let at = self
+                .derived
+                .partition_point(|e| e.canonical_cmp(&i).is_le());
+            self.derived.insert(at, i);
+            if self.fresh.len() >= MAX_BODY_NEAR_IMPACTS {
+                self.fresh.remove(0);
+            }
+            self.fresh.push(i);
+            changed = true;
+            metrics::counter!("swell_body_impacts_total").increment(1);
+        }
+        if self.derived.len() > MAX_BODY_IMPACTS {
+            let excess = self.derived.len() - MAX_BODY_IMPACTS;
+            self.derived.drain(..excess);
+            changed = true;
+        }
+        if changed {
+            self.impacts_version += 1;
+        }
+    }
+
+    /// Drops body impacts more than [`BODY_IMPACT_HISTORY`] behind the bodies' time, and those
+    /// after it (left in the future by a re-anchor back in time).
+    fn prune_impacts(&mut self) {
+        if self.derived.is_empty() {
+            return;
+        }
+        let now = self.world.time();
+        let n = self.derived.len();
+        let future = self.derived.partition_point(|e| e.t <= now);
+        self.derived.truncate(future);
+        let old = self
+            .derived
+            .partition_point(|e| e.t < now - BODY_IMPACT_HISTORY);
+        self.derived.drain(..old);
+        if self.derived.len() != n {
+            self.impacts_version += 1;
+        }
+    }
+
+    /// Bumped whenever the derived body impacts change (cheap change detection for
+    /// [`crate::impacts::SceneImpacts::sync_bodies`]).
+    pub fn impacts_version(&self) -> u64 {
+        self.impacts_version
+    }
+
+    /// The body impacts held, as a set.
+    pub fn derived_impacts(&self) -> swell_waves::particles::Impacts {
+        // Each was validated when derived and there are at most MAX_BODY_IMPACTS.
+        swell_waves::particles::Impacts::from_events(self.derived.clone()).unwrap_or_default()
+    }
+
+    /// The body impacts derived since the last call, oldest first.
+    pub fn take_fresh_impacts(&mut self) -> Vec<swell_waves::particles::Impact> {
+        std::mem::take(&mut self.fresh)
     }
 
     /// States in id order; `only` restricts to those ids.
@@ -589,6 +741,75 @@ mod tests {
             a.input(id, &bad).unwrap_err().field.as_deref(),
             Some("force[0]")
         );
+    }
+
+    fn sea(particles: &str) -> Surface {
+        let spec: swell_waves::SurfaceSpec = serde_json::from_str(&format!(
+            r#"{{"layers": [
+                {{"kind": "sine", "waves": [{{"amplitude": 0.1, "wavelength": 20.0, "direction": [1.0, 0.0]}}]}}
+                {particles}]}}"#
+        ))
+        .unwrap();
+        Surface::new(&spec).unwrap()
+    }
+
+    /// Issue 15: "bodies see the particles (through their wavelength filter)". Ambient wave
+    /// particles (radius 1 m: 4 m wide) move a boat; a filter longer than them
+    /// (`min_wavelength_factor` · 6 m = 4.8 m) leaves exactly the boat of the sea without them.
+    #[test]
+    fn bodies_feel_ambient_particles_unless_their_filter_drops_them() {
+        let run = |s: &Surface, factor: f64| {
+            let mut b = SceneBodies::new(0, 30.0, 9.81).unwrap();
+            let mut req = boat();
+            req.min_wavelength_factor = factor;
+            b.spawn(&req).unwrap();
+            for k in 1..=3 {
+                b.advance_to(k * 30, s, 30.0, 9.81);
+            }
+            b.states(None)
+        };
+        let plain = sea("");
+        let bumpy =
+            sea(r#", {"kind": "particles", "count": 4096, "amplitude": 0.2, "radius": 1.0}"#);
+        assert_ne!(
+            run(&plain, 0.0),
+            run(&bumpy, 0.0),
+            "particles move the boat"
+        );
+        assert_eq!(run(&plain, 0.8), run(&bumpy, 0.8), "the filter drops them");
+    }
+
+    /// Body impacts: a boat dropped from 2.5 m splashes once, at the tick its hull gets wet,
+    /// identically however the ticks are grouped; a sea without `body_impacts` makes none; and a
+    /// world rebuilt from its record continues with the same impacts.
+    #[test]
+    fn a_dropped_boat_splashes_once_deterministically() {
+        let with = sea(r#", {"kind": "particles", "count": 0, "body_impacts": {}}"#);
+        let without = sea(r#", {"kind": "particles", "count": 0}"#);
+        let mut req = boat();
+        req.position = [0.0, 2.5, 0.0];
+        let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        let mut b = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        let mut c = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        for w in [&mut a, &mut b, &mut c] {
+            w.spawn(&req).unwrap();
+        }
+        for t in 1..=30 {
+            a.advance_to(t, &with, 30.0, 9.81);
+        }
+        b.advance_to(13, &with, 30.0, 9.81);
+        let mut b = SceneBodies::from_world_record(&b.world_record()).unwrap();
+        b.advance_to(30, &with, 30.0, 9.81);
+        c.advance_to(30, &without, 30.0, 9.81);
+        let fresh = a.take_fresh_impacts();
+        assert_eq!(fresh.len(), 1, "{fresh:?}");
+        // Bottom 1.9 m up: sqrt(2·1.9/9.81) = 0.62 s = 18.7 ticks, within the swell's ±0.1 m.
+        let tick = (fresh[0].t * 30.0).round();
+        assert!((18.0..=20.0).contains(&tick), "splash at tick {tick}");
+        assert_eq!(a.derived_impacts(), b.derived_impacts());
+        assert_eq!(a.states(None), b.states(None));
+        assert!(c.derived_impacts().is_empty());
+        assert_eq!(a.impacts_version(), 1);
     }
 
     #[test]

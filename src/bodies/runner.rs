@@ -233,6 +233,9 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             let start = Instant::now();
             let adv = b.advance_to(target, &scene.surface, scene_hz, gravity);
             let took = start.elapsed();
+            // Impacts the step made reach the scene before the states are published: the tick
+            // loop waits for the states, then takes the new impacts for the same frame.
+            scene.impacts.sync_bodies(&mut b, true);
             if adv.steps > 0 || adv.reanchored {
                 stepping.publish(&b);
             }

@@ -62,6 +62,17 @@ pub enum Op {
 }
 
 impl Op {
+    /// The scene the op changes.
+    pub fn scene(&self) -> &str {
+        match self {
+            Op::ScenePut { scene, .. }
+            | Op::SceneDelete { scene }
+            | Op::Clock { scene, .. }
+            | Op::Body { scene, .. }
+            | Op::Impact { scene, .. } => scene,
+        }
+    }
+
     /// Whether the op is an admin change to scenes or clocks (the snapshot's `admin` part).
     pub fn is_admin(&self) -> bool {
         !matches!(self, Op::Body { .. })

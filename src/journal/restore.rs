@@ -123,6 +123,9 @@ pub fn restore(state: &AppState, rec: Recovered) {
         if let Err(e) = append_body_events(journal, &id, &mut w) {
             tracing::error!(scene = %id, error = %e, "journal: could not record a re-anchor");
         }
+        // The body impacts the snapshot held and the replay re-derived: the same set the
+        // live server had (not announced: no frame carries restored impacts as new).
+        entry.scene.impacts.sync_bodies(&mut w, false);
         tracing::info!(scene = %id, bodies = w.len(), tick = w.tick(), "bodies restored");
         state.bodies.insert(&id, w);
     }

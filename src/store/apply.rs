@@ -4,7 +4,8 @@
 //! and as the journal's replay: a replaced scene keeps its clock unless the put moves its epoch;
 //! a deletion takes the scene's bodies with it; a clock record is anchored at its own Unix time
 //! ([`ClockRecord::restore`]), so every replica that applies it reads the same `t` at the same
-//! instant, whenever it applied it.
+//! instant, whenever it applied it. An impact joins the scene's set without the API's limits
+//! (the replica that accepted it checked them; every replica must hold the same set).
 
 use serde_json::Value;
 
@@ -58,7 +59,8 @@ pub fn op(state: &AppState, op: &Op, built: Option<Scene>) {
         }
         Op::SceneDelete { scene } => delete(state, scene),
         Op::Clock { scene, clock: rec } => clock(state, scene, rec),
-        // Body changes and impacts are not carried by the admin feed.
-        Op::Body { .. } | Op::Impact { .. } => {}
+        Op::Impact { scene, impact } => crate::impacts::restore_into(state, scene, &[*impact]),
+        // Body changes go through each scene's sequenced body log (crate::store::bodies).
+        Op::Body { .. } => {}
     }
 }

@@ -482,7 +482,11 @@ impl FleetBodies {
                         Ok(world) => {
                             state.bodies.insert(scene, world);
                             if let Some(cell) = state.bodies.get(scene) {
-                                let b = cell.lock();
+                                let mut b = cell.lock();
+                                // The body impacts the snapshot holds ripple here too.
+                                if let Ok(entry) = state.scene(scene) {
+                                    entry.scene.impacts.sync_bodies(&mut b, false);
+                                }
                                 cell.publish(&b);
                             }
                         }
@@ -571,6 +575,7 @@ impl FleetBodies {
             };
             let mut b = cell.lock();
             b.advance_to(tick, &s.surface, hz, g);
+            s.impacts.sync_bodies(&mut b, true);
             let spawn = matches!(cmd, BodyCmd::Spawn(_));
             let out = match cmd {
                 BodyCmd::Spawn(req) => {
@@ -603,6 +608,7 @@ impl FleetBodies {
             let mut b = cell.lock();
             let adv = b.advance_to(w, &s.surface, hz, g);
             let _ = b.take_events();
+            s.impacts.sync_bodies(&mut b, true);
             if adv.steps > 0 || adv.reanchored {
                 metrics::counter!("swell_body_ticks_total").increment(u64::from(adv.steps));
             }

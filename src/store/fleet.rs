@@ -8,6 +8,14 @@
 //! - `swell:feed` — a Redis Stream, the change feed: one entry per admin change, `op` (the
 //!   journal's [`Op`] JSON) and `nonce` (which request wrote it). Trimmed to about
 //!   [`FEED_MAXLEN`] entries: the hash, not the stream, is the record.
+//! - `swell:impacts:<scene>:list` — a list, the scene's API impacts (each an
+//!   [`Impact`](swell_waves::particles::Impact) JSON) in the order they were accepted; and
+//!   `swell:impacts:scenes`, the set of scenes that have such a list. Written with the feed
+//!   entry that announces the impact (an [`Op::Impact`]) in one script; a scene put or delete
+//!   drops the list in the same script that records it, so an impact never outlives the scene
+//!   it ripples on. Impacts ripple by closed form from the set alone (their order does not
+//!   matter: the set is kept canonically sorted), so every replica that holds the same list
+//!   answers the same bits.
 //!
 //! # Writes
 //! One Lua script updates the hash and appends the feed entry atomically (Redis runs a script
@@ -22,9 +30,10 @@
 //! Every replica, the writer included, applies changes in stream order from one loop
 //! ([`Fleet::run`]) on a dedicated connection (a blocking `XREAD` would hold up every other
 //! command queued behind it on a shared one). On every (re)connect the loop first re-reads
-//! the whole hash and the stream's last id in one `MULTI` and applies what differs from what it
-//! has applied, then follows the stream from that id with `XREAD BLOCK`. A notification missed
-//! while disconnected is therefore never lost: the re-read covers it. A request that wrote an
+//! the whole hash, every impact list and the stream's last id in one script (one consistent
+//! view) and applies what differs from what it has applied, then follows the stream from that
+//! id with `XREAD BLOCK`. A notification missed while disconnected is therefore never lost: the
+//! re-read covers it. A request that wrote an
 //! entry waits until its own replica's loop has applied it (read-your-writes), so the order of
 //! changes is the stream's on every replica, and the writer's answer shows the applied state.
 //!
@@ -38,7 +47,7 @@ use std::time::Duration;
 
 use axum::http::StatusCode;
 use redis::aio::{ConnectionManager, ConnectionManagerConfig, MultiplexedConnection};
-use redis::streams::{StreamId, StreamRangeReply, StreamReadOptions, StreamReadReply};
+use redis::streams::{StreamId, StreamReadOptions, StreamReadReply};
 use redis::{AsyncCommands as _, AsyncConnectionConfig};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
@@ -71,14 +80,58 @@ const FEED_BLOCK_MS: usize = 1000;
 const BACKOFF_MIN: Duration = Duration::from_millis(100);
 const BACKOFF_MAX: Duration = Duration::from_secs(2);
 
-/// Updates the admin hash and appends the feed entry, atomically.
-/// KEYS: admin hash, feed. ARGV: op JSON, nonce, hash field, value, field to delete ('' none),
-/// max feed length. Returns the new entry's id.
+/// Updates the admin hash and appends the feed entry, atomically; a scene put or delete also
+/// drops the scene's impact list.
+/// KEYS: admin hash, feed, the scene's impact list, the impact index set. ARGV: op JSON, nonce,
+/// hash field, value, field to delete ('' none), max feed length, scene whose impacts go ('' none).
+/// Returns the new entry's id.
 const WRITE_SCRIPT: &str = r"
 redis.call('HSET', KEYS[1], ARGV[3], ARGV[4])
 if ARGV[5] ~= '' then redis.call('HDEL', KEYS[1], ARGV[5]) end
+if ARGV[7] ~= '' then
+  redis.call('DEL', KEYS[3])
+  redis.call('SREM', KEYS[4], ARGV[7])
+end
 return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], 'nonce', ARGV[2])
 ";
+
+/// Appends an API impact to its scene's list and the feed entry that announces it, atomically,
+/// unless the list is full.
+/// KEYS: the scene's impact list, the impact index set, feed. ARGV: impact JSON, op JSON, nonce,
+/// scene id, most impacts, max feed length. Returns the new entry's id, or `full:<n>`.
+const IMPACT_SCRIPT: &str = r"
+local n = redis.call('LLEN', KEYS[1])
+if n >= tonumber(ARGV[5]) then return 'full:' .. n end
+redis.call('RPUSH', KEYS[1], ARGV[1])
+redis.call('SADD', KEYS[2], ARGV[4])
+return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3])
+";
+
+/// Reads everything a replica catches up from, in one atomic step: the admin hash (flat
+/// field/value pairs), the feed's last id ('' when empty), the scenes with impact lists and
+/// each one's list.
+/// KEYS: admin hash, feed, the impact index set. ARGV: impact list key prefix.
+const RESYNC_SCRIPT: &str = r"
+local admin = redis.call('HGETALL', KEYS[1])
+local last = redis.call('XREVRANGE', KEYS[2], '+', '-', 'COUNT', 1)
+local id = ''
+if #last > 0 then id = last[1][1] end
+local scenes = redis.call('SMEMBERS', KEYS[3])
+local lists = {}
+for i, s in ipairs(scenes) do
+  lists[i] = redis.call('LRANGE', ARGV[1] .. s .. ':list', 0, -1)
+end
+return {admin, id, scenes, lists}
+";
+
+/// The impact index set.
+const IMPACT_SCENES_KEY: &str = "swell:impacts:scenes";
+/// Prefix of a scene's impact list key (`swell:impacts:<scene>:list`).
+const IMPACT_LIST_PREFIX: &str = "swell:impacts:";
+
+fn impact_list_key(scene: &str) -> String {
+    format!("{IMPACT_LIST_PREFIX}{scene}:list")
+}
 
 /// Timeouts of a connection that blocks in `XREAD` for up to [`FEED_BLOCK_MS`].
 fn feed_config() -> AsyncConnectionConfig {
@@ -135,6 +188,8 @@ struct Inner {
     /// What this replica has applied: the re-read applies only what differs.
     folded: Mutex<AdminState>,
     write_script: redis::Script,
+    impact_script: redis::Script,
+    resync_script: redis::Script,
 }
 
 impl std::fmt::Debug for Fleet {
@@ -193,6 +248,8 @@ impl Fleet {
             prebuilt: Mutex::new(HashMap::new()),
             folded: Mutex::new(AdminState::default()),
             write_script: redis::Script::new(WRITE_SCRIPT),
+            impact_script: redis::Script::new(IMPACT_SCRIPT),
+            resync_script: redis::Script::new(RESYNC_SCRIPT),
         })))
     }
 
@@ -296,7 +353,8 @@ impl Fleet {
         built: Option<Scene>,
         drop_clock: bool,
     ) -> Result<(), ApiError> {
-        let (field, value, del) = match &op {
+        // A put or delete starts the scene's impacts afresh (as the journal's fold does).
+        let (field, value, del, clears) = match &op {
             Op::ScenePut { scene, spec } => (
                 format!("scene:{scene}"),
                 serde_json::to_string(&AdminScene::Put(spec.clone())),
@@ -305,23 +363,27 @@ impl Fleet {
                 } else {
                     String::new()
                 },
+                scene.clone(),
             ),
             Op::SceneDelete { scene } => (
                 format!("scene:{scene}"),
                 serde_json::to_string(&AdminScene::Deleted),
                 format!("clock:{scene}"),
+                scene.clone(),
             ),
             Op::Clock { scene, clock } => (
                 format!("clock:{scene}"),
                 serde_json::to_string(clock),
                 String::new(),
+                String::new(),
             ),
             Op::Body { .. } | Op::Impact { .. } => {
                 return Err(ApiError::internal(
-                    "body changes and impacts are not carried by the admin feed",
+                    "body changes go through the body log, impacts through Fleet::add_impact",
                 ));
             }
         };
+        let list = impact_list_key(op.scene());
         let value = value.map_err(ApiError::internal)?;
         let op_json = serde_json::to_string(&op).map_err(ApiError::internal)?;
         let nonce = self.next_nonce();
@@ -330,12 +392,56 @@ impl Fleet {
         }
         let mut call = self.0.write_script.key(&self.0.admin_key);
         call.key(&self.0.feed_key)
+            .key(&list)
+            .key(IMPACT_SCENES_KEY)
             .arg(&op_json)
             .arg(&nonce)
             .arg(&field)
             .arg(&value)
             .arg(&del)
+            .arg(FEED_MAXLEN)
+            .arg(&clears);
+        self.write_and_apply(call, &nonce).await
+    }
+
+    /// Stores an API impact of `scene` (its list and the feed entry that announces it) and
+    /// waits until this replica has applied it, so the answer's replica ripples with it.
+    ///
+    /// # Errors
+    /// 409 `too_many_impacts` when the scene's list holds `max` impacts; otherwise as
+    /// [`Fleet::commit`].
+    pub async fn add_impact(
+        &self,
+        scene: &str,
+        impact: swell_waves::particles::Impact,
+        max: usize,
+    ) -> Result<(), ApiError> {
+        let impact_json = serde_json::to_string(&impact).map_err(ApiError::internal)?;
+        let op_json = serde_json::to_string(&Op::Impact {
+            scene: scene.to_owned(),
+            impact,
+        })
+        .map_err(ApiError::internal)?;
+        let nonce = self.next_nonce();
+        let mut call = self.0.impact_script.key(impact_list_key(scene));
+        call.key(IMPACT_SCENES_KEY)
+            .key(&self.0.feed_key)
+            .arg(&impact_json)
+            .arg(&op_json)
+            .arg(&nonce)
+            .arg(scene)
+            .arg(max)
             .arg(FEED_MAXLEN);
+        self.write_and_apply(call, &nonce).await
+    }
+
+    /// Runs a write script (one retry on a dead connection), then waits until this replica's
+    /// feed has applied the entry it appended.
+    async fn write_and_apply(
+        &self,
+        call: redis::ScriptInvocation<'_>,
+        nonce: &str,
+    ) -> Result<(), ApiError> {
         let write = async {
             let mut conn = self.0.writes.clone();
             match call.invoke_async::<String>(&mut conn).await {
@@ -355,16 +461,26 @@ impl Fleet {
         };
         let written = tokio::time::timeout(WRITE_TIMEOUT, write).await;
         let id = match written {
+            Ok(Ok(full)) if full.starts_with("full:") => {
+                return Err(ApiError::new(
+                    StatusCode::CONFLICT,
+                    "too_many_impacts",
+                    format!(
+                        "the scene holds {} impacts, the limit",
+                        full.trim_start_matches("full:")
+                    ),
+                ));
+            }
             Ok(Ok(id)) => EntryId::parse(&id),
             Ok(Err(e)) => {
-                lock(&self.0.prebuilt).remove(&nonce);
+                lock(&self.0.prebuilt).remove(nonce);
                 tracing::warn!(store = %self.0.url, error = %e, "store: admin write failed");
                 return Err(unavailable(
                     "the shared store (Redis) is unreachable, so admin changes are refused until it is back; queries are served from the last known scenes",
                 ));
             }
             Err(_) => {
-                lock(&self.0.prebuilt).remove(&nonce);
+                lock(&self.0.prebuilt).remove(nonce);
                 tracing::warn!(store = %self.0.url, "store: admin write timed out");
                 return Err(unavailable(
                     "the shared store (Redis) did not answer in time, so admin changes are refused until it is back; queries are served from the last known scenes",
@@ -372,13 +488,13 @@ impl Fleet {
             }
         };
         let Some(id) = id else {
-            lock(&self.0.prebuilt).remove(&nonce);
+            lock(&self.0.prebuilt).remove(nonce);
             return Err(ApiError::internal("XADD answered with a malformed id"));
         };
         metrics::counter!("swell_store_writes_total").increment(1);
         let mut rx = self.0.applied.subscribe();
         let applied = tokio::time::timeout(APPLY_TIMEOUT, rx.wait_for(|a| *a >= id)).await;
-        lock(&self.0.prebuilt).remove(&nonce);
+        lock(&self.0.prebuilt).remove(nonce);
         match applied {
             Ok(Ok(_)) => Ok(()),
             _ => Err(unavailable(format!(
@@ -436,17 +552,21 @@ impl Fleet {
         conn: &mut MultiplexedConnection,
         state: &AppState,
     ) -> redis::RedisResult<EntryId> {
-        let (hash, last): (HashMap<String, String>, StreamRangeReply) = redis::pipe()
-            .atomic()
-            .hgetall(&self.0.admin_key)
-            .xrevrange_count(&self.0.feed_key, "+", "-", 1)
-            .query_async(conn)
-            .await?;
-        let last = last
-            .ids
-            .first()
-            .and_then(|e| EntryId::parse(&e.id))
-            .unwrap_or_default();
+        let mut call = self.0.resync_script.key(&self.0.admin_key);
+        call.key(&self.0.feed_key)
+            .key(IMPACT_SCENES_KEY)
+            .arg(IMPACT_LIST_PREFIX);
+        let (flat, last, impact_scenes, lists): (
+            Vec<String>,
+            String,
+            Vec<String>,
+            Vec<Vec<String>>,
+        ) = call.invoke_async(conn).await?;
+        let last = EntryId::parse(&last).unwrap_or_default();
+        let hash: Vec<(String, String)> = flat
+            .chunks_exact(2)
+            .map(|p| (p[0].clone(), p[1].clone()))
+            .collect();
         let mut stored = AdminState::default();
         for (field, value) in hash {
             if let Some(id) = field.strip_prefix("scene:") {
@@ -499,6 +619,7 @@ impl Fleet {
                 tracing::warn!(scene = %id, "store: Redis no longer has this scene (was its data lost?); keeping this replica's copy");
             }
         }
+        changed += resync_impacts(state, &impact_scenes, &lists);
         *lock(&self.0.folded) = stored;
         self.0.applied.send_replace(last);
         tracing::info!(changed, last = %last, "store: re-read the shared admin state");
@@ -561,6 +682,44 @@ impl Fleet {
         metrics::counter!("swell_store_feed_applied_total").increment(1);
         tracing::debug!(id = %entry.id, "store: applied a feed entry");
     }
+}
+
+/// Makes every scene's API impacts what Redis holds (`scenes[i]`'s list is `lists[i]`; a
+/// scene without a list has none), announcing the ones this replica did not have (its tick
+/// frames carry impacts added while it was disconnected). Returns how many scenes changed.
+fn resync_impacts(state: &AppState, scenes: &[String], lists: &[Vec<String>]) -> usize {
+    use swell_waves::particles::{Impact, Impacts};
+    let mut stored: HashMap<&str, Vec<Impact>> = HashMap::new();
+    for (scene, list) in scenes.iter().zip(lists) {
+        let events = list
+            .iter()
+            .filter_map(|j| match serde_json::from_str::<Impact>(j) {
+                Ok(i) if i.validate("").is_ok() => Some(i),
+                _ => {
+                    tracing::error!(scene, "store: skipping an unreadable impact");
+                    None
+                }
+            })
+            .collect();
+        stored.insert(scene.as_str(), events);
+    }
+    let mut changed = 0;
+    for entry in state.scenes() {
+        let scene = &entry.scene;
+        let want = stored.remove(scene.id.as_str()).unwrap_or_default();
+        let want = match Impacts::from_events(want) {
+            Ok(w) => w,
+            Err(e) => {
+                tracing::error!(scene = %scene.id, error = %e, "store: impacts over the limit");
+                continue;
+            }
+        };
+        if *scene.impacts.api() != want {
+            changed += 1;
+            scene.impacts.restore(want, true);
+        }
+    }
+    changed
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@
 //! particle layer pays nothing and gives the same bits as before this layer existed.
 
 pub mod ambient;
+pub mod body_impacts;
 mod field;
 pub mod kernel;
 pub mod ripple;
@@ -31,6 +32,7 @@ pub mod ripple;
 mod tests;
 
 pub use ambient::Ambient;
+pub use body_impacts::{BodyImpactSpec, BodyStep};
 pub use field::{ParticleField, RING_GRID_MIN};
 pub use ripple::{Impact, Impacts, Ring, RingState, RippleSpec};
 
@@ -87,6 +89,11 @@ pub struct ParticleLayerSpec {
     pub seed: Option<u64>,
     /// How impact rings behave.
     pub ripples: RippleSpec,
+    /// Impacts from floating bodies (splashes, wakes): absent (the default), bodies make none;
+    /// `{}` turns them on with [`BodyImpactSpec`]'s defaults. Only the first particle layer's
+    /// (the one impacts ripple on) counts.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub body_impacts: Option<BodyImpactSpec>,
 }
 
 impl Default for ParticleLayerSpec {
@@ -103,6 +110,7 @@ impl Default for ParticleLayerSpec {
             scales: vec![1.0],
             seed: None,
             ripples: RippleSpec::default(),
+            body_impacts: None,
         }
     }
 }
@@ -112,6 +120,7 @@ impl Default for ParticleLayerSpec {
 pub struct ParticleLayer {
     ambient: Ambient,
     ripples: RippleSpec,
+    body_impacts: Option<BodyImpactSpec>,
     dispersion: Dispersion,
     seed: u64,
 }
@@ -159,6 +168,9 @@ impl ParticleLayer {
             positive_at_most(&f(&format!("scales[{i}]")), s, 64.0)?;
         }
         spec.ripples.validate(&f("ripples"))?;
+        if let Some(b) = &spec.body_impacts {
+            b.validate(&f("body_impacts"))?;
+        }
         let ambient = Ambient::new(&AmbientParams {
             count: spec.count,
             tile,
@@ -174,6 +186,7 @@ impl ParticleLayer {
         Ok(ParticleLayer {
             ambient,
             ripples: spec.ripples,
+            body_impacts: spec.body_impacts,
             dispersion,
             seed,
         })
@@ -187,6 +200,11 @@ impl ParticleLayer {
     /// The ripple settings.
     pub fn ripples(&self) -> &RippleSpec {
         &self.ripples
+    }
+
+    /// When floating bodies make impacts on this layer (none: they make none).
+    pub fn body_impacts(&self) -> Option<&BodyImpactSpec> {
+        self.body_impacts.as_ref()
     }
 
     /// The seed the ambient particles were drawn from.

@@ -172,6 +172,36 @@ impl Impacts {
         Ok(Impacts { events })
     }
 
+    /// The union of two sets (every impact of both, duplicates kept), in canonical order: a
+    /// merge, O(n), no re-validation (both are valid sets already).
+    ///
+    /// # Errors
+    /// More than [`MAX_IMPACTS`] together (field `impacts`).
+    pub fn merged(a: &Impacts, b: &Impacts) -> Result<Impacts, SpecError> {
+        let n = a.events.len() + b.events.len();
+        if n > MAX_IMPACTS {
+            return Err(SpecError::BadLength {
+                field: "impacts".into(),
+                len: n,
+                allowed: format!("at most {MAX_IMPACTS}"),
+            });
+        }
+        let mut events = Vec::with_capacity(n);
+        let (mut i, mut j) = (0, 0);
+        while i < a.events.len() && j < b.events.len() {
+            if b.events[j].canonical_cmp(&a.events[i]).is_lt() {
+                events.push(b.events[j]);
+                j += 1;
+            } else {
+                events.push(a.events[i]);
+                i += 1;
+            }
+        }
+        events.extend_from_slice(&a.events[i..]);
+        events.extend_from_slice(&b.events[j..]);
+        Ok(Impacts { events })
+    }
+
     /// The impacts, in canonical order.
     pub fn events(&self) -> &[Impact] {
         &self.events
