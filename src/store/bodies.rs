@@ -547,6 +547,11 @@ impl FleetBodies {
         };
         let s = &entry.scene;
         let (hz, g) = (s.spec.tick_hz, s.spec.surface.gravity);
+        let sea = crate::bodies::Sea::Shared {
+            cache: &state.frames,
+            scene: s,
+            now: state.read_clock(&entry).t,
+        };
         let due: Vec<(i64, EntryId)> = f
             .pending
             .range(..=(w, EntryId::MAX))
@@ -570,7 +575,7 @@ impl FleetBodies {
                 },
             };
             let mut b = cell.lock();
-            b.advance_to(tick, &s.surface, hz, g);
+            b.advance_to(tick, sea, hz, g);
             let spawn = matches!(cmd, BodyCmd::Spawn(_));
             let out = match cmd {
                 BodyCmd::Spawn(req) => {
@@ -601,7 +606,7 @@ impl FleetBodies {
         }
         if let Some(cell) = state.bodies.get(scene) {
             let mut b = cell.lock();
-            let adv = b.advance_to(w, &s.surface, hz, g);
+            let adv = b.advance_to(w, sea, hz, g);
             let _ = b.take_events();
             if adv.steps > 0 || adv.reanchored {
                 metrics::counter!("swell_body_ticks_total").increment(u64::from(adv.steps));
