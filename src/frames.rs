@@ -316,9 +316,28 @@ impl FrameCache {
         fields: QueryFields,
         options: &QueryOptions,
     ) -> Result<SurfaceAt<'s>, SpecError> {
+        scene
+            .impacts
+            .apply(self.frames_at(scene, t, now, fields, options))
+    }
+
+    /// [`FrameCache::surface_at`] without the scene's impacts: the surface of the spec alone,
+    /// exactly what `scene.surface.at(t, fields, options)` gives, its FFT frames shared. The
+    /// body loop steps on it (a body's sea is its scene's surface; see `bodies`).
+    ///
+    /// # Errors
+    /// As [`FrameCache::surface_at`].
+    pub fn frames_at<'s>(
+        &self,
+        scene: &'s Scene,
+        t: f64,
+        now: f64,
+        fields: QueryFields,
+        options: &QueryOptions,
+    ) -> Result<SurfaceAt<'s>, SpecError> {
         let surface = &scene.surface;
         if !surface.has_fft() || options.reference {
-            return scene.impacts.apply(surface.at(t, fields, options));
+            return surface.at(t, fields, options);
         }
         // Check before computing anything: a bad t or option must not cost a frame.
         if !t.is_finite() {
@@ -341,9 +360,7 @@ impl FrameCache {
                 _ => None,
             })
             .collect();
-        scene
-            .impacts
-            .apply(surface.at_with_frames(t, frames, options))
+        surface.at_with_frames(t, frames, options)
     }
 
     /// Whether [`FrameCache::surface_at`] would find every frame it needs already computed

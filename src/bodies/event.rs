@@ -233,7 +233,7 @@ impl SceneBodies {
         }
         let options = super::step_options();
         while self.tick() < target {
-            if !self.step_once(surface, &options) {
+            if !self.step_once(super::Sea::Direct(surface), &options) {
                 break;
             }
         }

@@ -45,15 +45,56 @@ pub const BODY_IMPACT_HISTORY: f64 = 3600.0;
 
 /// Inversion settings for body probes: 0.1 mm is far below what a hull cell resolves, and a looser
 /// tolerance than the query default saves Newton steps on every cell of every body every tick.
+///
+/// FFT layers are read on the model's default time grid, as queries read them: the body loop
+/// takes the grid frames from the server's shared cache ([`Sea::Shared`]), where the queries at
+/// now and the frame-ahead loop put them, so bodies cost no transform of their own for heights
+/// (only their velocity grids). At the default 30 Hz and Δ = 1/60 s a body's substep times are
+/// grid times (one frame each); other rates read the two grid frames around a substep time,
+/// both shared with the neighbouring substeps.
 fn step_options() -> QueryOptions {
     let mut o = QueryOptions::default();
     o.inversion.tolerance = 1e-4;
-    // Bodies build their own FFT frames per substep time (not the server's shared grid frames
-    // yet, issue 10's body scheduler): at an exact time that is one frame, where reading the time
-    // grid would take two (substep times are not grid times). The sea they see differs from the
-    // queries' grid answers by the grid's interpolation error (under 0.4 mm on the built-ins).
-    o.time = swell_waves::TimeSampling::Exact;
+    o.time = swell_waves::TimeSampling::Grid;
     o
+}
+
+/// Where a body step reads the sea. Both give the same bits (a cached grid frame is the frame
+/// the model computes for that grid time), so a live world and its replay agree.
+#[derive(Clone, Copy)]
+pub enum Sea<'a> {
+    /// The scene's surface, every FFT frame computed for the step (journal replay, tests).
+    Direct(&'a Surface),
+    /// The scene's surface with FFT frames from the server's shared cache; `now` is the scene
+    /// clock's time (it decides which frames are protected as near ones).
+    Shared {
+        /// The server's frame cache.
+        cache: &'a crate::frames::FrameCache,
+        /// The scene whose surface it is.
+        scene: &'a crate::scene::Scene,
+        /// The scene clock's now, s.
+        now: f64,
+    },
+}
+
+impl<'a> Sea<'a> {
+    /// The scene surface this sea is.
+    fn surface(self) -> &'a Surface {
+        match self {
+            Sea::Direct(surface) => surface,
+            Sea::Shared { scene, .. } => &scene.surface,
+        }
+    }
+
+    /// One fixed step of `world` on this sea.
+    fn step(self, world: &mut World, options: &QueryOptions) -> Result<(), swell_waves::SpecError> {
+        match self {
+            Sea::Direct(surface) => world.step_surface(surface, options),
+            Sea::Shared { cache, scene, now } => world.step_with(&scene.surface, options, |t| {
+                cache.frames_at(scene, t, now, swell_waves::QueryFields::HEIGHT, options)
+            }),
+        }
+    }
 }
 
 /// `POST /v1/scenes/{id}/bodies` body.
@@ -346,16 +387,10 @@ impl SceneBodies {
         Ok(())
     }
 
-    /// Steps the bodies forward to scene tick `target` on `surface` (see the module docs for
+    /// Steps the bodies forward to scene tick `target` on `sea` (see the module docs for
     /// jumps). `tick_hz`/`gravity` are the scene's now: if they changed, the world is re-anchored
     /// with them.
-    pub fn advance_to(
-        &mut self,
-        target: i64,
-        surface: &Surface,
-        tick_hz: f64,
-        gravity: f64,
-    ) -> Advance {
+    pub fn advance_to(&mut self, target: i64, sea: Sea<'_>, tick_hz: f64, gravity: f64) -> Advance {
         let now = self.tick();
         let settings_changed = tick_hz != self.tick_hz || gravity != self.gravity;
         if target < now || target - now > MAX_CATCH_UP_TICKS || settings_changed {
@@ -372,7 +407,7 @@ impl SceneBodies {
         let mut steps = 0;
         while self.tick() < target {
             // Options are valid, so stepping cannot fail.
-            if !self.step_once(surface, &options) {
+            if !self.step_once(sea, &options) {
                 break;
             }
             steps += 1;
@@ -422,12 +457,13 @@ impl SceneBodies {
         self.prune_impacts();
     }
 
-    /// One fixed step of every body, then the impacts the step made when `surface`'s particle
+    /// One fixed step of every body, then the impacts the step made when `sea`'s particle
     /// layer has `body_impacts` (see [`swell_waves::particles::body_impacts`]). Every path that
     /// steps bodies (the live loop, a fleet's follower, a journal replay) comes through here, so
     /// all of them derive the same impacts at the same ticks. Returns false if stepping failed.
-    fn step_once(&mut self, surface: &Surface, options: &QueryOptions) -> bool {
-        let rules = surface
+    fn step_once(&mut self, sea: Sea<'_>, options: &QueryOptions) -> bool {
+        let rules = sea
+            .surface()
             .impact_layer()
             .and_then(|l| l.body_impacts().map(|r| (*r, l.ripples().lifetime)));
         // Only scenes that make body impacts pay for this copy.
@@ -439,7 +475,7 @@ impl SceneBodies {
                 .collect(),
             None => Vec::new(),
         };
-        if self.world.step_surface(surface, options).is_err() {
+        if sea.step(&mut self.world, options).is_err() {
             return false;
         }
         if let Some((rules, lifetime)) = rules {
@@ -650,30 +686,59 @@ mod tests {
         Surface::new(&spec).unwrap()
     }
 
-    /// Bodies must not pay two FFT frames per substep: their substep times are not grid
-    /// times, so reading the time grid would build both neighbours (a height query on a choppy
-    /// layer is 6 transforms a frame: height, Dx, Dz and three Jacobian terms).
+    /// Issue 10 (one body scheduler on the shared frames): the live body loop reads FFT grid
+    /// frames from the server's cache, which queries may have filled with more fields, while a
+    /// journal replay computes every frame itself. Both must give the same trajectory to the bit,
+    /// and the cached stepping must compute each grid frame once, not once per substep.
     #[test]
-    fn a_body_substep_builds_one_fft_frame() {
+    fn bodies_on_the_shared_frame_cache_step_to_the_bits_of_a_direct_replay() {
         let scene = crate::scene::builtin::built("storm");
-        let t = 1000.0 / 30.0 + 0.25 / 30.0;
-        let one = scene
-            .surface
-            .at(t, swell_waves::QueryFields::HEIGHT, &step_options())
-            .unwrap();
-        assert_eq!(one.transforms(), 6);
-        let grid = scene
-            .surface
-            .at(
-                t,
-                swell_waves::QueryFields::HEIGHT,
-                &QueryOptions::default(),
-            )
-            .unwrap();
+        let cache = crate::frames::FrameCache::new(64);
+        let start = 1_000_000_i64;
+        let t0 = start as f64 / 30.0;
+        // Full queries (every field) fill the cache at the first grid times the bodies read.
+        for k in 0..4 {
+            cache
+                .surface_at(
+                    &scene,
+                    t0 + f64::from(k) / 60.0,
+                    t0,
+                    swell_waves::QueryFields::ALL,
+                    &QueryOptions::default(),
+                )
+                .unwrap();
+        }
+        let filled = cache.len();
+        let (mut direct, mut shared) = (
+            SceneBodies::new(start, 30.0, 9.81).unwrap(),
+            SceneBodies::new(start, 30.0, 9.81).unwrap(),
+        );
+        direct.spawn(&boat()).unwrap();
+        shared.spawn(&boat()).unwrap();
+        let ticks = 20;
+        for tick in start + 1..=start + ticks {
+            direct.advance_to(tick, Sea::Direct(&scene.surface), 30.0, 9.81);
+            let sea = Sea::Shared {
+                cache: &cache,
+                scene: &scene,
+                now: tick as f64 / 30.0,
+            };
+            shared.advance_to(tick, sea, 30.0, 9.81);
+        }
+        let (a, b) = (direct.state(0).unwrap(), shared.state(0).unwrap());
+        assert_eq!(direct.tick(), start + ticks);
         assert_eq!(
-            grid.transforms(),
-            12,
-            "the grid reads two frames between grid times"
+            serde_json::to_string(&a).unwrap(),
+            serde_json::to_string(&b).unwrap(),
+            "cached and direct stepping differ"
+        );
+        let moved = a.position[1] - 0.5;
+        assert!(moved.abs() > 1e-3, "the boat did not move ({moved} m)");
+        // Two substeps a tick at Δ = 1/60 s: about one grid frame per substep time, each once.
+        let computed = cache.len() - filled;
+        assert!(
+            computed <= 2 * ticks as usize + 2,
+            "{computed} frames for {ticks} ticks"
         );
     }
 
@@ -692,10 +757,10 @@ mod tests {
         a.spawn(&boat()).unwrap();
         b.spawn(&boat()).unwrap();
         for t in 101..=160 {
-            a.advance_to(t, &s, 30.0, 9.81);
+            a.advance_to(t, Sea::Direct(&s), 30.0, 9.81);
         }
         for t in [110, 133, 160] {
-            b.advance_to(t, &s, 30.0, 9.81);
+            b.advance_to(t, Sea::Direct(&s), 30.0, 9.81);
         }
         assert_eq!(a.tick(), 160);
         assert_eq!(a.states(None), b.states(None));
@@ -706,15 +771,15 @@ mod tests {
         let s = calm();
         let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
         a.spawn(&boat()).unwrap();
-        a.advance_to(30, &s, 30.0, 9.81);
+        a.advance_to(30, Sea::Direct(&s), 30.0, 9.81);
         let before = a.states(None);
-        let adv = a.advance_to(10_000, &s, 30.0, 9.81);
+        let adv = a.advance_to(10_000, Sea::Direct(&s), 30.0, 9.81);
         assert!(adv.reanchored);
         assert_eq!(a.tick(), 10_000);
         let after = a.states(None);
         let kinematics = |s: &BodyState| (s.position, s.rotation, s.velocity, s.angular_velocity);
         assert_eq!(kinematics(&after[0]), kinematics(&before[0]));
-        let adv = a.advance_to(5, &s, 30.0, 9.81);
+        let adv = a.advance_to(5, Sea::Direct(&s), 30.0, 9.81);
         assert!(adv.reanchored && a.tick() == 5);
     }
 
@@ -723,7 +788,7 @@ mod tests {
         let s = calm();
         let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
         let id = a.spawn(&boat()).unwrap();
-        a.advance_to(10, &s, 30.0, 9.81);
+        a.advance_to(10, Sea::Direct(&s), 30.0, 9.81);
         let req = InputRequest {
             force: [1.0, 0.0, 0.0],
             torque: [0.0; 3],
@@ -764,7 +829,7 @@ mod tests {
             req.min_wavelength_factor = factor;
             b.spawn(&req).unwrap();
             for k in 1..=3 {
-                b.advance_to(k * 30, s, 30.0, 9.81);
+                b.advance_to(k * 30, Sea::Direct(s), 30.0, 9.81);
             }
             b.states(None)
         };
@@ -795,12 +860,12 @@ mod tests {
             w.spawn(&req).unwrap();
         }
         for t in 1..=30 {
-            a.advance_to(t, &with, 30.0, 9.81);
+            a.advance_to(t, Sea::Direct(&with), 30.0, 9.81);
         }
-        b.advance_to(13, &with, 30.0, 9.81);
+        b.advance_to(13, Sea::Direct(&with), 30.0, 9.81);
         let mut b = SceneBodies::from_world_record(&b.world_record()).unwrap();
-        b.advance_to(30, &with, 30.0, 9.81);
-        c.advance_to(30, &without, 30.0, 9.81);
+        b.advance_to(30, Sea::Direct(&with), 30.0, 9.81);
+        c.advance_to(30, Sea::Direct(&without), 30.0, 9.81);
         let fresh = a.take_fresh_impacts();
         assert_eq!(fresh.len(), 1, "{fresh:?}");
         // Bottom 1.9 m up: sqrt(2·1.9/9.81) = 0.62 s = 18.7 ticks, within the swell's ±0.1 m.
@@ -821,7 +886,7 @@ mod tests {
         let id = a.spawn(&req).unwrap();
         // One simulated minute, in chunks under the catch-up cap (as the loop would).
         for k in 1..=30 {
-            a.advance_to(k * 60, &s, 30.0, 9.81);
+            a.advance_to(k * 60, Sea::Direct(&s), 30.0, 9.81);
         }
         let st = a.state(id).unwrap();
         let v: f64 = st.velocity.iter().map(|v| v * v).sum::<f64>().sqrt();

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::watch;
 
-use super::{BodiesRecord, BodyState, SceneBodies};
+use super::{BodiesRecord, BodyState, SceneBodies, Sea};
 use crate::error::ApiError;
 use crate::state::AppState;
 
@@ -219,11 +219,13 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         if !still_registered {
             break;
         }
-        let target = state.read_clock(&entry).tick;
+        let reading = state.read_clock(&entry);
+        let (target, now) = (reading.tick, reading.t);
         let scene = entry.scene.clone();
         let (scene_hz, gravity) = (scene.spec.tick_hz, scene.spec.surface.gravity);
         let stepping = cell.clone();
         let journaling = state.clone();
+        let frames = state.clone();
         let scene_id = id.clone();
         let done = tokio::task::spawn_blocking(move || {
             let mut b = stepping.lock();
@@ -231,7 +233,12 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
                 return None;
             }
             let start = Instant::now();
-            let adv = b.advance_to(target, &scene.surface, scene_hz, gravity);
+            let sea = Sea::Shared {
+                cache: &frames.frames,
+                scene: &scene,
+                now,
+            };
+            let adv = b.advance_to(target, sea, scene_hz, gravity);
             let took = start.elapsed();
             // Impacts the step made reach the scene before the states are published: the tick
             // loop waits for the states, then takes the new impacts for the same frame.

@@ -551,6 +551,11 @@ impl FleetBodies {
         };
         let s = &entry.scene;
         let (hz, g) = (s.spec.tick_hz, s.spec.surface.gravity);
+        let sea = crate::bodies::Sea::Shared {
+            cache: &state.frames,
+            scene: s,
+            now: state.read_clock(&entry).t,
+        };
         let due: Vec<(i64, EntryId)> = f
             .pending
             .range(..=(w, EntryId::MAX))
@@ -574,7 +579,7 @@ impl FleetBodies {
                 },
             };
             let mut b = cell.lock();
-            b.advance_to(tick, &s.surface, hz, g);
+            b.advance_to(tick, sea, hz, g);
             s.impacts.sync_bodies(&mut b, true);
             let spawn = matches!(cmd, BodyCmd::Spawn(_));
             let out = match cmd {
@@ -606,7 +611,7 @@ impl FleetBodies {
         }
         if let Some(cell) = state.bodies.get(scene) {
             let mut b = cell.lock();
-            let adv = b.advance_to(w, &s.surface, hz, g);
+            let adv = b.advance_to(w, sea, hz, g);
             let _ = b.take_events();
             s.impacts.sync_bodies(&mut b, true);
             if adv.steps > 0 || adv.reanchored {

@@ -489,10 +489,29 @@ impl World {
         surface: &Surface,
         options: &QueryOptions,
     ) -> Result<(), SpecError> {
+        self.step_with(surface, options, |t| {
+            surface.at(t, QueryFields::HEIGHT, options)
+        })
+    }
+
+    /// [`World::step_surface`] with the height snapshots supplied by `at` (a server's shared
+    /// frame cache, say): `at(t)` must return `surface` at exactly t, ready for
+    /// [`QueryFields::HEIGHT`] queries with `options`, as `surface.at(t, HEIGHT, options)` would;
+    /// velocity grids are added here ([`SurfaceAt::with_velocity`]). A snapshot built from the
+    /// same frames as `surface.at` gives the same bits, so the trajectory does not depend on
+    /// where the frames came from.
+    ///
+    /// # Errors
+    /// Invalid `options` (nothing is stepped then). An error from `at` (which a finite substep
+    /// time and valid options never give) steps on a flat sea instead of panicking.
+    pub fn step_with<'s>(
+        &mut self,
+        surface: &'s Surface,
+        options: &QueryOptions,
+        mut at: impl FnMut(f64) -> Result<SurfaceAt<'s>, SpecError>,
+    ) -> Result<(), SpecError> {
         options.validate()?;
-        // Substep times are finite (validated settings) and the options are valid, so `at`
-        // cannot fail below; a flat zero-layer fallback is not needed.
-        self.step(|t| match surface.at(t, QueryFields::HEIGHT, options) {
+        self.step(|t| match at(t) {
             Ok(s) => s.with_velocity(),
             Err(_) => unreachable_sea(surface, options),
         });
