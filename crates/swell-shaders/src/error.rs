@@ -48,4 +48,10 @@ pub enum ShaderError {
         /// Why it cannot be exported.
         reason: String,
     },
+    /// An FFT pass entry point asked for without saying which FFT layer.
+    #[error("entry {entry} is an FFT pass: it needs the index of an FFT layer (layer=)")]
+    NeedsLayer {
+        /// The entry point's name.
+        entry: &'static str,
+    },
 }
