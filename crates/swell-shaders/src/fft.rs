@@ -190,13 +190,62 @@ const SWELL_FFT_N: i32 = {n}i;
 const SWELL_FFT_DK: f32 = {dk};
 // Choppiness λ.
 const SWELL_FFT_LAMBDA: f32 = {lambda};
-const SWELL_FFT_TAU: f32 = 6.2831855f;
-const SWELL_FFT_PI: f32 = 3.1415927f;
-{PASSES}",
+{sincos}{PASSES}",
+        sincos = sincos_wgsl(),
         dk = lit(dk as f32),
         lambda = lit(f.choppiness() as f32),
     );
     Ok(s)
+}
+
+/// The polynomials of the model's single-precision turn kernel
+/// ([`swell_waves::math::sin_cos_turns_f32`]): `sin(πu)` and `cos(πu)` on u ∈ [−½, ½].
+/// The passes use it rather than the GPU's `sin`/`cos`, whose accuracy is the driver's
+/// (SwiftShader's cost a 256² storm layer 3 mm of displacement through the twiddles; this
+/// kernel is within 5·10⁻⁷ everywhere and the same on every GPU). A test pins these values to
+/// the model's kernel, bit for bit.
+#[allow(clippy::excessive_precision)]
+const SINPI: [f32; 5] = [
+    3.141_592_502_593_994,
+    -5.167_706_966_400_146,
+    2.550_031_423_568_726,
+    -0.598_045_170_307_159_4,
+    0.077_220_155_298_709_87,
+];
+#[allow(clippy::excessive_precision)]
+const COSPI: [f32; 5] = [
+    1.0,
+    -4.934_795_379_638_672,
+    4.058_451_175_689_697,
+    -1.332_093_834_877_014,
+    0.220_080_688_595_771_8,
+];
+
+/// `(sin 2πu, cos 2πu)` for u in [−½, ½], the shader's `swell_sincos_turns` in Rust (the same
+/// operations in the same order as the model's kernel), for the CPU twin of the passes.
+#[cfg(test)]
+pub(crate) fn sin_cos_turns(u: f32) -> (f32, f32) {
+    let z = u * u;
+    let s = u * (SINPI[0] + z * (SINPI[1] + z * (SINPI[2] + z * (SINPI[3] + z * SINPI[4]))));
+    let c = COSPI[0] + z * (COSPI[1] + z * (COSPI[2] + z * (COSPI[3] + z * COSPI[4])));
+    ((s + s) * c, c * c - s * s)
+}
+
+fn sincos_wgsl() -> String {
+    let (s, c) = (SINPI.map(lit), COSPI.map(lit));
+    format!(
+        "
+// (sin 2πu, cos 2πu) for u in turns in [−½, ½]: the model's f32 kernel (half-angle form of
+// degree-9/8 polynomials for sin πu, cos πu), within 5e-7, independent of the GPU's sin/cos.
+fn swell_sincos_turns(u: f32) -> vec2<f32> {{
+    let z = u * u;
+    let s = u * ({} + z * ({} + z * ({} + z * ({} + z * {}))));
+    let c = {} + z * ({} + z * ({} + z * ({} + z * {})));
+    return vec2<f32>((s + s) * c, c * c - s * s);
+}}
+",
+        s[0], s[1], s[2], s[3], s[4], c[0], c[1], c[2], c[3], c[4]
+    )
 }
 
 /// The layer-independent body of the pass module (the constants above it are per layer).
@@ -253,9 +302,10 @@ fn swell_fft_evolve(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
     // fract(q·t1) and fract(q·t2) are exact (at most 24 significant bits); q·t3 is small.
     var cyc = fract(q * c.x) + fract(q * c.y);
     cyc = cyc - round(cyc) + q * c.z;
-    let theta = SWELL_FFT_TAU * (cyc - round(cyc));
-    let sn = sin(theta);
-    let cs = cos(theta);
+    // θ = 2π·u, u in turns in [−½, ½].
+    let sc = swell_sincos_turns(cyc - round(cyc));
+    let sn = sc.x;
+    let cs = sc.y;
     let a = s0.x;
     let b = s0.y;
     let p = s1.x;
@@ -305,8 +355,9 @@ fn swell_fft_butterfly(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
         ia = vec2<i32>(xy.x, j);
         ib = vec2<i32>(xy.x, j + n / 2);
     }
-    let angle = SWELL_FFT_PI * (f32(k) / f32(ns));
-    let w = vec2<f32>(cos(angle), sin(angle));
+    // w = e^{iπ·k/Ns}: k/(2Ns) turns, in [0, ½).
+    let sc = swell_sincos_turns(f32(k) / f32(2 * ns));
+    let w = vec2<f32>(sc.y, sc.x);
     var sign = 1.0;
     if ((x & ns) != 0) {
         sign = -1.0;
@@ -379,6 +430,59 @@ fn swell_fft{li}(s: SwellSample, p: vec2<f32>) -> SwellSample {{
         let _ = writeln!(calls, "    s = swell_fft{li}(s, p);");
     }
     Some((member, funcs, calls))
+}
+
+/// `swell_invert` / `swell_height` for a surface with choppy FFT layers: the server's default
+/// inversion ([`swell_waves::query::Inversion`]) in f32 — Newton on `p0 + D(p0) = p` from
+/// p0 = p for up to its 8 steps, a fixed-point step where `det J ≤ 10⁻⁹`, stopping at its
+/// tolerance, and the iterate with the lowest residual wins. A storm layer (λ = 2.6) moves
+/// points by metres, and the 4 plain Newton steps that suit Gerstner seas left some probes
+/// 15 mm off (measured by the browser test); Gerstner-only surfaces keep those.
+pub fn height_newton() -> String {
+    let inv = swell_waves::query::Inversion::default();
+    format!(
+        "
+// The undisplaced point whose surface point lies above the local point p: the server's default
+// inversion, Newton on p0 + (Dx, Dz)(p0) = p from p0 = p, at most {steps} steps, a fixed-point step
+// where the Jacobian is (near) singular, stopping once the residual is below {tol} m; the
+// iterate with the lowest residual is returned.
+fn swell_invert(p: vec2<f32>) -> vec2<f32> {{
+    var p0 = p;
+    var best = p;
+    var best_r = 3.4e38f;
+    for (var i = 0u; i <= {steps}u; i = i + 1u) {{
+        let s = swell_sample(p0);
+        let r = p0 + s.displacement.xz - p;
+        let rr = length(r);
+        if (rr < best_r) {{
+            best_r = rr;
+            best = p0;
+        }}
+        if (rr <= {tol} || i == {steps}u) {{
+            break;
+        }}
+        let a = 1.0 + s.d_dx.x;
+        let b = s.d_dz.x;
+        let c = s.d_dx.z;
+        let d = 1.0 + s.d_dz.z;
+        let det = a * d - b * c;
+        if (det > 1e-9f) {{
+            p0 = p0 - vec2<f32>(d * r.x - b * r.y, a * r.y - c * r.x) / det;
+        }} else {{
+            p0 = p0 - r;
+        }}
+    }}
+    return best;
+}}
+
+// Elevation of the surface above the local point p.
+fn swell_height(p: vec2<f32>) -> f32 {{
+    return swell_sample(swell_invert(p)).displacement.y;
+}}
+",
+        steps = inv.iterations,
+        tol = lit(inv.tolerance as f32),
+    )
 }
 
 /// Catmull–Rom weights, the model's formulas (`swell_waves::fft::SampleFilter::Bicubic`).

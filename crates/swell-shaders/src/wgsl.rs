@@ -231,9 +231,14 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
     }
     w.push_str("    return s;\n}\n");
     w.push_str(HELPERS);
-    if surface.layers().iter().any(|l| match l {
+    if crate::fft::layers(surface)
+        .iter()
+        .any(|(_, f)| f.choppiness() > 0.0)
+    {
+        // Choppy FFT layers move points metres: the server's inversion (see crate::fft).
+        w.push_str(&crate::fft::height_newton());
+    } else if surface.layers().iter().any(|l| match l {
         Layer::Gerstner(_) => l.waves().iter().any(|w| w.steepness > 0.0),
-        Layer::Fft(f) => f.choppiness() > 0.0,
         _ => false,
     }) {
         let _ = write!(

@@ -14,8 +14,8 @@ pub(crate) trait Real:
 {
     fn of(v: f64) -> Self;
     fn to(self) -> f64;
-    fn sin(self) -> Self;
-    fn cos(self) -> Self;
+    /// `(sin 2πu, cos 2πu)`: the shaders' turn kernel in f32, exact trig in f64.
+    fn sin_cos_turns(self) -> (Self, Self);
     fn floor(self) -> Self;
     fn round(self) -> Self;
     fn inv_sqrt(self) -> Self;
@@ -23,7 +23,7 @@ pub(crate) trait Real:
 }
 
 macro_rules! real {
-    ($t:ty) => {
+    ($t:ty, $turns:path) => {
         impl Real for $t {
             fn of(v: f64) -> Self {
                 v as $t
@@ -31,11 +31,8 @@ macro_rules! real {
             fn to(self) -> f64 {
                 self as f64
             }
-            fn sin(self) -> Self {
-                <$t>::sin(self)
-            }
-            fn cos(self) -> Self {
-                <$t>::cos(self)
+            fn sin_cos_turns(self) -> (Self, Self) {
+                $turns(self)
             }
             fn floor(self) -> Self {
                 <$t>::floor(self)
@@ -53,8 +50,14 @@ macro_rules! real {
         }
     };
 }
-real!(f32);
-real!(f64);
+fn turns_f32(u: f32) -> (f32, f32) {
+    super::sin_cos_turns(u)
+}
+fn turns_f64(u: f64) -> (f64, f64) {
+    (std::f64::consts::TAU * u).sin_cos()
+}
+real!(f32, turns_f32);
+real!(f64, turns_f64);
 
 type C<R> = [R; 2];
 
@@ -82,8 +85,6 @@ pub(crate) fn frame<R: Real>(layer: &FftLayer, dispersion: &Dispersion, t: f64) 
     let q_max = super::max_frequency_index(layer, dispersion);
     let bits = super::cycle_bits(0, q_max).unwrap();
     let c = super::cycle(t, layer.repeat_period(), bits);
-    // The shader's literals are these constants rounded to f32: R::of rounds the same way.
-    let tau = R::of(std::f64::consts::TAU);
     let dk = R::of(swell_waves::math::TAU / layer.tile_size());
     let lam = R::of(layer.choppiness());
     let zero = [R::of(0.0); 2];
@@ -100,8 +101,7 @@ pub(crate) fn frame<R: Real>(layer: &FftLayer, dispersion: &Dispersion, t: f64) 
             let q = R::of(super::frequency_index(s0[2], layer.repeat_period()));
             let mut cyc = fract(q * R::of(c[0] as f64)) + fract(q * R::of(c[1] as f64));
             cyc = cyc - cyc.round() + q * R::of(c[2] as f64);
-            let theta = tau * (cyc - cyc.round());
-            let (sn, cs) = (theta.sin(), theta.cos());
+            let (sn, cs) = (cyc - cyc.round()).sin_cos_turns();
             let (aa, bb, p, pq) = (R::of(s0[0]), R::of(s0[1]), R::of(s1[0]), R::of(s1[1]));
             let h = [
                 (aa * cs + bb * sn) + (p * cs + pq * sn),
@@ -126,7 +126,6 @@ pub(crate) fn frame<R: Real>(layer: &FftLayer, dispersion: &Dispersion, t: f64) 
             b[v * n + u] = [pack(sx, sz), pack(jxx, jzz)];
         }
     }
-    let pi = R::of(std::f64::consts::PI);
     for axis in 0..2 {
         let mut ns = 1;
         while ns < n {
@@ -141,8 +140,8 @@ pub(crate) fn frame<R: Real>(layer: &FftLayer, dispersion: &Dispersion, t: f64) 
                     } else {
                         (j * n + x0, (j + n / 2) * n + x0)
                     };
-                    let angle = pi * R::of(k as f64).div(R::of(ns as f64));
-                    let w = [angle.cos(), angle.sin()];
+                    let (sn, cs) = R::of(k as f64).div(R::of((2 * ns) as f64)).sin_cos_turns();
+                    let w = [cs, sn];
                     let sign = R::of(if x & ns != 0 { -1.0 } else { 1.0 });
                     let out = y * n + x0;
                     for (src, dst) in [(&a, &mut a2), (&b, &mut b2)] {
