@@ -1,6 +1,7 @@
 //! Writes the GLSL outputs of every built-in scene (GLSL 4.50 and GLSL ES 3.00, every entry
-//! point) into a directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that
-//! `glslangValidator` picks the stage from the extension. `.ci/shader-check` compiles them.
+//! point, and every FFT layer's pass module as `{scene}.{lang}.fft{layer}.{entry}`) into a
+//! directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that `glslangValidator` picks the
+//! stage from the extension. `.ci/shader-check` compiles them.
 //!
 //! `cargo run --example shader_export -- DIR`
 
@@ -27,6 +28,19 @@ fn main() -> anyhow::Result<()> {
                 let path = format!("{dir}/{id}.{}.{}.{ext}", lang.name(), entry.name());
                 std::fs::write(&path, text).with_context(|| path.clone())?;
                 written += 1;
+            }
+            for (li, _) in swell_shaders::fft::layers(&scene.surface) {
+                for entry in Entry::FFT {
+                    let text = swell_shaders::export_fft(&scene.surface, li, lang, Some(entry))?;
+                    let ext = if entry == Entry::FftVertex {
+                        "vert"
+                    } else {
+                        "frag"
+                    };
+                    let path = format!("{dir}/{id}.{}.fft{li}.{}.{ext}", lang.name(), entry.name());
+                    std::fs::write(&path, text).with_context(|| path.clone())?;
+                    written += 1;
+                }
             }
         }
     }
