@@ -264,17 +264,8 @@ fn errors(run: &Value, v: &Value, n: usize) -> (f64, f64, f64) {
         let dot: f64 = (0..3).map(|j| g[j] * nv[j].as_f64().unwrap()).sum();
         let len = (0..3).map(|j| g[j] * g[j]).sum::<f64>().sqrt();
         let ang = (dot / len).clamp(-1.0, 1.0).acos().to_degrees();
-        if h > worst.0 {
-            at = i;
-        }
         worst = (worst.0.max(h), worst.1.max(disp), worst.2.max(ang));
     }
-    eprintln!(
-        "    worst height at probe {at}: server J {} residual {}, GPU J {}",
-        v["jacobian"][at],
-        v["residual"][at],
-        px("a", 4 * at + 3)
-    );
     worst
 }
 

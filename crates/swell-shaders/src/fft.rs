@@ -12,13 +12,14 @@
 //!    (i, j) = `(h0.re, h0.im, q, 0)` of `/spectrum` record (i, j), `q = ω_q·T/2π`, a whole
 //!    number) and writes the spectra of the eight grids, two real grids per complex value, in
 //!    FFT order (texel (u, v) holds mode `m = u` for `u < N/2`, else `u − N`; likewise v):
-//!    target 0 = `(Dx + i·h, Dz + i·∂Dx/∂z)`, target 1 = `(∂h/∂x + i·∂h/∂z, ∂Dx/∂x + i·∂Dz/∂z)`.
+//!    target 0 = `(Dx + i·h, Dz + i·∂Dx/∂x)`, target 1 = `(∂h/∂x + i·∂h/∂z, ∂Dz/∂z + i·∂Dx/∂z)`.
 //! 2. **Butterflies** (`swell_fft_butterfly`, 2·log₂N times): one radix-2 Stockham stage of an
 //!    unnormalised inverse DFT (`e^{+i…}`) along x (`stage.y = 0`) for half-spans
 //!    `Ns = 1, 2, …, N/2` (`stage.x`), then along z (`stage.y = 1`) likewise; ping-pong between
 //!    two pairs of targets. Stockham needs no bit reversal: input and output are in natural
 //!    order. Since every grid is real, after the last stage target 0 holds
-//!    `(Dx, h, Dz, ∂Dx/∂z)` and target 1 `(∂h/∂x, ∂h/∂z, ∂Dx/∂x, ∂Dz/∂z)` at grid node (i, j),
+//!    `(Dx, h, Dz, ∂Dx/∂x)` and target 1 `(∂h/∂x, ∂h/∂z, ∂Dz/∂z, ∂Dx/∂z)` at grid node (i, j)
+//!    (the layout of the viewer's CPU FFT textures, so either source fills the same samplers),
 //!    the point `(i·L/N, j·L/N)`: the model's grids ([`swell_waves::fft::FftGrid`]).
 //!
 //! The surface shader ([`crate::wgsl`]) then samples those two textures with the model's
@@ -328,9 +329,9 @@ fn swell_fft_evolve(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
     let jzz = -(lam * kz * kz * inv_k) * h;
     let jxz = -(lam * kx * kz * inv_k) * h;
     let z0 = swell_pack(dx, h);
-    let z1 = swell_pack(dz, jxz);
+    let z1 = swell_pack(dz, jxx);
     let z2 = swell_pack(sx, sz);
-    let z3 = swell_pack(jxx, jzz);
+    let z3 = swell_pack(jzz, jxz);
     return SwellFftOut(vec4<f32>(z0, z1), vec4<f32>(z2, z3));
 }
 
@@ -389,7 +390,7 @@ pub fn sampling_wgsl(surface: &Surface) -> Option<(String, String, String)> {
             funcs,
             "
 // FFT layer {li}: N = {n}, tile {l} m. Its two result textures (the last butterfly pass's
-// targets): (Dx, h, Dz, dDx/dz) and (dh/dx, dh/dz, dDx/dx, dDz/dz) per grid node.
+// targets): (Dx, h, Dz, dDx/dx) and (dh/dx, dh/dz, dDz/dz, dDx/dz) per grid node.
 @group(1) @binding({ba}) var swell_fft{li}_a: texture_2d<f32>;
 @group(1) @binding({bb}) var swell_fft{li}_b: texture_2d<f32>;
 
@@ -416,8 +417,8 @@ fn swell_fft{li}(s: SwellSample, p: vec2<f32>) -> SwellSample {{
     }}
     var o = s;
     o.displacement = o.displacement + a.xyz;
-    o.d_dx = o.d_dx + vec3<f32>(b.z, b.x, a.w);
-    o.d_dz = o.d_dz + vec3<f32>(a.w, b.y, b.w);
+    o.d_dx = o.d_dx + vec3<f32>(a.w, b.x, b.w);
+    o.d_dz = o.d_dz + vec3<f32>(b.w, b.y, b.z);
     return o;
 }}
 ",

@@ -122,8 +122,8 @@ pub(crate) fn frame<R: Real>(layer: &FftLayer, dispersion: &Dispersion, t: f64) 
             let jxx = sc(-(lam * kx * kx * ik));
             let jzz = sc(-(lam * kz * kz * ik));
             let jxz = sc(-(lam * kx * kz * ik));
-            a[v * n + u] = [pack(dx, h), pack(dz, jxz)];
-            b[v * n + u] = [pack(sx, sz), pack(jxx, jzz)];
+            a[v * n + u] = [pack(dx, h), pack(dz, jxx)];
+            b[v * n + u] = [pack(sx, sz), pack(jzz, jxz)];
         }
     }
     for axis in 0..2 {
@@ -158,14 +158,15 @@ pub(crate) fn frame<R: Real>(layer: &FftLayer, dispersion: &Dispersion, t: f64) 
         }
     }
     let g = |f: &dyn Fn(usize) -> R| (0..n * n).map(|i| f(i).to()).collect::<Vec<f64>>();
+    // a = (Dx, h, Dz, ∂Dx/∂x), b = (∂h/∂x, ∂h/∂z, ∂Dz/∂z, ∂Dx/∂z).
     [
         g(&|i| a[i][0][1]),
         g(&|i| a[i][0][0]),
         g(&|i| a[i][1][0]),
         g(&|i| b[i][0][0]),
         g(&|i| b[i][0][1]),
+        g(&|i| a[i][1][1]),
         g(&|i| b[i][1][0]),
         g(&|i| b[i][1][1]),
-        g(&|i| a[i][1][1]),
     ]
 }
