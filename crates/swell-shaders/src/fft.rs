@@ -87,16 +87,21 @@ pub fn frequency_index(omega_q: f64, repeat_period: f64) -> f64 {
     (omega_q * repeat_period / swell_waves::math::TAU).round()
 }
 
-/// The largest frequency index q of `layer`'s kept modes.
+/// The largest frequency index q among `layer`'s exported records: that of the corner mode
+/// `(N/2 − 1, N/2 − 1)`, the longest wave vector written, since ω(k) grows with k (deep or
+/// finite depth) and the quantisation `floor(ω/ω0)` keeps the order. Formed as
+/// [`crate::spectrum::records`] forms ω_q, so it is the maximum over the records (tested), at
+/// the cost of one mode rather than N² (`/uniforms` calls it every frame).
 pub fn max_frequency_index(
     layer: &FftLayer,
     dispersion: &swell_waves::spectrum::Dispersion,
 ) -> u64 {
-    crate::spectrum::records(layer, dispersion)
-        .iter()
-        .map(|r| frequency_index(r[2], layer.repeat_period()) as u64)
-        .max()
-        .unwrap_or(0)
+    let h = (layer.resolution() / 2) as i32 - 1;
+    let dk = swell_waves::math::TAU / layer.tile_size();
+    let omega0 = swell_waves::math::TAU / layer.repeat_period();
+    let len = glam::DVec2::new(f64::from(h) * dk, f64::from(h) * dk).length();
+    let omega = (dispersion.omega(len) / omega0).floor() * omega0;
+    frequency_index(omega, layer.repeat_period()) as u64
 }
 
 /// Piece width b of the phase split for a layer whose largest frequency index is `q_max`:

@@ -105,7 +105,7 @@ fn f64_twin_of_the_passes_reproduces_the_model_frames() {
         let times: &[f64] = if layer.resolution() > 64 {
             &[1e6 + 0.3]
         } else {
-            &[0.0, 3.7, 1e6, 98_765.4321]
+            &[0.0, 3.7, 1e6, 98_765.432_1]
         };
         for &t in times {
             let model = layer.frame(t, FftFields::ALL);
@@ -254,5 +254,21 @@ fn turn_kernel_is_the_models() {
     assert!(wgsl.contains("fn swell_sincos_turns(u: f32)"));
     for call in ["= sin(", "= cos(", "(sin(", "(cos("] {
         assert!(!wgsl.contains(call), "GPU trig in the passes: {call}");
+    }
+}
+
+/// The cheap q_max (the corner mode) is the maximum over every exported record.
+#[test]
+fn max_frequency_index_is_the_records_maximum() {
+    for json in [SMALL, OPEN_SEA, STORM] {
+        let s = surface(json);
+        let (_, layer) = fft_layer(&s);
+        let d = s.dispersion();
+        let want = crate::spectrum::records(layer, &d)
+            .iter()
+            .map(|r| super::frequency_index(r[2], layer.repeat_period()) as u64)
+            .max()
+            .unwrap();
+        assert_eq!(super::max_frequency_index(layer, &d), want);
     }
 }
