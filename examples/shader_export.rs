@@ -1,7 +1,7 @@
 //! Writes the GLSL outputs of every built-in scene (GLSL 4.50 and GLSL ES 3.00, every entry
 //! point, and every FFT layer's pass module as `{scene}.{lang}.fft{layer}.{entry}`) into a
 //! directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that `glslangValidator` picks the
-//! stage from the extension. `.ci/shader-check` compiles them.
+//! stage from the extension. `.ci/shader-check` compiles them (FFT compute passes: GLSL 4.50 only, `.comp`).
 //!
 //! `cargo run --example shader_export -- DIR`
 
@@ -38,6 +38,16 @@ fn main() -> anyhow::Result<()> {
                         "frag"
                     };
                     let path = format!("{dir}/{id}.{}.fft{li}.{}.{ext}", lang.name(), entry.name());
+                    std::fs::write(&path, text).with_context(|| path.clone())?;
+                    written += 1;
+                }
+                // Compute versions: desktop GLSL only (GLSL ES 3.00 has no compute shaders).
+                for entry in Entry::FFT_COMPUTE
+                    .into_iter()
+                    .filter(|_| lang == Lang::Glsl)
+                {
+                    let text = swell_shaders::export_fft(&scene.surface, li, lang, Some(entry))?;
+                    let path = format!("{dir}/{id}.{}.fft{li}.{}.comp", lang.name(), entry.name());
                     std::fs::write(&path, text).with_context(|| path.clone())?;
                     written += 1;
                 }

@@ -286,6 +286,22 @@ async fn fft_pass_shaders_and_their_uniforms() {
             }
         }
     }
+    // The compute versions: WGSL (and GLSL 4.50, HLSL, MSL), not GLSL ES.
+    let r = s
+        .get("/v1/scenes/storm/shader?lang=wgsl&entry=swell_fft_butterfly_cs&layer=0")
+        .await;
+    assert_eq!(r.status(), 200);
+    assert!(
+        r.text()
+            .await
+            .unwrap()
+            .contains("@compute @workgroup_size(8, 8)")
+    );
+    let (st, v) = s
+        .get_json("/v1/scenes/storm/shader?lang=glsl_es&entry=swell_fft_evolve_cs&layer=0")
+        .await;
+    assert_eq!(st, 400, "{v}");
+    assert_eq!(v["error"]["field"], "lang", "{v}");
     // The surface shader of an FFT scene samples the layer's textures.
     let text = s
         .get("/v1/scenes/open-sea/shader?lang=wgsl")

@@ -80,6 +80,7 @@ fn parse_entry(entry: Option<&str>) -> Result<Option<Entry>, ApiError> {
                         Entry::ALL
                             .into_iter()
                             .chain(Entry::FFT)
+                            .chain(Entry::FFT_COMPUTE)
                             .map(Entry::name)
                             .collect::<Vec<_>>()
                             .join(", ")
@@ -138,6 +139,7 @@ fn shader_error(e: ShaderError) -> ApiError {
         ShaderError::BadLayer { .. } | ShaderError::NeedsLayer { .. } => {
             ApiError::invalid("layer", e.to_string())
         }
+        ShaderError::Unsupported { .. } => ApiError::invalid("lang", e.to_string()),
         ShaderError::Naga { .. } => ApiError::internal(e),
     }
 }
@@ -210,7 +212,7 @@ pub async fn shader(
         (None, Some(_)) => {
             return Err(ApiError::invalid(
                 "layer",
-                "layer is only for the FFT pass entry points (swell_fft_vs, swell_fft_evolve, swell_fft_butterfly)",
+                "layer is only for the FFT pass entry points (swell_fft_vs, swell_fft_evolve, swell_fft_butterfly, swell_fft_evolve_cs, swell_fft_butterfly_cs)",
             ));
         }
         (None, None) => None,

@@ -54,4 +54,14 @@ pub enum ShaderError {
         /// The entry point's name.
         entry: &'static str,
     },
+    /// An entry point the language cannot hold (a compute shader in GLSL ES 3.00).
+    #[error(
+        "entry {entry} is a compute shader: lang {lang} has none (use wgsl, glsl, hlsl or msl, or the fragment passes)"
+    )]
+    Unsupported {
+        /// The entry point's name.
+        entry: &'static str,
+        /// The language's name.
+        lang: &'static str,
+    },
 }

@@ -162,6 +162,23 @@ fn lit(v: f32) -> String {
 /// [`ShaderError::BadLayer`] when `layer` is not an FFT layer of `surface`, or its frequencies
 /// are too high for the f32 phase ([`cycle_bits`]).
 pub fn emit_passes(surface: &Surface, layer: usize) -> Result<String, ShaderError> {
+    Ok(emit_common(surface, layer)? + FRAGMENT_ENTRIES)
+}
+
+/// The WGSL compute version of [`emit_passes`]: entry points `swell_fft_evolve_cs` and
+/// `swell_fft_butterfly_cs` (workgroups of 8×8, one invocation per texel), the same uniforms
+/// and inputs, outputs to RGBA32F storage textures at `@binding(3)` and `@binding(4)`. The same
+/// arithmetic as the fragment passes per texel (not a workgroup-shared Stockham: each stage is
+/// one dispatch, 2·log₂N of them). Validated by naga; not yet run in a browser.
+///
+/// # Errors
+/// As [`emit_passes`].
+pub fn emit_compute(surface: &Surface, layer: usize) -> Result<String, ShaderError> {
+    Ok(emit_common(surface, layer)? + COMPUTE_ENTRIES)
+}
+
+/// Header, per-layer constants, the turn kernel and the per-texel pass functions.
+fn emit_common(surface: &Surface, layer: usize) -> Result<String, ShaderError> {
     let f = crate::spectrum::fft_layer(surface, layer)?;
     let q_max = max_frequency_index(f, &surface.dispersion());
     let bits = cycle_bits(layer, q_max)?;
@@ -271,12 +288,6 @@ struct SwellFftOut {
     @location(1) b: vec4<f32>,
 }
 
-// A full-screen triangle: draw 3 vertices, no attributes.
-@vertex
-fn swell_fft_vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
 
 fn swell_cmul(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
@@ -294,10 +305,8 @@ fn swell_times_i(r: f32, h: vec2<f32>) -> vec2<f32> {
 
 // h~(k, t) = h0(k)·e^{-iθ} + conj(h0(-k))·e^{+iθ}, θ = ω_q·t = 2π·q·τ, for the mode at FFT-order
 // texel (u, v); then the eight grids' spectra c(k)·h~ (the model's FftGrid multipliers).
-@fragment
-fn swell_fft_evolve(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
+fn swell_fft_evolve_at(uv: vec2<i32>) -> SwellFftOut {
     let n = SWELL_FFT_N;
-    let uv = vec2<i32>(floor(frag.xy));
     // Spectrum record (i, j) holds mode (i − N/2, j − N/2); FFT texel u holds mode u or u − N.
     let rec = (uv + vec2<i32>(n / 2)) & vec2<i32>(n - 1);
     let mirror = (vec2<i32>(n) - rec) & vec2<i32>(n - 1);
@@ -343,10 +352,8 @@ fn swell_fft_evolve(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
 // One radix-2 Stockham stage of the inverse DFT along an axis, half-span Ns: output index x
 // (along the axis) reads inputs j and j + N/2, j = (x / 2Ns)·Ns + x mod Ns, and writes
 // a + w·b (x mod 2Ns < Ns) or a − w·b, w = e^{+iπ·(x mod Ns)/Ns}.
-@fragment
-fn swell_fft_butterfly(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
+fn swell_fft_butterfly_at(xy: vec2<i32>) -> SwellFftOut {
     let n = SWELL_FFT_N;
-    let xy = vec2<i32>(floor(frag.xy));
     let ns = i32(swell_fft_pass.stage.x);
     let axis = i32(swell_fft_pass.stage.y);
     var x = xy.x;
@@ -375,6 +382,57 @@ fn swell_fft_butterfly(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
     let o0 = vec4<f32>(a0.xy + sign * swell_cmul(w, b0.xy), a0.zw + sign * swell_cmul(w, b0.zw));
     let o1 = vec4<f32>(a1.xy + sign * swell_cmul(w, b1.xy), a1.zw + sign * swell_cmul(w, b1.zw));
     return SwellFftOut(o0, o1);
+}
+";
+
+/// The fragment-pass entry points (every language, WebGL2 included).
+const FRAGMENT_ENTRIES: &str = r"
+// A full-screen triangle: draw 3 vertices, no attributes.
+@vertex
+fn swell_fft_vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+@fragment
+fn swell_fft_evolve(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
+    return swell_fft_evolve_at(vec2<i32>(floor(frag.xy)));
+}
+
+@fragment
+fn swell_fft_butterfly(@builtin(position) frag: vec4<f32>) -> SwellFftOut {
+    return swell_fft_butterfly_at(vec2<i32>(floor(frag.xy)));
+}
+";
+
+/// The compute entry points (WebGPU, GLSL 4.50, HLSL, MSL): the same per-texel work, one
+/// invocation per texel, written to two storage textures.
+const COMPUTE_ENTRIES: &str = r"
+// The outputs: two RGBA32F storage textures (the fragment version's two targets).
+@group(0) @binding(3) var swell_fft_out_a: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(4) var swell_fft_out_b: texture_storage_2d<rgba32float, write>;
+
+// Dispatch ⌈N/8⌉ × ⌈N/8⌉ workgroups.
+@compute @workgroup_size(8, 8)
+fn swell_fft_evolve_cs(@builtin(global_invocation_id) id: vec3<u32>) {
+    let xy = vec2<i32>(id.xy);
+    if (xy.x >= SWELL_FFT_N || xy.y >= SWELL_FFT_N) {
+        return;
+    }
+    let o = swell_fft_evolve_at(xy);
+    textureStore(swell_fft_out_a, xy, o.a);
+    textureStore(swell_fft_out_b, xy, o.b);
+}
+
+@compute @workgroup_size(8, 8)
+fn swell_fft_butterfly_cs(@builtin(global_invocation_id) id: vec3<u32>) {
+    let xy = vec2<i32>(id.xy);
+    if (xy.x >= SWELL_FFT_N || xy.y >= SWELL_FFT_N) {
+        return;
+    }
+    let o = swell_fft_butterfly_at(xy);
+    textureStore(swell_fft_out_a, xy, o.a);
+    textureStore(swell_fft_out_b, xy, o.b);
 }
 ";
 

@@ -67,6 +67,12 @@ pub enum Entry {
     /// `swell_fft_butterfly`: one radix-2 Stockham stage of the inverse 2-D FFT, along x or z
     /// ([`crate::fft`]).
     FftButterfly,
+    /// `swell_fft_evolve_cs`: the evolve pass as a compute shader (8×8 workgroups, storage
+    /// texture outputs), in an FFT layer's compute module ([`crate::fft::emit_compute`]); not
+    /// for GLSL ES.
+    FftEvolveCompute,
+    /// `swell_fft_butterfly_cs`: one butterfly stage as a compute shader; not for GLSL ES.
+    FftButterflyCompute,
 }
 
 impl Entry {
@@ -76,9 +82,18 @@ impl Entry {
     /// The entry points of an FFT layer's pass module ([`crate::fft::emit_passes`]).
     pub const FFT: [Entry; 3] = [Entry::FftVertex, Entry::FftEvolve, Entry::FftButterfly];
 
-    /// Whether this entry point is in an FFT layer's pass module (and so needs a layer).
+    /// The entry points of an FFT layer's compute module ([`crate::fft::emit_compute`]).
+    pub const FFT_COMPUTE: [Entry; 2] = [Entry::FftEvolveCompute, Entry::FftButterflyCompute];
+
+    /// Whether this entry point is in an FFT layer's pass or compute module (and so needs a
+    /// layer).
     pub fn is_fft(self) -> bool {
-        Entry::FFT.contains(&self)
+        Entry::FFT.contains(&self) || self.is_compute()
+    }
+
+    /// Whether this entry point is a compute shader.
+    pub fn is_compute(self) -> bool {
+        Entry::FFT_COMPUTE.contains(&self)
     }
 
     /// The function name in the WGSL module (and the API's `entry` parameter).
@@ -90,6 +105,8 @@ impl Entry {
             Entry::FftVertex => "swell_fft_vs",
             Entry::FftEvolve => "swell_fft_evolve",
             Entry::FftButterfly => "swell_fft_butterfly",
+            Entry::FftEvolveCompute => "swell_fft_evolve_cs",
+            Entry::FftButterflyCompute => "swell_fft_butterfly_cs",
         }
     }
 
@@ -98,6 +115,7 @@ impl Entry {
         Entry::ALL
             .into_iter()
             .chain(Entry::FFT)
+            .chain(Entry::FFT_COMPUTE)
             .find(|e| e.name() == name)
     }
 
@@ -108,6 +126,7 @@ impl Entry {
             Entry::ProbeFragment | Entry::FftEvolve | Entry::FftButterfly => {
                 naga::ShaderStage::Fragment
             }
+            Entry::FftEvolveCompute | Entry::FftButterflyCompute => naga::ShaderStage::Compute,
         }
     }
 }
@@ -121,9 +140,16 @@ mod tests {
         for l in Lang::ALL {
             assert_eq!(Lang::parse(l.name()), Some(l));
         }
-        for e in Entry::ALL.into_iter().chain(Entry::FFT) {
+        for e in Entry::ALL
+            .into_iter()
+            .chain(Entry::FFT)
+            .chain(Entry::FFT_COMPUTE)
+        {
             assert_eq!(Entry::parse(e.name()), Some(e));
-            assert_eq!(e.is_fft(), Entry::FFT.contains(&e));
+            assert_eq!(
+                e.is_fft(),
+                Entry::FFT.contains(&e) || Entry::FFT_COMPUTE.contains(&e)
+            );
         }
         assert_eq!(Lang::parse("GLSL"), None);
         assert_eq!(Lang::parse("spirv"), None);

@@ -119,7 +119,10 @@ pub fn export(surface: &Surface, lang: Lang, entry: Option<Entry>) -> Result<Str
 
 /// The pass module of the FFT layer at index `layer` of `surface` in `lang` ([`fft`]):
 /// `entry` picks [`Entry::FftVertex`] (the default for GLSL), [`Entry::FftEvolve`] or
-/// [`Entry::FftButterfly`]; WGSL is the whole module.
+/// [`Entry::FftButterfly`]; WGSL is the whole module. A compute entry point
+/// ([`Entry::FftEvolveCompute`], [`Entry::FftButterflyCompute`]) gives the compute module
+/// ([`fft::emit_compute`]) instead, in any language but GLSL ES
+/// ([`ShaderError::Unsupported`]).
 ///
 /// # Errors
 /// [`ShaderError::BadLayer`] when `layer` is not an FFT layer or its frequencies are too high
@@ -140,7 +143,18 @@ pub fn export_fft(
             ),
         });
     }
-    let source = fft::emit_passes(surface, layer)?;
+    let compute = entry.is_some_and(Entry::is_compute);
+    if let Some(e) = entry.filter(|_| compute && lang == Lang::GlslEs) {
+        return Err(ShaderError::Unsupported {
+            entry: e.name(),
+            lang: lang.name(),
+        });
+    }
+    let source = if compute {
+        fft::emit_compute(surface, layer)?
+    } else {
+        fft::emit_passes(surface, layer)?
+    };
     // GLSL holds one entry point: this module's default is its vertex shader.
     let entry = if lang.single_entry() {
         Some(entry.unwrap_or(Entry::FftVertex))

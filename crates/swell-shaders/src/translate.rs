@@ -76,11 +76,11 @@ fn write_glsl(
 ) -> Result<String, ShaderError> {
     let entry = entry.unwrap_or(Entry::Vertex);
     // Binding points equal to the WGSL bindings (`swell` 0, `swell_camera` 1; an FFT pass
-    // module's textures 1 and 2; the surface module's FFT textures `@group(1)` 0, 1, …, which
+    // module's textures 1 and 2 and its compute outputs 3 and 4; the surface module's FFT textures `@group(1)` 0, 1, …, which
     // are texture units, a namespace apart from uniform blocks); naga writes them as
     // `layout(binding = N)` where the version has it (4.20+, not ES 3.00).
     let mut binding_map = glsl::BindingMap::default();
-    for (group, count) in [(0u32, 3u8), (1, 16)] {
+    for (group, count) in [(0u32, 5u8), (1, 16)] {
         for b in 0..count {
             binding_map.insert(
                 naga::ResourceBinding {

@@ -272,3 +272,36 @@ fn max_frequency_index_is_the_records_maximum() {
         assert_eq!(super::max_frequency_index(layer, &d), want);
     }
 }
+
+/// The compute module validates in naga and translates to every language that has compute
+/// shaders; GLSL ES is refused with a typed error.
+#[test]
+fn compute_module_validates_and_translates() {
+    for json in [SMALL, STORM] {
+        let s = surface(json);
+        let (li, _) = fft_layer(&s);
+        let wgsl = export_fft(&s, li, Lang::Wgsl, Some(Entry::FftEvolveCompute)).unwrap();
+        crate::translate::parse_and_validate(&wgsl).unwrap();
+        assert!(wgsl.contains("@compute @workgroup_size(8, 8)"));
+        for e in Entry::FFT_COMPUTE {
+            assert!(wgsl.contains(&format!("fn {}(", e.name())));
+            for lang in [Lang::Glsl, Lang::Hlsl, Lang::Msl] {
+                let out = export_fft(&s, li, lang, Some(e))
+                    .unwrap_or_else(|err| panic!("{lang:?} {e:?}: {err}"));
+                if lang == Lang::Glsl {
+                    assert!(
+                        out.contains("layout(local_size_x = 8, local_size_y = 8"),
+                        "{out}"
+                    );
+                }
+            }
+            assert!(matches!(
+                export_fft(&s, li, Lang::GlslEs, Some(e)),
+                Err(ShaderError::Unsupported { .. })
+            ));
+        }
+        // The fragment module holds no storage texture (GLSL ES could not declare it).
+        let frag = export_fft(&s, li, Lang::Wgsl, None).unwrap();
+        assert!(!frag.contains("texture_storage_2d"));
+    }
+}
