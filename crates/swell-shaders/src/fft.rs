@@ -1,6 +1,7 @@
 //! FFT layers on the GPU: the evolution step, a fragment-pass inverse 2-D FFT (WebGL2 / GLSL ES
-//! 3.00 and every other language naga writes), and the assembly and sampling of the transformed
-//! grids in the surface shader.
+//! 3.00 and every other language naga writes; a compute version of the same per-texel work for
+//! the others, [`emit_compute`]), and the assembly and sampling of the transformed grids in the
+//! surface shader.
 //!
 //! # The passes, per FFT layer and frame
 //!
@@ -28,15 +29,17 @@
 //!
 //! # Precision by construction: the per-frame phase
 //!
-//! Mode k's phase is `ω_q·t`. ω_q is a whole multiple q of `ω0 = 2π/T`, so
-//! `ω_q·t = 2π·q·τ (mod 2π)` with `τ = (t mod T)/T ∈ [0, 1)`, reduced on the host in f64. In f32,
-//! `q·τ` would lose `q·2⁻²⁴` cycles (10⁻⁵ rad at q = 300). So the host splits τ into three f32s
-//! ([`cycle`]): `τ₁ = ⌊τ·2^b⌋/2^b`, `τ₂ = ⌊(τ − τ₁)·2^{2b}⌋/2^{2b}`, `τ₃ = τ − τ₁ − τ₂`, with
-//! `b = 24 − bits(q_max)` (q_max the layer's largest q, baked in the shader). Then `q·τ₁` and
-//! `q·τ₂` are exact in f32 (at most 24 significant bits), their `fract` too, and `q·τ₃ < 2^{24−3b}`
-//! is small: the shader's phase `2π·(fract(q·τ₁) + fract(q·τ₂) + q·τ₃)`, wrapped to [−π, π], is
-//! off by about 10⁻⁶ rad whatever t is. Layers whose q_max needs `b < 8` (a repeat period far
-//! longer than the waves need) are refused ([`ShaderError::BadLayer`]).
+//! Mode k's phase is `ω_q·t`. ω_q is a whole multiple q of `ω0 = 2π/T`, so `ω_q·t = 2π·q·τ (mod
+//! 2π)` with `τ = (t mod T)/T ∈ [0, 1)`, reduced on the host in f64. In f32, `q·τ` loses about
+//! `q·2⁻²⁴` cycles (1.2·10⁻⁴ rad measured on storm, q ≤ 315). So the host splits τ into three f32s
+//! ([`cycle`]): `τ₁ = ⌊τ·2^b⌋/2^b`, `τ₂ = ⌊(τ − τ₁)·2^{2b}⌋/2^{2b}`, `τ₃ = τ − τ₁ − τ₂`, with `b =
+//! 24 − bits(q_max)` (q_max the layer's largest q, baked in the shader). Then `q·τ₁` and `q·τ₂` are
+//! exact in f32 (at most 24 significant bits), their `fract` too, and `q·τ₃ < 2^{24−3b}` is small:
+//! the shader's phase `2π·(fract(q·τ₁) + fract(q·τ₂) + q·τ₃)`, wrapped to [−π, π], is off by 4·10⁻⁷
+//! rad at most (measured up to t = 10⁹ s) whatever t is. Its sine and cosine, and the butterflies'
+//! twiddles, come from the model's f32 turn kernel, not the GPU's `sin`/`cos`. Layers whose q_max
+//! needs `b < 8` (a repeat period far longer than the waves need) are refused
+//! ([`ShaderError::BadLayer`]).
 //!
 //! The sampling shader gets the render origin's place on the tile the same way: per FFT layer,
 //! `((o.x mod L)·N/L, (o.z mod L)·N/L)` in f64 ([`grid_offset`]), so the shader's grid
@@ -45,8 +48,9 @@
 //! # Uniforms
 //! - Pass module, `@group(0) @binding(0)`: `SwellFftPass { cycle: vec4<f32>, stage: vec4<f32> }`:
 //!   `cycle.xyz = (τ₁, τ₂, τ₃)` for the evolve pass; `stage.xy = (Ns, axis)` for a butterfly.
-//!   `@binding(1)`, `@binding(2)`: the input textures (the spectrum, unused; or the previous
-//!   pass's two targets).
+//!   `@binding(1)`, `@binding(2)`: the input textures (evolve: the spectrum texture at 1, 2 is
+//!   not read; butterfly: the previous pass's two targets). The compute module writes to
+//!   storage textures at `@binding(3)` and `@binding(4)` instead of render targets.
 //! - Surface module: `SwellUniforms.fft[f].xy`, the grid offset of FFT layer f (f counts FFT
 //!   layers in layer order), after the phase and particle members; FFT layer f's two result
 //!   textures at `@group(1) @binding(2f)` and `@binding(2f + 1)`.
