@@ -1,8 +1,9 @@
 //! Writes the GLSL outputs of every built-in scene (GLSL 4.50 and GLSL ES 3.00, every entry
-//! point) into a directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that
-//! `glslangValidator` picks the stage from the extension, and the engine includes,
-//! `{scene}.hlsl_include.hlsl` and `{scene}.gdshaderinc`. `.ci/shader-check` compiles them
-//! (the includes inside small test shaders), `.ci/godot-check` runs the Godot ones through
+//! point, and every FFT layer's pass module as `{scene}.{lang}.fft{layer}.{entry}`) into a
+//! directory, named `{scene}.{lang}.{entry}.{vert|frag}` so that `glslangValidator` picks the
+//! stage from the extension (FFT compute passes: GLSL 4.50 only, `.comp`), and the engine
+//! includes, `{scene}.hlsl_include.hlsl` and `{scene}.gdshaderinc`. `.ci/shader-check` compiles
+//! them (the includes inside small test shaders), `.ci/godot-check` runs the Godot ones through
 //! Godot.
 //!
 //! `cargo run --example shader_export -- DIR`
@@ -30,6 +31,29 @@ fn main() -> anyhow::Result<()> {
                 let path = format!("{dir}/{id}.{}.{}.{ext}", lang.name(), entry.name());
                 std::fs::write(&path, text).with_context(|| path.clone())?;
                 written += 1;
+            }
+            for (li, _) in swell_shaders::fft::layers(&scene.surface) {
+                for entry in Entry::FFT {
+                    let text = swell_shaders::export_fft(&scene.surface, li, lang, Some(entry))?;
+                    let ext = if entry == Entry::FftVertex {
+                        "vert"
+                    } else {
+                        "frag"
+                    };
+                    let path = format!("{dir}/{id}.{}.fft{li}.{}.{ext}", lang.name(), entry.name());
+                    std::fs::write(&path, text).with_context(|| path.clone())?;
+                    written += 1;
+                }
+                // Compute versions: desktop GLSL only (GLSL ES 3.00 has no compute shaders).
+                for entry in Entry::FFT_COMPUTE
+                    .into_iter()
+                    .filter(|_| lang == Lang::Glsl)
+                {
+                    let text = swell_shaders::export_fft(&scene.surface, li, lang, Some(entry))?;
+                    let path = format!("{dir}/{id}.{}.fft{li}.{}.comp", lang.name(), entry.name());
+                    std::fs::write(&path, text).with_context(|| path.clone())?;
+                    written += 1;
+                }
             }
         }
         for (lang, ext) in [

@@ -212,12 +212,13 @@ async fn uniforms_errors_name_the_parameter() {
         assert_eq!((st, code(&v)), (400, "invalid_value"), "{q}: {v}");
         assert_eq!(v["error"]["field"], field, "{q}: {v}");
     }
-    // No t: the clock's now; an FFT-only scene has no waves and one zero vec4.
+    // No t: the clock's now; an FFT-only scene has no waves: one zero vec4, then the FFT
+    // layer's grid offset (0 at origin 0).
     let (st, v) = s.get_json("/v1/scenes/storm/uniforms").await;
     assert_eq!(st, 200, "{v}");
     assert!(v["t"].as_f64().unwrap() >= 0.0);
     assert_eq!(v["phases"], json!([]));
-    assert_eq!(v["block"], json!([0.0, 0.0, 0.0, 0.0]));
+    assert_eq!(v["block"], json!(vec![0.0; 8]));
     s.stop().await;
 }
 
@@ -293,5 +294,86 @@ async fn spectrum_is_binary_with_a_json_header_and_rejects_other_layers() {
     }
     let (st, v) = s.get_json("/v1/scenes/calm/spectrum?layer=0").await;
     assert_eq!((st, code(&v)), (400, "invalid_value"), "{v}");
+    s.stop().await;
+}
+
+/// FFT layers' pass shaders: `entry=swell_fft_*` with `layer=`, in every language; the
+/// uniforms carry the evolve pass's phase split and the grid offset; every misuse of `layer`
+/// is a 400 naming it.
+#[tokio::test]
+async fn fft_pass_shaders_and_their_uniforms() {
+    let s = TestServer::start(config()).await;
+    for lang in LANGS {
+        for entry in ["swell_fft_vs", "swell_fft_evolve", "swell_fft_butterfly"] {
+            let path = format!("/v1/scenes/storm/shader?lang={lang}&entry={entry}&layer=0");
+            let r = s.get(&path).await;
+            assert_eq!(r.status(), 200, "{path}");
+            let text = r.text().await.unwrap();
+            if lang == "glsl_es" {
+                assert!(text.starts_with("#version 300 es"), "{text}");
+                if entry != "swell_fft_vs" {
+                    assert!(text.contains("texelFetch"), "{text}");
+                }
+            }
+        }
+    }
+    // The compute versions: WGSL (and GLSL 4.50, HLSL, MSL), not GLSL ES.
+    let r = s
+        .get("/v1/scenes/storm/shader?lang=wgsl&entry=swell_fft_butterfly_cs&layer=0")
+        .await;
+    assert_eq!(r.status(), 200);
+    assert!(
+        r.text()
+            .await
+            .unwrap()
+            .contains("@compute @workgroup_size(8, 8)")
+    );
+    let (st, v) = s
+        .get_json("/v1/scenes/storm/shader?lang=glsl_es&entry=swell_fft_evolve_cs&layer=0")
+        .await;
+    assert_eq!(st, 400, "{v}");
+    assert_eq!(v["error"]["field"], "lang", "{v}");
+    // The surface shader of an FFT scene samples the layer's textures.
+    let text = s
+        .get("/v1/scenes/open-sea/shader?lang=wgsl")
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(text.contains("s = swell_fft0(s, p);"), "{text}");
+    for (q, why) in [
+        ("entry=swell_fft_evolve", "needs"),
+        ("entry=swell_fft_evolve&layer=1", "gerstner"),
+        ("entry=swell_fft_evolve&layer=9", "out of range"),
+        ("entry=swell_fft_evolve&layer=x", "not a layer index"),
+        ("entry=swell_probe_fs&layer=0", "only for the FFT pass"),
+    ] {
+        let (st, v) = s
+            .get_json(&format!("/v1/scenes/open-sea/shader?lang=glsl_es&{q}"))
+            .await;
+        assert_eq!(st, 400, "{q}: {v}");
+        assert_eq!(v["error"]["field"], "layer", "{q}: {v}");
+        assert!(
+            v["error"]["message"].as_str().unwrap().contains(why),
+            "{q}: {v}"
+        );
+    }
+    // t = 10⁶ s: τ = (10⁶ mod 300)/300 = 1/3, split at b = 24 − bits(q_max) bits.
+    let (st, v) = s
+        .get_json("/v1/scenes/storm/uniforms?t=1000000&origin=1000000,-3")
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let c: Vec<f64> = v["fft"][0]["cycle"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(v["fft"][0]["layer"], 0);
+    assert!((c[0] + c[1] + c[2] - 1.0 / 3.0).abs() < 1e-12, "{c:?}");
+    assert!(c[0] > 0.33 && c[1] > 0.0 && c[2].abs() < 1e-8, "{c:?}");
+    // Grid offset: (10⁶ mod 256, −3 mod 256) m at 1 m per node.
+    let block = v["block"].as_array().unwrap();
+    assert_eq!(block[4..6], [json!(64.0), json!(253.0)]);
     s.stop().await;
 }

@@ -44,7 +44,7 @@ export class SwellClient {
   height(id: string, x: number, z: number, opts?: { t?: number }): Promise<{ t: number; height: number }>;
   sample(id: string, req: SampleRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<SampleResponse>;
   orientation(id: string, req: OrientationRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<OrientationResponse>;
-  shader(id: string, lang: 'wgsl' | 'glsl' | 'glsl_es' | 'hlsl' | 'msl' | 'hlsl_include' | 'gdshaderinc', opts?: { entry?: 'swell_vs' | 'swell_probe_vs' | 'swell_probe_fs' }):
+  shader(id: string, lang: 'wgsl' | 'glsl' | 'glsl_es' | 'hlsl' | 'msl' | 'hlsl_include' | 'gdshaderinc', opts?: { entry?: 'swell_vs' | 'swell_probe_vs' | 'swell_probe_fs' | 'swell_fft_vs' | 'swell_fft_evolve' | 'swell_fft_butterfly' | 'swell_fft_evolve_cs' | 'swell_fft_butterfly_cs'; layer?: number }):
     Promise<{ text: string; modelVersion: number; specHash: string; etag: string }>;
   uniforms(id: string, opts?: { t?: number; origin?: Vec2 }): Promise<{ t: number; origin: Vec2; waves: number; phases: number[]; block: number[] }>;
   spectrum(id: string, layer: number): Promise<Spectrum>;

@@ -61,40 +61,19 @@ function quatMat(q, s, p) {
 
 // --- shaders ------------------------------------------------------------------------------------
 
-// The exported vertex shader's own `main` is replaced by one that adds the FFT layers (read from
-// a texture the page fills from the CPU FFT) to `swell_sample` before the camera transform; every
-// `swell_*` function, the uniform blocks and the in/out declarations stay as exported.
+// The exported vertex shader's own `main` is replaced by one that takes the camera as a plain
+// uniform; every `swell_*` function, the uniform blocks and the in/out declarations stay as
+// exported. The exported `swell_sample` includes the FFT layers: it reads naga's samplers
+// `_group_1_binding_0_vs` / `_1_vs` (Catmull–Rom), which the page points at the textures its CPU
+// FFT worker fills (same layout as the exported GPU passes' output, docs/clients.md).
 function seaVertexShader(exported) {
   const at = exported.lastIndexOf('void main()');
   if (at < 0) throw new Error('exported shader has no main()');
   return `${exported.slice(0, at)}
-uniform highp sampler2D u_fft0;   // (Dx, h, Dz, dDx/dx)
-uniform highp sampler2D u_fft1;   // (dh/dx, dh/dz, dDz/dz, dDx/dz)
-uniform vec4 u_fft;               // (fract(origin.x / L), fract(origin.z / L), 1/L, enabled)
-uniform float u_fft_n;
 uniform mat4 u_view_proj;         // the camera (the exported block's name is naga's to choose)
-vec4 fftFetch(highp sampler2D tex, vec2 uv) {
-  vec2 g = uv * u_fft_n;
-  vec2 i0 = floor(g);
-  vec2 f = g - i0;
-  int n = int(u_fft_n);
-  ivec2 a = ivec2(mod(i0, u_fft_n));
-  ivec2 b = ivec2(mod(i0 + 1.0, u_fft_n));
-  vec4 v00 = texelFetch(tex, ivec2(a.x, a.y), 0), v10 = texelFetch(tex, ivec2(b.x, a.y), 0);
-  vec4 v01 = texelFetch(tex, ivec2(a.x, b.y), 0), v11 = texelFetch(tex, ivec2(b.x, b.y), 0);
-  return mix(mix(v00, v10, f.x), mix(v01, v11, f.x), f.y);
-}
 void main() {
   vec2 p_local = _p2vs_location0;
   SwellSample s = swell_sample(p_local);
-  if (u_fft.w > 0.5) {
-    vec2 uv = u_fft.xy + p_local * u_fft.z;
-    vec4 a = fftFetch(u_fft0, uv);
-    vec4 b = fftFetch(u_fft1, uv);
-    s.displacement += a.xyz;
-    s.d_dx += vec3(a.w, b.x, b.w);
-    s.d_dz += vec3(b.w, b.y, b.z);
-  }
   vec3 pos = vec3(p_local.x, 0.0, p_local.y) + s.displacement;
   gl_Position = u_view_proj * vec4(pos, 1.0);
   _vs2fs_location0 = pos;
@@ -102,6 +81,17 @@ void main() {
   _vs2fs_location2 = swell_jacobian(s);
 }
 `;
+}
+
+/** Points a program's exported FFT samplers (`_group_1_binding_B_{vs,fs}`) at texture unit B. */
+function bindFftSamplers(gl, prog) {
+  gl.useProgram(prog);
+  for (const stage of ['vs', 'fs']) {
+    for (const b of [0, 1]) {
+      const loc = gl.getUniformLocation(prog, `_group_1_binding_${b}_${stage}`);
+      if (loc) gl.uniform1i(loc, b);
+    }
+  }
 }
 
 const SEA_FS = `#version 300 es
@@ -218,6 +208,8 @@ async function setup() {
   ]);
   const sea = compile(gl, seaVertexShader(vs.text), SEA_FS, 'sea');
   const probe = compile(gl, pvs.text, pfs.text, 'probe');
+  bindFftSamplers(gl, sea);
+  bindFftSamplers(gl, probe);
   const body = compile(gl, BODY_VS, BODY_FS, 'body');
 
   // Sea mesh: GRID² vertices in local x/z, triangles as an index list.
@@ -348,6 +340,8 @@ async function setup() {
       gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
       gl.viewport(0, 0, 1, 1);
       gl.useProgram(probe);
+      gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
       const vao = gl.createVertexArray();
       gl.bindVertexArray(vao);
       const vb = gl.createBuffer();
@@ -366,12 +360,13 @@ async function setup() {
     }
     const server = (await client.sample(id, { t, points: [[wx, wz]] })).height[0];
     const cpu = surface.height(wx, wz, t);
-    // Scenes with FFT layers: the exported shader holds the analytic layers only, so the GPU
-    // probe answers for those; the client's CPU evaluation (FFT from the spectrum) covers all.
-    state.probe = { world: [wx, wz], t, server, gpu, cpu, gpuLayers: fftLayers.length ? 'analytic layers only' : 'all layers' };
+    // Scenes with FFT layers: the exported shader samples the FFT textures, which hold the
+    // worker's last frame (scene time state.fftT, up to 0.1 s from t), so the GPU probe is the
+    // whole sea at that frame; the client's CPU evaluation (FFT from the spectrum) is exact in t.
+    state.probe = { world: [wx, wz], t, server, gpu, cpu, gpuLayers: fftLayers.length ? `FFT frame at t = ${state.fftT}` : 'all layers' };
     const mm = (v) => (v == null ? 'n/a' : `${v.toFixed(4)} m`);
     $('probe').innerHTML = `probe (${wx.toFixed(2)}, ${wz.toFixed(2)}) at t = ${t.toFixed(3)} s<br>`
-      + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}${fftLayers.length ? ' (analytic layers)' : ''}`
+      + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}${fftLayers.length ? ' (FFT: last frame)' : ''}`
       + (gpu != null && !fftLayers.length ? ` · Δ ${((gpu - server) * 1000).toFixed(3)} mm` : '')
       + `<br>client CPU ${mm(cpu)} · Δ ${((cpu - server) * 1000).toFixed(3)} mm`;
     return state.probe;
@@ -451,19 +446,9 @@ async function setup() {
     gl.useProgram(sea);
     gl.uniform3fv(gl.getUniformLocation(sea, 'u_eye'), eyeLocal);
     gl.uniformMatrix4fv(gl.getUniformLocation(sea, 'u_view_proj'), false, viewProj);
-    if (fftLayer && state.fftFrames) {
-      const L = fftLayer.L;
-      const fr = (v) => { const q = v / L; return q - Math.floor(q); };
-      gl.uniform4f(gl.getUniformLocation(sea, 'u_fft'), fr(origin[0]), fr(origin[1]), 1 / L, 1);
-      gl.uniform1f(gl.getUniformLocation(sea, 'u_fft_n'), fftLayer.n);
-      gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
-      gl.uniform1i(gl.getUniformLocation(sea, 'u_fft0'), 0);
-      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
-      gl.uniform1i(gl.getUniformLocation(sea, 'u_fft1'), 1);
-    } else {
-      gl.uniform4f(gl.getUniformLocation(sea, 'u_fft'), 0, 0, 0, 0);
-      gl.uniform1f(gl.getUniformLocation(sea, 'u_fft_n'), 1);
-    }
+    // The exported shader samples the FFT layer at units 0 and 1 (zeros until the first frame).
+    gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+    gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
     gl.bindVertexArray(seaVao);
     gl.drawElements(gl.TRIANGLES, idx.length, gl.UNSIGNED_INT, 0);
 

@@ -3,7 +3,9 @@
 //!
 //! - `GET /v1/scenes/{id}/shader?lang=wgsl|glsl|glsl_es|hlsl|msl[&entry=]` — source text;
 //!   `lang=hlsl_include|gdshaderinc` — the engine includes (Unity/Unreal HLSL, Godot), which
-//!   hold no entry point and take no `entry`.
+//!   hold no entry point and take no `entry`;
+//!   `&entry=swell_fft_vs|swell_fft_evolve|swell_fft_butterfly&layer=N` — FFT layer N's pass
+//!   module (see [`swell_shaders::fft`]).
 //! - `GET /v1/scenes/{id}/uniforms?[t=][&origin=x,z]` — the frame's phase offsets (f64 maths).
 //! - `GET /v1/scenes/{id}/spectrum?layer=N` — binary `swell-spectrum/1` (see
 //!   [`swell_shaders::spectrum`]).
@@ -33,6 +35,7 @@ use crate::state::AppState;
 pub struct ShaderQuery {
     lang: Option<String>,
     entry: Option<String>,
+    layer: Option<String>,
 }
 
 /// Query of `/uniforms`.
@@ -76,7 +79,13 @@ fn parse_entry(entry: Option<&str>) -> Result<Option<Entry>, ApiError> {
                     "entry",
                     format!(
                         "unknown entry {e:?}: one of {}",
-                        Entry::ALL.map(Entry::name).join(", ")
+                        Entry::ALL
+                            .into_iter()
+                            .chain(Entry::FFT)
+                            .chain(Entry::FFT_COMPUTE)
+                            .map(Entry::name)
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                 )
             })
@@ -110,6 +119,16 @@ fn parse_origin(origin: Option<&str>, max: f64) -> Result<DVec2, ApiError> {
     Ok(DVec2::new(num(x)?, num(z)?))
 }
 
+/// A layer index (`layer=`).
+fn parse_layer(text: &str) -> Result<usize, ApiError> {
+    text.trim().parse().map_err(|_| {
+        ApiError::invalid(
+            "layer",
+            format!("layer = {text:?} is not a layer index (0, 1, ...)"),
+        )
+    })
+}
+
 fn shader_error(e: ShaderError) -> ApiError {
     match e {
         ShaderError::TooManyWaves { .. }
@@ -119,7 +138,10 @@ fn shader_error(e: ShaderError) -> ApiError {
             "shader_unavailable",
             e.to_string(),
         ),
-        ShaderError::BadLayer { .. } => ApiError::invalid("layer", e.to_string()),
+        ShaderError::BadLayer { .. } | ShaderError::NeedsLayer { .. } => {
+            ApiError::invalid("layer", e.to_string())
+        }
+        ShaderError::Unsupported { .. } => ApiError::invalid("lang", e.to_string()),
         ShaderError::Naga { .. } => ApiError::internal(e),
     }
 }
@@ -193,18 +215,33 @@ pub async fn shader(
             ),
         ));
     }
+    // An FFT pass entry point names its layer; the surface shader takes none.
+    let layer = match (entry.filter(|e| e.is_fft()), q.layer.as_deref()) {
+        (Some(_), Some(text)) => Some(parse_layer(text)?),
+        (Some(e), None) => {
+            return Err(shader_error(ShaderError::NeedsLayer { entry: e.name() }));
+        }
+        (None, Some(_)) => {
+            return Err(ApiError::invalid(
+                "layer",
+                "layer is only for the FFT pass entry points (swell_fft_vs, swell_fft_evolve, swell_fft_butterfly, swell_fft_evolve_cs, swell_fft_butterfly_cs)",
+            ));
+        }
+        (None, None) => None,
+    };
     let scene = Arc::clone(&entry_.scene);
     // The text is a pure function of these (the spec through its hash), so the tag is known
     // before the work and a revalidation costs nothing.
     let tag = etag(
         format!(
-            "shader|{}|{}|{}|{}|{}|{}",
+            "shader|{}|{}|{}|{}|{}|{}|{}",
             swell_waves::MODEL_VERSION,
             scene.spec_hash,
             env!("CARGO_PKG_VERSION"),
             swell_shaders::NAGA_VERSION,
             lang.name(),
             entry.map_or("", Entry::name),
+            layer.map_or(String::new(), |l| l.to_string()),
         )
         .as_bytes(),
     );
@@ -215,7 +252,11 @@ pub async fn shader(
     }
     let s = Arc::clone(&scene);
     let text = run_query(false, move || {
-        swell_shaders::export(&s.surface, lang, entry).map_err(shader_error)
+        match layer {
+            Some(l) => swell_shaders::export_fft(&s.surface, l, lang, entry),
+            None => swell_shaders::export(&s.surface, lang, entry),
+        }
+        .map_err(shader_error)
     })
     .await?;
     reply(&scene, &headers, &tag, "text/plain; charset=utf-8", || {
@@ -268,8 +309,13 @@ pub async fn uniforms(
         "block": block,
         "block_bytes": 4 * u.block.len(),
         "rings_dropped": u.rings_dropped,
+        "fft": u.fft_cycles.iter().map(|(layer, c)| serde_json::json!({
+            "layer": layer,
+            "cycle": c.iter().map(|&v| f64::from(v)).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
         "layout": "SwellUniforms { phases: array<vec4<f32>, block.len()/4> } at @group(0) @binding(0): upload block as f32 (value i is phases[i/4][i%4])",
         "formula": "phases[i] = wrap(k_i*(d_i . origin) - omega_i*t + phi_i) in f64, wrapped to [-pi, pi]; the shader adds k_i*(d_i . p_local), p_local = p_world - origin",
+        "fft_formula": "block ends with one vec4 per FFT layer: ((origin mod L)*N/L per axis, 0, 0); fft[*].cycle is the layer's evolve-pass uniform: tau = (t mod T)/T split in f64 into t1 = floor(tau*2^b)/2^b, t2 = floor((tau - t1)*2^2b)/2^2b, t3 = tau - t1 - t2 (b in the pass shader's header)",
     });
     let bytes = serde_json::to_vec(&body).map_err(ApiError::internal)?;
     let tag = etag(&bytes);
@@ -291,12 +337,7 @@ pub async fn spectrum(
             "layer is required: the index of an FFT layer",
         ));
     };
-    let layer: usize = text.trim().parse().map_err(|_| {
-        ApiError::invalid(
-            "layer",
-            format!("layer = {text:?} is not a layer index (0, 1, ...)"),
-        )
-    })?;
+    let layer = parse_layer(text)?;
     let scene = Arc::clone(&entry.scene);
     // Checked before any work: the error names the layer's kind or the range.
     swell_shaders::spectrum::fft_layer(&scene.surface, layer).map_err(shader_error)?;
@@ -351,6 +392,12 @@ mod tests {
                     let text = swell_shaders::export(&scene.surface, lang, entry)
                         .unwrap_or_else(|e| panic!("{id} {lang:?} {entry:?}: {e}"));
                     assert!(text.contains("swell_sample"), "{id} {lang:?}");
+                }
+                for (li, _) in swell_shaders::fft::layers(&scene.surface) {
+                    for entry in Entry::FFT {
+                        swell_shaders::export_fft(&scene.surface, li, lang, Some(entry))
+                            .unwrap_or_else(|e| panic!("{id} layer {li} {lang:?} {entry:?}: {e}"));
+                    }
                 }
             }
         }

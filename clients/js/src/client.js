@@ -14,6 +14,8 @@ const SCENE_ID = /^[a-z0-9-]{1,64}$/;
 const FIELDS = ['height', 'normal', 'displacement', 'jacobian', 'residual'];
 const LANGS = ['wgsl', 'glsl', 'glsl_es', 'hlsl', 'msl', 'hlsl_include', 'gdshaderinc'];
 const ENTRIES = ['swell_vs', 'swell_probe_vs', 'swell_probe_fs'];
+// An FFT layer's passes (docs/clients.md, FFT layers): these need `layer`.
+const FFT_ENTRIES = ['swell_fft_vs', 'swell_fft_evolve', 'swell_fft_butterfly', 'swell_fft_evolve_cs', 'swell_fft_butterfly_cs'];
 const ACCURACY = {
   method: ['newton', 'fixed_point'],
   filter: ['nearest', 'bilinear', 'bicubic'],
@@ -198,12 +200,17 @@ export class SwellClient {
   }
 
   /** GET …/shader?lang=&entry=: `{text, modelVersion, specHash, etag}`. */
-  async shader(id, lang, { entry } = {}) {
+  async shader(id, lang, { entry, layer } = {}) {
     checkSceneId(id);
     if (!LANGS.includes(lang)) throw new ArgumentError('lang', `lang ${JSON.stringify(lang)}: one of ${LANGS.join(', ')}`);
-    if (entry != null && !ENTRIES.includes(entry)) throw new ArgumentError('entry', `entry ${JSON.stringify(entry)}: one of ${ENTRIES.join(', ')}`);
+    const all = [...ENTRIES, ...FFT_ENTRIES];
+    if (entry != null && !all.includes(entry)) throw new ArgumentError('entry', `entry ${JSON.stringify(entry)}: one of ${all.join(', ')}`);
+    const fft = FFT_ENTRIES.includes(entry);
+    if (fft !== (layer != null)) throw new ArgumentError('layer', fft ? `entry ${entry} needs the FFT layer's index` : 'layer is only for the FFT pass entry points');
+    if (fft && !(Number.isInteger(layer) && layer >= 0)) throw new ArgumentError('layer', `layer must be a layer index, got ${JSON.stringify(layer)}`);
     const q = new URLSearchParams({ lang });
     if (entry) q.set('entry', entry);
+    if (fft) q.set('layer', String(layer));
     const r = await this._request('GET', `/v1/scenes/${id}/shader?${q}`);
     return {
       text: await r.text(),

@@ -244,7 +244,8 @@ export class Surface {
   /**
    * The frame's uniform block for the exported shaders (docs/clients.md), in f64:
    * `phases[i] = wrap(k_i·(d_i·o) − ω_i·t + φ_i)` for every sine and Gerstner wave, and `block`,
-   * those rounded to f32 and padded to `4·max(1, ⌈n/4⌉)` values. Equal to GET …/uniforms.
+   * those rounded to f32 and padded to `4·max(1, ⌈n/4⌉)` values, then one vec4 per FFT layer
+   * (its grid offset). Equal to GET …/uniforms.
    */
   uniforms(t, origin = [0, 0]) {
     if (!Number.isFinite(t)) throw new ArgumentError('t', `t must be finite, got ${t}`);
@@ -260,8 +261,23 @@ export class Surface {
         phases.push(reducePhase(L.k[w] * along - L.om[w] * t + L.ph[w]));
       }
     }
-    const block = new Float32Array(4 * Math.max(1, Math.ceil(phases.length / 4)));
+    // Then one vec4 per FFT layer: the origin's grid coordinate on its tile, (o mod L)·N/L per
+    // axis (Rust's rem_euclid, then ·N/L, in that order: the server's bits), for the exported
+    // shader's FFT sampling (crates/swell-shaders/src/fft.rs).
+    const ffts = this.layers.filter((l) => l.kind === 'fft');
+    const head = 4 * Math.max(1, Math.ceil(phases.length / 4));
+    const block = new Float32Array(head + 4 * ffts.length);
     phases.forEach((p, i) => { block[i] = p; });
+    const grid = (x, L, n) => {
+      let r = x % L;
+      if (r < 0) r += L;
+      const v = (r * n) / L;
+      return v >= n ? 0 : v;
+    };
+    ffts.forEach((l, f) => {
+      block[head + 4 * f] = grid(ox, l.info.tile_size, l.info.resolution);
+      block[head + 4 * f + 1] = grid(oz, l.info.tile_size, l.info.resolution);
+    });
     return { t, origin: [ox, oz], phases, block };
   }
 }

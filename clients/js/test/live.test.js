@@ -125,6 +125,12 @@ describe('live server', { skip }, () => {
     const spec = await http.spectrum('open-sea', 0);
     assert.equal(spec.records.length, spec.n * spec.n * 3);
     await assert.rejects(http.spectrum('open-sea', 1), (e) => e instanceof SwellError && e.field === 'layer');
+    // An FFT layer's pass shaders need the layer; a non-FFT layer is the server's 400.
+    const evolve = await http.shader('open-sea', 'glsl_es', { entry: 'swell_fft_evolve', layer: 0 });
+    assert.match(evolve.text, /^#version 300 es/);
+    assert.match(evolve.text, /texelFetch/);
+    await assert.rejects(http.shader('open-sea', 'glsl_es', { entry: 'swell_fft_evolve' }), (e) => e.field === 'layer');
+    await assert.rejects(http.shader('open-sea', 'glsl_es', { entry: 'swell_fft_evolve', layer: 1 }), (e) => e instanceof SwellError && e.field === 'layer');
   });
 
   describe('WebSocket session', () => {

@@ -48,4 +48,20 @@ pub enum ShaderError {
         /// Why it cannot be exported.
         reason: String,
     },
+    /// An FFT pass entry point asked for without saying which FFT layer.
+    #[error("entry {entry} is an FFT pass: it needs the index of an FFT layer (layer=)")]
+    NeedsLayer {
+        /// The entry point's name.
+        entry: &'static str,
+    },
+    /// An entry point the language cannot hold (a compute shader in GLSL ES 3.00).
+    #[error(
+        "entry {entry} is a compute shader: lang {lang} has none (use wgsl, glsl, hlsl or msl, or the fragment passes)"
+    )]
+    Unsupported {
+        /// The entry point's name.
+        entry: &'static str,
+        /// The language's name.
+        lang: &'static str,
+    },
 }

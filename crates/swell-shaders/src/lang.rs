@@ -80,11 +80,43 @@ pub enum Entry {
     /// undisplaced; J, the normal and the height belong to the surface point above it
     /// (horizontal displacement inverted).
     ProbeFragment,
+    /// `swell_fft_vs`: the FFT passes' vertex shader, a full-screen triangle from the vertex
+    /// index (draw 3 vertices, no attributes). In an FFT layer's pass module ([`crate::fft`]).
+    FftVertex,
+    /// `swell_fft_evolve`: the FFT layer's evolution pass h̃(k, t) and the spectra of its eight
+    /// grids, into two RGBA32F targets ([`crate::fft`]).
+    FftEvolve,
+    /// `swell_fft_butterfly`: one radix-2 Stockham stage of the inverse 2-D FFT, along x or z
+    /// ([`crate::fft`]).
+    FftButterfly,
+    /// `swell_fft_evolve_cs`: the evolve pass as a compute shader (8×8 workgroups, storage
+    /// texture outputs), in an FFT layer's compute module ([`crate::fft::emit_compute`]); not
+    /// for GLSL ES.
+    FftEvolveCompute,
+    /// `swell_fft_butterfly_cs`: one butterfly stage as a compute shader; not for GLSL ES.
+    FftButterflyCompute,
 }
 
 impl Entry {
-    /// Every entry point.
+    /// The surface module's entry points.
     pub const ALL: [Entry; 3] = [Entry::Vertex, Entry::ProbeVertex, Entry::ProbeFragment];
+
+    /// The entry points of an FFT layer's pass module ([`crate::fft::emit_passes`]).
+    pub const FFT: [Entry; 3] = [Entry::FftVertex, Entry::FftEvolve, Entry::FftButterfly];
+
+    /// The entry points of an FFT layer's compute module ([`crate::fft::emit_compute`]).
+    pub const FFT_COMPUTE: [Entry; 2] = [Entry::FftEvolveCompute, Entry::FftButterflyCompute];
+
+    /// Whether this entry point is in an FFT layer's pass or compute module (and so needs a
+    /// layer).
+    pub fn is_fft(self) -> bool {
+        Entry::FFT.contains(&self) || self.is_compute()
+    }
+
+    /// Whether this entry point is a compute shader.
+    pub fn is_compute(self) -> bool {
+        Entry::FFT_COMPUTE.contains(&self)
+    }
 
     /// The function name in the WGSL module (and the API's `entry` parameter).
     pub fn name(self) -> &'static str {
@@ -92,19 +124,31 @@ impl Entry {
             Entry::Vertex => "swell_vs",
             Entry::ProbeVertex => "swell_probe_vs",
             Entry::ProbeFragment => "swell_probe_fs",
+            Entry::FftVertex => "swell_fft_vs",
+            Entry::FftEvolve => "swell_fft_evolve",
+            Entry::FftButterfly => "swell_fft_butterfly",
+            Entry::FftEvolveCompute => "swell_fft_evolve_cs",
+            Entry::FftButterflyCompute => "swell_fft_butterfly_cs",
         }
     }
 
-    /// Parses an entry point name; `None` for anything else.
+    /// Parses an entry point name (of either module); `None` for anything else.
     pub fn parse(name: &str) -> Option<Entry> {
-        Entry::ALL.into_iter().find(|e| e.name() == name)
+        Entry::ALL
+            .into_iter()
+            .chain(Entry::FFT)
+            .chain(Entry::FFT_COMPUTE)
+            .find(|e| e.name() == name)
     }
 
     /// The pipeline stage.
     pub fn stage(self) -> naga::ShaderStage {
         match self {
-            Entry::Vertex | Entry::ProbeVertex => naga::ShaderStage::Vertex,
-            Entry::ProbeFragment => naga::ShaderStage::Fragment,
+            Entry::Vertex | Entry::ProbeVertex | Entry::FftVertex => naga::ShaderStage::Vertex,
+            Entry::ProbeFragment | Entry::FftEvolve | Entry::FftButterfly => {
+                naga::ShaderStage::Fragment
+            }
+            Entry::FftEvolveCompute | Entry::FftButterflyCompute => naga::ShaderStage::Compute,
         }
     }
 }
@@ -118,8 +162,16 @@ mod tests {
         for l in Lang::ALL {
             assert_eq!(Lang::parse(l.name()), Some(l));
         }
-        for e in Entry::ALL {
+        for e in Entry::ALL
+            .into_iter()
+            .chain(Entry::FFT)
+            .chain(Entry::FFT_COMPUTE)
+        {
             assert_eq!(Entry::parse(e.name()), Some(e));
+            assert_eq!(
+                e.is_fft(),
+                Entry::FFT.contains(&e) || Entry::FFT_COMPUTE.contains(&e)
+            );
         }
         assert_eq!(Lang::parse("GLSL"), None);
         assert_eq!(Lang::parse("spirv"), None);

@@ -15,7 +15,9 @@
 //!   positions at t and the live impact rings come in the uniform block, computed by the host
 //!   in f64 ([`particles`]).
 //! - FFT layers are exported as data: the initial spectrum h0(k) and the quantised ω(k), exactly
-//!   as the model draws them ([`spectrum`]).
+//!   as the model draws them ([`spectrum`]); and as code: per FFT layer a pass module (evolution
+//!   and a fragment-pass inverse FFT, [`fft`], [`export_fft`]) whose result textures the surface
+//!   shader samples with the model's filter.
 //!
 //! ```
 //! use swell_shaders::{Entry, Lang, export};
@@ -38,6 +40,7 @@
 //!
 //! # Layout
 //! - [`lang`] — [`Lang`] (the output languages) and [`Entry`] (the entry points).
+//! - [`fft`] — FFT layers: the pass module (evolve, butterflies) and the sampling code.
 //! - [`particles`] — the particle layer's shader code and its part of the uniform block.
 //! - [`wgsl`] — the WGSL emitter: the shader's interface (uniform block, functions, entry points).
 //! - [`translate`] — naga: parse, validate, write GLSL / GLSL ES / HLSL / MSL.
@@ -78,6 +81,7 @@
 
 pub mod engines;
 pub mod error;
+pub mod fft;
 pub mod lang;
 pub mod particles;
 pub mod spectrum;
@@ -107,9 +111,64 @@ pub const NAGA_VERSION: &str = "30.0.1";
 /// # Errors
 /// [`ShaderError::TooManyWaves`] or [`ShaderError::NotRepresentable`] when the surface cannot be
 /// emitted; [`ShaderError::Naga`] if naga rejects the module or fails to write it (a bug in the
-/// emitter, caught by the tests for every built-in scene).
+/// emitter, caught by the tests for every built-in scene); [`ShaderError::NeedsLayer`] for an
+/// FFT pass entry point (use [`export_fft`]).
 pub fn export(surface: &Surface, lang: Lang, entry: Option<Entry>) -> Result<String, ShaderError> {
+    if let Some(e) = entry.filter(|e| e.is_fft()) {
+        return Err(ShaderError::NeedsLayer { entry: e.name() });
+    }
     let source = wgsl::emit(surface)?;
+    finish(source, lang, entry)
+}
+
+/// The pass module of the FFT layer at index `layer` of `surface` in `lang` ([`fft`]):
+/// `entry` picks [`Entry::FftVertex`] (the default for GLSL), [`Entry::FftEvolve`] or
+/// [`Entry::FftButterfly`]; WGSL is the whole module. A compute entry point
+/// ([`Entry::FftEvolveCompute`], [`Entry::FftButterflyCompute`]) gives the compute module
+/// ([`fft::emit_compute`]) instead, in any language but GLSL ES
+/// ([`ShaderError::Unsupported`]).
+///
+/// # Errors
+/// [`ShaderError::BadLayer`] when `layer` is not an FFT layer or its frequencies are too high
+/// for the f32 phase ([`fft::cycle_bits`]); [`ShaderError::Naga`] as [`export`]. A surface
+/// entry point here is [`ShaderError::BadLayer`] too (it is not in a pass module).
+pub fn export_fft(
+    surface: &Surface,
+    layer: usize,
+    lang: Lang,
+    entry: Option<Entry>,
+) -> Result<String, ShaderError> {
+    if let Some(e) = entry.filter(|e| !e.is_fft()) {
+        return Err(ShaderError::BadLayer {
+            layer,
+            reason: format!(
+                "entry {} is in the surface shader, not in an FFT pass module",
+                e.name()
+            ),
+        });
+    }
+    let compute = entry.is_some_and(Entry::is_compute);
+    if let Some(e) = entry.filter(|_| compute && lang == Lang::GlslEs) {
+        return Err(ShaderError::Unsupported {
+            entry: e.name(),
+            lang: lang.name(),
+        });
+    }
+    let source = if compute {
+        fft::emit_compute(surface, layer)?
+    } else {
+        fft::emit_passes(surface, layer)?
+    };
+    // GLSL holds one entry point: this module's default is its vertex shader.
+    let entry = if lang.single_entry() {
+        Some(entry.unwrap_or(Entry::FftVertex))
+    } else {
+        entry
+    };
+    finish(source, lang, entry)
+}
+
+fn finish(source: String, lang: Lang, entry: Option<Entry>) -> Result<String, ShaderError> {
     match lang {
         Lang::Wgsl => {
             // Validated here too, so a WGSL client never receives a module naga rejects.

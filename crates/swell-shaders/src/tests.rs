@@ -68,6 +68,12 @@ fn every_language_and_entry_point_translates_and_validates() {
                         assert!(out.starts_with("#version 450 core"), "{out}");
                         assert!(out.contains("void main()"));
                         assert!(out.contains("swell_sample("), "{name}: every function kept");
+                        // naga's GLSL front end cannot read `layout(binding = N) uniform
+                        // sampler2D` (not implemented in 30.0.1): the FFT layers' textures are
+                        // checked by glslangValidator in .ci/shader-check instead.
+                        if out.contains("sampler2D") {
+                            continue;
+                        }
                         let stage = entry.stage();
                         let module = naga::front::glsl::Frontend::default()
                             .parse(&naga::front::glsl::Options::from(stage), &out)
@@ -162,11 +168,13 @@ fn fft_only_surface_has_an_empty_sum_and_one_padding_vec4() {
     let s = surface(FFT_ONLY);
     let wgsl = crate::wgsl::emit(&s).unwrap();
     assert!(wgsl.contains("phases: array<vec4<f32>, 1>"));
-    assert!(wgsl.contains("layer 0: fft, not in this shader"));
+    assert!(wgsl.contains("layer 0: fft, sampled from"));
+    assert!(wgsl.contains("s = swell_fft0(s, p);"));
     assert!(!wgsl.contains("s = swell_wave("));
     let u = frame(&s, 5.0, DVec2::ZERO);
     assert!(u.phases.is_empty());
-    assert_eq!(u.block, [0.0; 4]);
+    // One padding vec4 of phases, then the FFT layer's grid offset (0 at the origin).
+    assert_eq!(u.block, [0.0; 8]);
 }
 
 #[test]
@@ -207,10 +215,15 @@ fn uniforms_are_the_models_phases() {
         assert_eq!(p.to_bits(), w.phase_at(o, t).to_bits());
         assert!(p.abs() <= std::f64::consts::PI);
     }
-    assert_eq!(u.block.len(), 4);
+    // One vec4 of phases, then the FFT layer's grid offset.
+    assert_eq!(u.block.len(), 8);
     assert_eq!(u.block[1], u.phases[1] as f32);
-    assert_eq!(u.block[2..], [0.0, 0.0]);
-    assert_eq!(crate::uniforms::block_bytes(&u).len(), 16);
+    assert_eq!(u.block[2..4], [0.0, 0.0]);
+    let Layer::Fft(f) = &s.layers()[0] else {
+        panic!("layer 0 is the FFT layer")
+    };
+    assert_eq!(u.block[4..6], crate::fft::grid_offset(f, o));
+    assert_eq!(crate::uniforms::block_bytes(&u).len(), 32);
 }
 
 /// What the shader computes, in f32 on the CPU: the emitted constants, the uniform block and

@@ -77,17 +77,21 @@ fn write_glsl(
     entry: Option<Entry>,
 ) -> Result<String, ShaderError> {
     let entry = entry.unwrap_or(Entry::Vertex);
-    // Binding points equal to the WGSL bindings (`swell` 0, `swell_camera` 1); naga writes
-    // them as `layout(binding = N)` where the version has it (4.20+, not ES 3.00).
+    // Binding points equal to the WGSL bindings (`swell` 0, `swell_camera` 1; an FFT pass
+    // module's textures 1 and 2 and its compute outputs 3 and 4; the surface module's FFT textures `@group(1)` 0, 1, …, which
+    // are texture units, a namespace apart from uniform blocks); naga writes them as
+    // `layout(binding = N)` where the version has it (4.20+, not ES 3.00).
     let mut binding_map = glsl::BindingMap::default();
-    for b in 0..2u8 {
-        binding_map.insert(
-            naga::ResourceBinding {
-                group: 0,
-                binding: u32::from(b),
-            },
-            b,
-        );
+    for (group, count) in [(0u32, 5u8), (1, 16)] {
+        for b in 0..count {
+            binding_map.insert(
+                naga::ResourceBinding {
+                    group,
+                    binding: u32::from(b),
+                },
+                b,
+            );
+        }
     }
     let options = glsl::Options {
         version,

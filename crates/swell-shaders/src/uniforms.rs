@@ -29,10 +29,14 @@ pub struct FrameUniforms {
     pub phases: Vec<f64>,
     /// The `SwellUniforms` block as f32s, ready to upload: `phases` rounded to f32 and padded
     /// with zeros to `4·max(1, ⌈n/4⌉)` values (`phases[i / 4][i % 4]` is value i), then, for a
-    /// surface with a particle layer, the particle members ([`crate::particles::block`]).
+    /// surface with a particle layer, the particle members ([`crate::particles::block`]), then,
+    /// for a surface with FFT layers, their grid offsets ([`crate::fft::block`]).
     pub block: Vec<f32>,
     /// Live impact rings that did not fit in the block ([`crate::particles::MAX_SHADER_RINGS`]).
     pub rings_dropped: usize,
+    /// Per FFT layer, `(layer index, cycle)`: the evolve pass's phase split at t
+    /// ([`crate::fft::cycle`]); its grid offset is in `block` ([`crate::fft::block`]).
+    pub fft_cycles: Vec<(usize, [f32; 4])>,
 }
 
 /// The uniforms of `surface` at time `t` (s) for render origin `origin` (world x/z, m).
@@ -66,12 +70,14 @@ pub fn frame_with_impacts(
         block.extend_from_slice(&more);
         rings_dropped = dropped;
     }
+    block.extend(crate::fft::block(surface, origin));
     FrameUniforms {
         t,
         origin,
         phases,
         block,
         rings_dropped,
+        fft_cycles: crate::fft::cycles(surface, t),
     }
 }
 

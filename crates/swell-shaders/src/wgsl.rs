@@ -24,7 +24,10 @@
 //! are local: `p_local = p_world − o`, with `o` the origin the offsets were computed for.
 //!
 //! A surface with a particle layer adds the particle members to `SwellUniforms` after
-//! `phases` and sums the particles in `swell_sample` (see [`crate::particles`]).
+//! `phases` and sums the particles in `swell_sample` (see [`crate::particles`]). A surface with
+//! FFT layers adds `fft: array<vec4<f32>, F>` after those (the origin's grid offset per FFT
+//! layer), binds each FFT layer's two result textures at `@group(1)`, and samples them in
+//! `swell_sample` (see [`crate::fft`]).
 //!
 //! The entry points are listed in [`crate::Entry`].
 
@@ -122,6 +125,7 @@ fn lit(v: f32) -> String {
 pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
     let consts = wave_constants(surface)?;
     let particles = crate::particles::layer(surface)?.map(crate::particles::wgsl);
+    let fft = crate::fft::sampling_wgsl(surface);
     let m = phase_vec4s(consts.len());
     let mut s = String::with_capacity(4096 + 160 * consts.len());
     let w = &mut s;
@@ -149,8 +153,9 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
             Layer::Fft(_) => {
                 let _ = writeln!(
                     w,
-                    "// layer {li}: fft, not in this shader: its spectrum is at \
-                     GET /v1/scenes/{{id}}/spectrum?layer={li}"
+                    "// layer {li}: fft, sampled from its pass module's result textures \
+                     swell_fft{li}_a/_b (passes: GET /v1/scenes/{{id}}/shader?entry=swell_fft_evolve\
+                     &layer={li}; spectrum: GET /v1/scenes/{{id}}/spectrum?layer={li})"
                 );
                 continue;
             }
@@ -189,10 +194,14 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
          // derivatives along x0 and z0.\n\
          struct SwellSample {{\n    displacement: vec3<f32>,\n    d_dx: vec3<f32>,\n    d_dz: vec3<f32>,\n}}\n",
         n = consts.len(),
-        pm = particles.as_ref().map_or("", |p| p.0.as_str()),
+        pm = particles.as_ref().map_or(String::new(), |p| p.0.clone())
+            + fft.as_ref().map_or("", |f| f.0.as_str()),
     );
     w.push_str(WAVE_FN);
     if let Some((_, funcs, _)) = &particles {
+        w.push_str(funcs);
+    }
+    if let Some((_, funcs, _)) = &fft {
         w.push_str(funcs);
     }
     let _ = writeln!(
@@ -217,9 +226,18 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
     if let Some((_, _, calls)) = &particles {
         w.push_str(calls);
     }
+    if let Some((_, _, calls)) = &fft {
+        w.push_str(calls);
+    }
     w.push_str("    return s;\n}\n");
     w.push_str(HELPERS);
-    if surface.layers().iter().any(|l| match l {
+    if crate::fft::layers(surface)
+        .iter()
+        .any(|(_, f)| f.choppiness() > 0.0)
+    {
+        // Choppy FFT layers move points metres: the server's inversion (see crate::fft).
+        w.push_str(&crate::fft::height_newton());
+    } else if surface.layers().iter().any(|l| match l {
         Layer::Gerstner(_) => l.waves().iter().any(|w| w.steepness > 0.0),
         _ => false,
     }) {
