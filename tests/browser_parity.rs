@@ -18,8 +18,9 @@
 //! missing and runs it with `--ignored`. Each frame's uniform block comes from `/uniforms`.
 //!
 //! Bounds (issue 13): sine/Gerstner height and displacement ≤ 2 mm, normal ≤ 0.1°. FFT layers
-//! are not in the exported shader, so scenes with them are tested on their analytic layers only
-//! (a copy of the scene without its FFT layers), and an FFT-only scene is skipped.
+//! need their pass shaders and textures, which `tests/browser_fft.rs` runs (bound 5 mm); this
+//! page tests scenes with FFT layers on their analytic layers only (a copy of the scene without
+//! its FFT layers) and skips an FFT-only scene.
 
 mod common;
 
@@ -455,7 +456,7 @@ async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
             .cloned()
             .collect();
         if layers.is_empty() {
-            eprintln!("{id}: FFT layers only, not in the exported shader: skipped");
+            eprintln!("{id}: FFT layers only: skipped here (tests/browser_fft.rs runs it)");
             continue;
         }
         if layers.len() == spec["layers"].as_array().unwrap().len() {
