@@ -28,7 +28,12 @@ const CLIENT: &[(&str, &str)] = &[
     ("errors.js", include_str!("../../clients/js/src/errors.js")),
     ("fft.js", include_str!("../../clients/js/src/fft.js")),
     ("interp.js", include_str!("../../clients/js/src/interp.js")),
+    ("libm.js", include_str!("../../clients/js/src/libm.js")),
     ("math.js", include_str!("../../clients/js/src/math.js")),
+    (
+        "particles.js",
+        include_str!("../../clients/js/src/particles.js"),
+    ),
     ("proto.js", include_str!("../../clients/js/src/proto.js")),
     (
         "session.js",
