@@ -1,8 +1,11 @@
 // The Swell viewer: renders a scene's sea with the server's exported GLSL ES shader (WebGL2),
-// FFT layers computed on the CPU from the exported spectrum and uploaded as textures, foam where
-// the surface folds (Jacobian ≤ 0), the scene's floating bodies from the stream (interpolated),
-// a HUD, a scene picker, an orbit camera and a click probe (server height beside the GPU's).
-// Read-only: only GET endpoints, /sample and the stream. Uses the swell-client package.
+// FFT layers computed on the CPU from the exported spectrum and uploaded as textures, wave
+// particles and impact rings through the exported shader's particle uniforms (computed here in
+// f64 from scene.derived and the scene's impacts), foam where the surface folds (Jacobian ≤ 0),
+// the scene's floating bodies from the stream (interpolated, drawn at their hull's size from
+// GET …/bodies/{id}), a HUD, a scene picker, an orbit camera and a click probe (server height
+// beside the GPU's). Read-only: only GET endpoints, /sample and the stream. Uses the
+// swell-client package.
 import {
   SwellClient, SwellSession, BodyInterpolator, Surface, FftLayer,
 } from '/viewer/assets/client/index.js';
@@ -177,9 +180,12 @@ if (!gl) throw new Error('WebGL2 is not available');
 const floatTargets = gl.getExtension('EXT_color_buffer_float');
 
 const camera = { yaw: 0.9, pitch: 0.42, dist: 70, target: [0, 0] };
-const GRID = 160;        // vertices per side of the sea mesh
-const SPAN = 480;        // metres the mesh covers
-const SNAP = SPAN / (GRID - 1); // the origin moves in whole grid cells: vertices stay put
+// The sea mesh: GRID² vertices over SPAN metres; the origin moves in whole grid cells (SNAP), so
+// vertices stay put. Scenes with wave particles (radius ~1 m, rings of 0.5–1.3 m) get a finer,
+// smaller mesh (0.6 m spacing, as many vertices), else the particles alias between vertices.
+let GRID = 160;
+let SPAN = 480;
+let SNAP = SPAN / (GRID - 1);
 
 function sceneFromPath() {
   const m = location.pathname.match(/^\/viewer\/([a-z0-9-]{1,64})\/?$/);
@@ -211,6 +217,11 @@ async function setup() {
     fftLayers.push(fft[i]);
   }
   const surface = Surface.fromDerived(detail.derived, { fft });
+  const particles = surface.impactLayer?.particles ?? null;
+  if (particles) {
+    GRID = 160; SPAN = 96; SNAP = SPAN / (GRID - 1);
+    camera.dist = 32;
+  }
   const [vs, pvs, pfs] = await Promise.all([
     client.shader(id, 'glsl_es', { entry: 'swell_vs' }),
     client.shader(id, 'glsl_es', { entry: 'swell_probe_vs' }),
@@ -299,14 +310,32 @@ async function setup() {
     fftWorker.postMessage({ type: 'frame', t });
   };
 
-  // The stream: clock sync, body states.
+  // The stream: clock sync, body states, impacts (their rings ripple on the particle layer).
   const interp = new BodyInterpolator({ delay: 3 / state.tickHz, capacity: 90 });
   const session = new SwellSession(client.streamUrl(id), {
     interpolator: interp,
-    onTick: (f) => { state.lastTick = f; },
+    onTick: (f) => {
+      state.lastTick = f;
+      if (particles && f.impacts) surface.impacts.addAll(f.impacts);
+    },
   });
   await session.connect();
   session.subscribe();
+  // Impacts made before this page subscribed (the set merges one seen in both).
+  if (particles) surface.impacts.addAll((await client.impacts(id)).impacts);
+
+  // Hull sizes: tick frames carry states only, so each new body id's description (mass, hull
+  // kind and extent) is fetched once; a body is drawn from the moment it is known.
+  const hulls = new Map(); // id → {kind, length, beam, height, center} | 'pending'
+  state.hulls = hulls;
+  const describe = (bid) => {
+    if (hulls.has(bid)) return;
+    hulls.set(bid, 'pending');
+    client.body(id, bid).then((d) => { hulls.set(bid, d.hull); }, (e) => {
+      hulls.delete(bid);
+      if (e?.status !== 404) report(e); // a body removed meanwhile is no error
+    });
+  };
   state.session = session;
   state.interp = interp;
   state.surface = surface;
@@ -368,7 +397,11 @@ async function setup() {
     const cpu = surface.height(wx, wz, t);
     // Scenes with FFT layers: the exported shader holds the analytic layers only, so the GPU
     // probe answers for those; the client's CPU evaluation (FFT from the spectrum) covers all.
-    state.probe = { world: [wx, wz], t, server, gpu, cpu, gpuLayers: fftLayers.length ? 'analytic layers only' : 'all layers' };
+    const u = surface.uniforms(t, origin);
+    state.probe = {
+      world: [wx, wz], t, server, gpu, cpu, ringsDropped: u.ringsDropped,
+      gpuLayers: fftLayers.length ? 'analytic layers only' : u.ringsDropped ? `all layers, ${u.ringsDropped} rings left out` : 'all layers',
+    };
     const mm = (v) => (v == null ? 'n/a' : `${v.toFixed(4)} m`);
     $('probe').innerHTML = `probe (${wx.toFixed(2)}, ${wz.toFixed(2)}) at t = ${t.toFixed(3)} s<br>`
       + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}${fftLayers.length ? ' (analytic layers)' : ''}`
@@ -424,8 +457,10 @@ async function setup() {
   };
   state.pick = pick;
 
-  const hullSize = [8, 1.5, 3]; // length (x), height (y), beam (z): hull dimensions are not on the wire yet
   const render = () => {
+    // `swellViewer.paused = true` (tests and tools) stops drawing: on SwiftShader a particle
+    // scene's frame takes seconds, and probes (which draw too) would queue behind frames.
+    if (state.paused) { requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } }); return; }
     const dpr = Math.min(window.devicePixelRatio || 1, 2);
     const w = Math.floor(canvas.clientWidth * dpr), h = Math.floor(canvas.clientHeight * dpr);
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
@@ -433,6 +468,7 @@ async function setup() {
     state.t = t;
     // FFT frames on the CPU, in the worker: one per 1/10 s of scene time.
     if (fftLayer && !(Math.abs(t - state.fftT) < 0.1)) requestFft(t + 0.05);
+    if (particles) surface.impacts.prune(t, 2 * particles.ripples.lifetime);
     const origin = frameUniforms(t);
     const tl = [camera.target[0] - origin[0], camera.target[1] - origin[1]];
     const eye = [tl[0] + camera.dist * Math.cos(camera.pitch) * Math.cos(camera.yaw), camera.dist * Math.sin(camera.pitch),
@@ -472,14 +508,28 @@ async function setup() {
     gl.useProgram(body);
     gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_view_proj'), false, viewProj);
     gl.bindVertexArray(boxVao);
+    const drawn = [];
     for (const b of bodies.values()) {
-      const p = [b.position[0] - origin[0], b.position[1], b.position[2] - origin[1]];
-      gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_model'), false, quatMat(b.rotation, hullSize, p));
+      describe(b.id);
+      const hull = hulls.get(b.id);
+      if (!hull || hull === 'pending') continue;
+      // The hull's bounding box: its centre in the body frame, rotated with the body.
+      const [x, y, z, w] = b.rotation;
+      const c = hull.center;
+      const rc = [ // rotate c by the quaternion
+        (1 - 2 * (y * y + z * z)) * c[0] + 2 * (x * y - z * w) * c[1] + 2 * (x * z + y * w) * c[2],
+        2 * (x * y + z * w) * c[0] + (1 - 2 * (x * x + z * z)) * c[1] + 2 * (y * z - x * w) * c[2],
+        2 * (x * z - y * w) * c[0] + 2 * (y * z + x * w) * c[1] + (1 - 2 * (x * x + y * y)) * c[2]];
+      const p = [b.position[0] - origin[0] + rc[0], b.position[1] + rc[1], b.position[2] - origin[1] + rc[2]];
+      const size = [hull.length, hull.height, hull.beam]; // x, y, z of the unit box
+      gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_model'), false, quatMat(b.rotation, size, p));
       gl.uniform3fv(gl.getUniformLocation(body, 'u_color'), [0.86, 0.42, 0.16]);
       gl.drawArrays(gl.TRIANGLES, 0, 36);
+      drawn.push({ id: b.id, size });
     }
     gl.bindVertexArray(null);
     state.bodies = bodies;
+    state.drawn = drawn;
     state.frames++;
 
     const st = session.clockStats();
@@ -488,6 +538,7 @@ async function setup() {
       + `scene time ${t.toFixed(3)} s<br>tick ${tick ? tick.tick : '—'} (${state.tickHz} Hz)<br>`
       + `RTT ${(st.rtt * 1000).toFixed(2)} ms (min ${(st.minRtt * 1000).toFixed(2)})<br>`
       + `clock offset ${st.offset.toFixed(4)} s ± ${(st.minRtt * 500).toFixed(2)} ms · drift ${(st.drift * 1e6).toFixed(1)} ppm<br>`
+      + (particles ? `particles ${particles.count} · impacts ${surface.impacts.size} · rings ${surface.liveRings(t).length}<br>` : '')
       + `bodies ${bodies.size}${[...bodies.values()].slice(0, 3).map((b) => `<br>#${b.id} (${b.position.map((v) => v.toFixed(2)).join(', ')}) ${b.mode}`).join('')}`;
     state.ready = true;
     requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } });
