@@ -277,11 +277,17 @@ describe('reconnect', { skip }, () => {
       await sleep(300);
       assert.ok(closes >= 1, 'the socket closed with the server');
       frames.length = 0;
+      const restartedAt = performance.now() / 1000;
       await srv.start();
       await s.opened();
       for (let i = 0; i < 200 && frames.length < 3; i++) await sleep(20);
       assert.ok(frames.length >= 3, 'tick frames resume after the restart without a new subscribe');
       assert.ok(s.reconnects >= 1);
+      // The clock was re-synced on the new connection only: no sample from before the restart.
+      for (let i = 0; i < 100 && !s.resyncing; i++) await sleep(10);
+      await s.resyncing;
+      assert.ok(s.clock.samples.length >= s.syncPings && s.clock.samples.every((x) => x.mid > restartedAt),
+        'clock samples from the new connection only');
       await s.syncNow(3);
       assert.ok(Math.abs(s.serverTime() - (wallSeconds() - EPOCH)) < 0.005);
     } finally {
