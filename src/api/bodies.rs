@@ -217,3 +217,42 @@ pub async fn input(
     )
         .into_response())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::api::types::HullKind;
+    use swell_waves::body::{CellSpec, HullSpec};
+
+    /// A box hull is described by its own dimensions; a cells hull by the box around its
+    /// columns (each `sqrt(volume/height)` square), centred where that box is.
+    #[test]
+    fn hull_extent_of_box_and_cells() {
+        let b = HullExtent::from(&HullSpec::Box {
+            length: 8.0,
+            beam: 3.0,
+            height: 1.5,
+            cells: None,
+        });
+        assert_eq!(
+            (b.kind, b.length, b.beam, b.height, b.center),
+            (HullKind::Box, 8.0, 3.0, 1.5, [0.0; 3])
+        );
+        let cell = |x: f64, y: f64, z: f64, volume: f64, height: f64| CellSpec {
+            position: [x, y, z],
+            volume,
+            height,
+        };
+        // Columns of 2 x 2 m (volume 4 m³, 1 m high) at x = ±5, one of 1 x 1 m, 2 m high, at z = 3.
+        let c = HullExtent::from(&HullSpec::Cells {
+            cells: vec![
+                cell(-5.0, 0.0, 0.0, 4.0, 1.0),
+                cell(5.0, 0.0, 0.0, 4.0, 1.0),
+                cell(0.0, 0.5, 3.0, 2.0, 2.0),
+            ],
+        });
+        assert_eq!(c.kind, HullKind::Cells);
+        assert_eq!((c.length, c.beam, c.height), (12.0, 4.5, 2.0));
+        assert_eq!(c.center, [0.0, 0.5, 1.25]);
+    }
+}
