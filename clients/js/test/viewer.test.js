@@ -1,8 +1,8 @@
 // The viewer in headless Chromium (CDP, SwiftShader WebGL2): no console errors, a canvas that is
 // not blank, body positions equal to the streamed state at the same tick, hulls drawn at their
 // spawned sizes, the probe's GPU height within the shader-parity bound of /sample (on harbour:
-// inside live impact rings, with the particle uniforms computed by the page). Skips without a
-// swell binary or chromium.
+// inside live impact rings, with the particle uniforms computed by the page); the same on the
+// WebGPU renderer where Chromium has an adapter. Skips without a swell binary or chromium.
 //
 // SWELL_VIEWER_SHOT=path also writes a screenshot of open-sea with boats there (docs/viewer.png
 // is made this way: see docs/clients.md "The viewer").
@@ -15,6 +15,10 @@ import { Browser, CHROMIUM, decodePng, pixelStats } from './cdp.js';
 import { SwellClient, SwellSession } from '../src/index.js';
 
 const HEIGHT_BOUND_M = 2e-3; // issue 13's shader-parity bound
+// WebGPU on SwiftShader in headless Chromium: the adapter needs the first two; presenting a
+// WebGPU canvas needs Vulkan on SwiftShader too (without it the first present loses the device:
+// "A valid external Instance reference no longer exists").
+const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-webgpu-adapter=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 let hasChromium = true;
 try { execFileSync(CHROMIUM, ['--version'], { stdio: 'ignore' }); } catch { hasChromium = false; }
 const skip = !available() ? 'no swell binary' : !hasChromium ? `no chromium (${CHROMIUM})` : false;
@@ -155,6 +159,37 @@ describe('viewer in headless chromium', { skip }, () => {
     assert.equal(inRing, 4);
     console.log(`harbour probe |GPU − server| max ${(worst * 1e3).toFixed(4)} mm (bound ${HEIGHT_BOUND_M * 1e3} mm), 4 probes on live rings; ${((Date.now() - started) / 1000).toFixed(1)} s`);
     assert.deepEqual(page.errors, []);
+  });
+
+  // The WebGPU renderer, in a second Chromium with WebGPU on SwiftShader (Vulkan), where this
+  // one has an adapter: the default Chromium here has none, so the tests above run WebGL2.
+  test('lake on WebGPU (where available): exported WGSL renders, hulls at size, probe within the bound', async (t) => {
+    const gpuBrowser = await Browser.launch({ extraArgs: WEBGPU_FLAGS });
+    try {
+      const probePage = await gpuBrowser.open(`${srv.url}/healthz`);
+      const has = await probePage.eval('(async () => !!(navigator.gpu && await navigator.gpu.requestAdapter()))()');
+      if (!has) { t.skip(`no WebGPU adapter in ${CHROMIUM} with ${WEBGPU_FLAGS.join(' ')}`); return; }
+      const boat = await admin.spawnBody('lake', { mass: 900, hull: hull(5, 2, 1), position: [3, 0.5, 6], yaw: 0.2 });
+      const page = await gpuBrowser.open(`${srv.url}/viewer/lake`);
+      await page.waitFor('window.swellViewer && (swellViewer.errors.length > 0 || (swellViewer.ready && swellViewer.frames > 3))', 60000);
+      assert.deepEqual(await page.eval('swellViewer.errors'), []);
+      assert.equal(await page.eval('swellViewer.backend'), 'webgpu', 'WebGPU chosen where available');
+      assert.match(await page.eval(`document.getElementById('hud').textContent`), /lake · model v\d+ · webgpu/);
+      const drawn = await page.waitFor(`swellViewer.drawn && swellViewer.drawn.some((d) => d.id === ${boat.id}) && swellViewer.drawn`, 10000);
+      assert.deepEqual(drawn.find((d) => d.id === boat.id).size, [5, 1, 2]);
+      const stats = pixelStats(decodePng(await page.screenshot()));
+      console.log(`lake on WebGPU: luma mean ${stats.mean.toFixed(1)}, std ${stats.std.toFixed(1)}, ${stats.colours} colours`);
+      assert.ok(stats.std > 8 && stats.colours > 100, `WebGPU canvas looks blank: ${JSON.stringify(stats)}`);
+      let worst = 0;
+      for (const [x, z] of [[12.5, -7.25], [-31, 44.5], [0.75, 0.5]]) {
+        const p = await page.eval(`swellViewer.probeAt(swellViewer.origin[0] + ${x}, swellViewer.origin[1] + ${z})`);
+        assert.ok(Math.abs(p.gpu - p.server) <= HEIGHT_BOUND_M, JSON.stringify(p));
+        assert.equal(p.cpu, p.server);
+        worst = Math.max(worst, Math.abs(p.gpu - p.server));
+      }
+      console.log(`lake on WebGPU: probe |GPU − server| max ${(worst * 1e3).toFixed(4)} mm (bound ${HEIGHT_BOUND_M * 1e3} mm)`);
+      assert.deepEqual(page.errors, []);
+    } finally { await gpuBrowser.close(); }
   });
 
   test('open-sea (FFT + Gerstner) with boats: renders without errors', async () => {
