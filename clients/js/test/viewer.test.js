@@ -163,7 +163,7 @@ describe('viewer in headless chromium', { skip }, () => {
 
   // The WebGPU renderer, in a second Chromium with WebGPU on SwiftShader (Vulkan), where this
   // one has an adapter: the default Chromium here has none, so the tests above run WebGL2.
-  test('lake on WebGPU (where available): exported WGSL renders, hulls at size, probe within the bound', async (t) => {
+  test('lake and harbour on WebGPU (where available): exported WGSL renders, hulls at size, probes within the bound', async (t) => {
     const gpuBrowser = await Browser.launch({ extraArgs: WEBGPU_FLAGS });
     try {
       const probePage = await gpuBrowser.open(`${srv.url}/healthz`);
@@ -189,6 +189,20 @@ describe('viewer in headless chromium', { skip }, () => {
       }
       console.log(`lake on WebGPU: probe |GPU − server| max ${(worst * 1e3).toFixed(4)} mm (bound ${HEIGHT_BOUND_M * 1e3} mm)`);
       assert.deepEqual(page.errors, []);
+
+      // harbour: the particle members of the WGSL uniform block (ambient particles and rings).
+      const hpage = await gpuBrowser.open(`${srv.url}/viewer/harbour`);
+      await hpage.waitFor('window.swellViewer && (swellViewer.errors.length > 0 || (swellViewer.ready && swellViewer.frames > 2))', 60000);
+      await hpage.eval('swellViewer.paused = true');
+      assert.deepEqual(await hpage.eval('swellViewer.errors'), []);
+      assert.equal(await hpage.eval('swellViewer.backend'), 'webgpu');
+      for (const [x, z] of [[2.25, -1.5], [-7, 9.75]]) {
+        const p = await hpage.eval(`swellViewer.probeAt(swellViewer.origin[0] + ${x}, swellViewer.origin[1] + ${z})`);
+        assert.ok(Math.abs(p.gpu - p.server) <= HEIGHT_BOUND_M, JSON.stringify(p));
+        assert.equal(p.cpu, p.server);
+        console.log(`harbour on WebGPU: |GPU − server| ${(Math.abs(p.gpu - p.server) * 1e3).toFixed(4)} mm`);
+      }
+      assert.deepEqual(hpage.errors, []);
     } finally { await gpuBrowser.close(); }
   });
 
