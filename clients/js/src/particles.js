@@ -308,8 +308,8 @@ export class ParticleLayer {
       const grid = this.grid(t);
       const n = this.cells;
       for (let si = 0; si < this.scales.length; si++) {
+        // Every scale is kept: queries filter with min_wavelength 0 (surface.rs `add_particles`).
         const s = this.scales[si], inv = this.invSl[si];
-        if (4.0 * s * this.radius < 0.0) continue; // min_wavelength 0: every scale is kept
         const qx = wrap(x * inv), qz = wrap(z * inv);
         const cx = this._cellOf(qx), cz = this._cellOf(qz);
         const visitCell = (c) => {
