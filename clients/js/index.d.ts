@@ -26,7 +26,12 @@ export interface BodyState {
   id: number; position: Vec3; rotation: Quat; velocity: Vec3; angular_velocity: Vec3;
   submerged: number; quarantined: boolean;
 }
-export interface TickFrame { tick: number; t: number; bodies: BodyState[] }
+export interface Impact { t: number; position: Vec2; strength: number; radius: number }
+export interface ImpactEvent extends Impact { tick: number }
+export interface TickFrame { tick: number; t: number; bodies: BodyState[]; impacts?: ImpactEvent[] }
+export interface HullExtent { kind: 'box' | 'cells'; length: number; beam: number; height: number; center: Vec3 }
+/** GET …/bodies and …/bodies/{id}: the state plus what a spawn fixed (mass, hull extent). */
+export interface BodyDescription extends BodyState { mass: number; hull: HullExtent }
 export interface Wave { amplitude: number; wavenumber: number; omega: number; direction: Vec2; phase: number; steepness: number }
 export interface Spectrum { header: Record<string, any>; n: number; records: Float64Array }
 
@@ -46,10 +51,12 @@ export class SwellClient {
   orientation(id: string, req: OrientationRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<OrientationResponse>;
   shader(id: string, lang: 'wgsl' | 'glsl' | 'glsl_es' | 'hlsl' | 'msl' | 'hlsl_include' | 'gdshaderinc', opts?: { entry?: 'swell_vs' | 'swell_probe_vs' | 'swell_probe_fs' | 'swell_fft_vs' | 'swell_fft_evolve' | 'swell_fft_butterfly' | 'swell_fft_evolve_cs' | 'swell_fft_butterfly_cs'; layer?: number }):
     Promise<{ text: string; modelVersion: number; specHash: string; etag: string }>;
-  uniforms(id: string, opts?: { t?: number; origin?: Vec2 }): Promise<{ t: number; origin: Vec2; waves: number; phases: number[]; block: number[] }>;
+  uniforms(id: string, opts?: { t?: number; origin?: Vec2 }): Promise<{ t: number; origin: Vec2; waves: number; phases: number[]; block: number[]; rings_dropped: number }>;
+  impacts(id: string, opts?: { t?: number }): Promise<{ t: number; impacts: ImpactEvent[] }>;
+  addImpact(id: string, impact: { position: Vec2; t?: number; strength: number; radius: number }): Promise<{ tick: number; t: number }>;
   spectrum(id: string, layer: number): Promise<Spectrum>;
-  bodies(id: string): Promise<{ tick: number; t: number; bodies: BodyState[] }>;
-  body(id: string, bid: number): Promise<BodyState>;
+  bodies(id: string): Promise<{ tick: number; t: number; bodies: BodyDescription[] }>;
+  body(id: string, bid: number): Promise<BodyDescription>;
   spawnBody(id: string, spec: object): Promise<BodyState>;
   putScene(id: string, spec: object): Promise<any>;
 }
@@ -98,18 +105,51 @@ export interface SurfaceSample { d: Vec3; dx: Vec3; dz: Vec3 }
 export interface PointResult { height: number; normal: Vec3; displacement: Vec3; jacobian: number; folded: boolean; residual: number }
 export interface Inversion { method: 'newton' | 'fixed_point'; iterations: number; tolerance: number }
 export const DEFAULT_INVERSION: Inversion;
+export interface SurfaceOptions { fft?: (FftLayer | null | undefined)[]; impacts?: ImpactSet; gravity?: number; depth?: number | null }
+export interface LiveRing { ring: Ring; state: RingState; invR2: number }
 export class Surface {
-  constructor(layers: { kind: string; waves?: Wave[] }[], options?: { fft?: (FftLayer | null | undefined)[] });
-  static fromDerived(derived: { layers: any[] }, options?: { fft?: (FftLayer | null | undefined)[] }): Surface;
+  constructor(layers: { kind: string; waves?: Wave[] }[], options?: SurfaceOptions);
+  static fromDerived(derived: { layers: any[]; gravity?: number; depth?: number | null }, options?: SurfaceOptions): Surface;
   static fromSpec(spec: { gravity?: number; depth?: number | null; layers: any[] }): Surface;
   readonly horizontal: boolean;
+  /** The scene's impacts: rings ripple on the first particle layer. */
+  readonly impacts: ImpactSet;
+  readonly impactLayer: { kind: 'particles'; particles: ParticleLayer } | null;
+  liveRings(t: number): LiveRing[];
   analyticWaves(): Wave[];
   sample(x0: number, z0: number, t: number, derivatives?: boolean): SurfaceSample;
   invert(x: number, z: number, t: number, derivatives?: boolean, inversion?: Inversion):
     { source: Vec2; sample: SurfaceSample; residual: number; iterations: number };
   height(x: number, z: number, t: number, inversion?: Inversion): number;
   query(x: number, z: number, t: number, fields?: FieldName[], inversion?: Inversion): PointResult;
-  uniforms(t: number, origin?: Vec2): { t: number; origin: Vec2; phases: number[]; block: Float32Array };
+  uniforms(t: number, origin?: Vec2): { t: number; origin: Vec2; phases: number[]; block: Float32Array; ringsDropped: number };
+}
+export interface RingState { distance: number; generation: number; count: number; amplitude: number }
+export class Ring {
+  readonly t0: number; readonly center: Vec2; readonly radius: number; readonly speed: number; readonly n0: number; readonly a0: number;
+  splitDistance(g: number): number;
+  state(t: number): RingState | null;
+}
+export class ImpactSet {
+  constructor(events?: Impact[]);
+  readonly events: Impact[]; readonly size: number; readonly version: number;
+  add(e: Impact): boolean;
+  addAll(list: Impact[]): number;
+  prune(t: number, keep: number): void;
+  window(t: number, lifetime: number): Impact[];
+}
+export function canonicalCmp(a: Impact, b: Impact): number;
+export class ParticleLayer {
+  constructor(derivedLayer: Record<string, any>, dispersion?: { gravity?: number; depth?: number | null }, where?: string);
+  readonly count: number; readonly tile: number; readonly radius: number; readonly scales: number[];
+  /** Whether the particles are the model's exact values (`particles_tile`, or a power-of-two tile). */
+  readonly exact: boolean;
+  readonly ripples: { particles: number; decay: number; floor: number; lifetime: number; max_ring_particles: number };
+  ring(impact: Impact): Ring;
+  position(i: number, t: number): Vec2;
+  liveRings(t: number, impacts: ImpactSet): LiveRing[];
+  sample(x: number, z: number, t: number, rings?: LiveRing[], out?: number[]): [number, number, number];
+  shaderBlock(t: number, origin: Vec2, impacts: ImpactSet): { values: Float32Array; ringsDropped: number };
 }
 export function normalOf(s: SurfaceSample): Vec3;
 export function jacobianOf(s: SurfaceSample): number;

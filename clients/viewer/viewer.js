@@ -1,11 +1,16 @@
-// The Swell viewer: renders a scene's sea with the server's exported GLSL ES shader (WebGL2),
-// FFT layers computed on the CPU from the exported spectrum and uploaded as textures, foam where
-// the surface folds (Jacobian ≤ 0), the scene's floating bodies from the stream (interpolated),
-// a HUD, a scene picker, an orbit camera and a click probe (server height beside the GPU's).
-// Read-only: only GET endpoints, /sample and the stream. Uses the swell-client package.
+// The Swell viewer: renders a scene's sea with the server's exported shader (WGSL on WebGPU where
+// the browser has it and the scene has no FFT layer, see webgpu.js; else GLSL ES on WebGL2, with
+// FFT layers computed on the CPU from the exported spectrum and uploaded as textures), wave
+// particles and impact rings through the exported shader's particle uniforms (computed here in
+// f64 from scene.derived and the scene's impacts), foam where the surface folds (Jacobian ≤ 0),
+// the scene's floating bodies from the stream (interpolated, drawn at their hull's size from
+// GET …/bodies/{id}), a HUD, a scene picker, an orbit camera and a click probe (server height
+// beside the GPU's). Read-only: only GET endpoints, /sample and the stream. Uses the
+// swell-client package.
 import {
   SwellClient, SwellSession, BodyInterpolator, Surface, FftLayer,
 } from '/viewer/assets/client/index.js';
+import { webGpuDevice, createWebGpuRenderer } from '/viewer/assets/webgpu.js';
 
 const $ = (id) => document.getElementById(id);
 const client = new SwellClient(location.origin);
@@ -162,14 +167,17 @@ function compile(gl, vs, fs, what) {
 // --- scene setup --------------------------------------------------------------------------------
 
 const canvas = $('sea');
-const gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true });
-if (!gl) throw new Error('WebGL2 is not available');
-const floatTargets = gl.getExtension('EXT_color_buffer_float');
+// The WebGL2 context, made only when the WebGL2 renderer is chosen (a canvas holds one kind).
+let gl = null;
+let floatTargets = null;
 
 const camera = { yaw: 0.9, pitch: 0.42, dist: 70, target: [0, 0] };
-const GRID = 160;        // vertices per side of the sea mesh
-const SPAN = 480;        // metres the mesh covers
-const SNAP = SPAN / (GRID - 1); // the origin moves in whole grid cells: vertices stay put
+// The sea mesh: GRID² vertices over SPAN metres; the origin moves in whole grid cells (SNAP), so
+// vertices stay put. Scenes with wave particles (radius ~1 m, rings of 0.5–1.3 m) get a finer,
+// smaller mesh (0.6 m spacing, as many vertices), else the particles alias between vertices.
+let GRID = 160;
+let SPAN = 480;
+let SNAP = SPAN / (GRID - 1);
 
 function sceneFromPath() {
   const m = location.pathname.match(/^\/viewer\/([a-z0-9-]{1,64})\/?$/);
@@ -201,16 +209,18 @@ async function setup() {
     fftLayers.push(fft[i]);
   }
   const surface = Surface.fromDerived(detail.derived, { fft });
-  const [vs, pvs, pfs] = await Promise.all([
-    client.shader(id, 'glsl_es', { entry: 'swell_vs' }),
-    client.shader(id, 'glsl_es', { entry: 'swell_probe_vs' }),
-    client.shader(id, 'glsl_es', { entry: 'swell_probe_fs' }),
-  ]);
-  const sea = compile(gl, seaVertexShader(vs.text), SEA_FS, 'sea');
-  const probe = compile(gl, pvs.text, pfs.text, 'probe');
-  bindFftSamplers(gl, sea);
-  bindFftSamplers(gl, probe);
-  const body = compile(gl, BODY_VS, BODY_FS, 'body');
+  const particles = surface.impactLayer?.particles ?? null;
+  if (particles) {
+    GRID = 160; SPAN = 96; SNAP = SPAN / (GRID - 1);
+    camera.dist = 32;
+  }
+  // The renderer: WebGPU where the browser has an adapter and the scene has no FFT layer (the
+  // WebGPU path does not read the FFT textures yet), else WebGL2; `?gpu=webgl2` or
+  // `?gpu=webgpu` forces one.
+  const asked = new URLSearchParams(location.search).get('gpu');
+  const device = asked === 'webgl2' || (asked !== 'webgpu' && fftLayers.length) ? null : await webGpuDevice();
+  if (asked === 'webgpu' && !device) throw new Error('WebGPU is not available in this browser (?gpu=webgpu)');
+  state.backend = device ? 'webgpu' : 'webgl2';
 
   // Sea mesh: GRID² vertices in local x/z, triangles as an index list.
   const verts = new Float32Array(GRID * GRID * 2);
@@ -224,16 +234,6 @@ async function setup() {
     const a = j * GRID + i, b = a + 1, c = a + GRID, d = c + 1;
     idx.set([a, c, b, b, c, d], k); k += 6;
   }
-  const seaVao = gl.createVertexArray();
-  gl.bindVertexArray(seaVao);
-  gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
-  gl.bufferData(gl.ARRAY_BUFFER, verts, gl.STATIC_DRAW);
-  gl.enableVertexAttribArray(0);
-  gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
-  gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, gl.createBuffer());
-  gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, idx, gl.STATIC_DRAW);
-  gl.bindVertexArray(null);
-
   // Unit box for hulls (±0.5), with face normals.
   const boxV = [];
   const faces = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[-1, 0, 0], [0, 1, 0], [0, 0, -1]], [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
@@ -242,63 +242,184 @@ async function setup() {
     const c = (su, sv) => [0, 1, 2].map((a) => 0.5 * (n[a] + su * u[a] + sv * v[a]));
     for (const [su, sv] of [[-1, -1], [1, -1], [1, 1], [-1, -1], [1, 1], [-1, 1]]) boxV.push(...c(su, sv), ...n);
   }
-  const boxVao = gl.createVertexArray();
-  gl.bindVertexArray(boxVao);
-  gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
-  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(boxV), gl.STATIC_DRAW);
-  gl.enableVertexAttribArray(0); gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
-  gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
-  gl.bindVertexArray(null);
 
-  // Uniform buffers: the waves' phases (binding 0) and the camera (binding 1).
-  const phasesUbo = gl.createBuffer();
-  const cameraUbo = gl.createBuffer();
+  let renderer;
+  let fftLayer = null;
+  let requestFft = () => {};
+  if (device) {
+    const wgsl = await client.shader(id, 'wgsl');
+    renderer = await createWebGpuRenderer(canvas, device, { wgsl: wgsl.text, verts, idx, box: new Float32Array(boxV) });
+  } else {
+    gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true });
+    if (!gl) throw new Error('WebGL2 is not available');
+    floatTargets = gl.getExtension('EXT_color_buffer_float');
+    const [vs, pvs, pfs] = await Promise.all([
+      client.shader(id, 'glsl_es', { entry: 'swell_vs' }),
+      client.shader(id, 'glsl_es', { entry: 'swell_probe_vs' }),
+      client.shader(id, 'glsl_es', { entry: 'swell_probe_fs' }),
+    ]);
+    const sea = compile(gl, seaVertexShader(vs.text), SEA_FS, 'sea');
+    const probe = compile(gl, pvs.text, pfs.text, 'probe');
+    bindFftSamplers(gl, sea);
+    bindFftSamplers(gl, probe);
+    const body = compile(gl, BODY_VS, BODY_FS, 'body');
+    const seaVao = gl.createVertexArray();
+    gl.bindVertexArray(seaVao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+    gl.bufferData(gl.ARRAY_BUFFER, verts, gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, gl.createBuffer());
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, idx, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
 
-  // FFT textures (first FFT layer; the built-in scenes have one).
-  const fftLayer = fftLayers[0] ?? null;
-  const fftTex = [gl.createTexture(), gl.createTexture()];
-  if (fftLayer) {
-    for (const t of fftTex) {
-      gl.bindTexture(gl.TEXTURE_2D, t);
-      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, fftLayer.n, fftLayer.n);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    const boxVao = gl.createVertexArray();
+    gl.bindVertexArray(boxVao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(boxV), gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0); gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
+    gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
+    gl.bindVertexArray(null);
+
+    // Uniform buffers: the waves' phases (binding 0) and the camera (binding 1).
+    const phasesUbo = gl.createBuffer();
+    const cameraUbo = gl.createBuffer();
+
+    // FFT textures (first FFT layer; the built-in scenes have one).
+    fftLayer = fftLayers[0] ?? null;
+    const fftTex = [gl.createTexture(), gl.createTexture()];
+    if (fftLayer) {
+      for (const t of fftTex) {
+        gl.bindTexture(gl.TEXTURE_2D, t);
+        gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, fftLayer.n, fftLayer.n);
+        gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+        gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      }
     }
-  }
-  // FFT frames come from a worker (a 256² frame is tens of ms of JavaScript): the page asks for
-  // the frame 0.1 s of scene time ahead and uploads it when it arrives; the sea meanwhile keeps
-  // the last frame (it moves in steps of 0.1 s, never blocks the render loop).
-  let fftBusy = false;
-  const fftWorker = fftLayer ? new Worker('/viewer/assets/fft-worker.js', { type: 'module' }) : null;
-  if (fftWorker) {
-    fftWorker.onerror = (e) => report(new Error(`FFT worker: ${e.message}`));
-    fftWorker.postMessage({ type: 'spectrum', spectrum: { header: fftLayer.header, n: fftLayer.n, records: fftLayer.records } });
-    fftWorker.onmessage = (ev) => {
-      const { t, a, b } = ev.data;
-      const n = fftLayer.n;
-      gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
-      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, a);
-      gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
-      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, b);
-      state.fftT = t;
-      state.fftFrames = (state.fftFrames ?? 0) + 1;
-      fftBusy = false;
+    // FFT frames come from a worker (a 256² frame is tens of ms of JavaScript): the page asks for
+    // the frame 0.1 s of scene time ahead and uploads it when it arrives; the sea meanwhile keeps
+    // the last frame (it moves in steps of 0.1 s, never blocks the render loop).
+    let fftBusy = false;
+    const fftWorker = fftLayer ? new Worker('/viewer/assets/fft-worker.js', { type: 'module' }) : null;
+    if (fftWorker) {
+      fftWorker.onerror = (e) => report(new Error(`FFT worker: ${e.message}`));
+      fftWorker.postMessage({ type: 'spectrum', spectrum: { header: fftLayer.header, n: fftLayer.n, records: fftLayer.records } });
+      fftWorker.onmessage = (ev) => {
+        const { t, a, b } = ev.data;
+        const n = fftLayer.n;
+        gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+        gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, a);
+        gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
+        gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, n, n, gl.RGBA, gl.FLOAT, b);
+        state.fftT = t;
+        state.fftFrames = (state.fftFrames ?? 0) + 1;
+        fftBusy = false;
+      };
+    }
+    requestFft = (t) => {
+      if (fftBusy) return;
+      fftBusy = true;
+      fftWorker.postMessage({ type: 'frame', t });
+    };
+
+    // The WebGL2 renderer: the frame's uniform block and camera into their buffers, the sea (with
+    // the FFT textures), the hulls; the probe through the exported probe shaders into RGBA32F.
+    renderer = {
+      kind: 'webgl2',
+      frame: ({ w, h, block, viewProj, eye, origin, bodies }) => {
+        gl.bindBuffer(gl.UNIFORM_BUFFER, phasesUbo);
+        gl.bufferData(gl.UNIFORM_BUFFER, block, gl.DYNAMIC_DRAW);
+        gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, phasesUbo);
+        gl.bindBuffer(gl.UNIFORM_BUFFER, cameraUbo);
+        gl.bufferData(gl.UNIFORM_BUFFER, new Float32Array(viewProj), gl.DYNAMIC_DRAW);
+        gl.bindBufferBase(gl.UNIFORM_BUFFER, 1, cameraUbo);
+        gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+        gl.viewport(0, 0, w, h);
+        gl.clearColor(0.5, 0.66, 0.8, 1);
+        gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+        gl.enable(gl.DEPTH_TEST);
+        gl.useProgram(sea);
+        gl.uniform3fv(gl.getUniformLocation(sea, 'u_eye'), eye);
+        gl.uniformMatrix4fv(gl.getUniformLocation(sea, 'u_view_proj'), false, viewProj);
+        // The exported shader samples the FFT layer at units 0 and 1 (zeros until the first frame).
+        gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+        gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
+        gl.bindVertexArray(seaVao);
+        gl.drawElements(gl.TRIANGLES, idx.length, gl.UNSIGNED_INT, 0);
+        gl.useProgram(body);
+        gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_view_proj'), false, viewProj);
+        gl.bindVertexArray(boxVao);
+        for (const b of bodies) {
+          gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_model'), false, b.model);
+          gl.uniform3fv(gl.getUniformLocation(body, 'u_color'), b.color);
+          gl.drawArrays(gl.TRIANGLES, 0, 36);
+        }
+        gl.bindVertexArray(null);
+      },
+      probe: async (local, block) => {
+        if (!floatTargets) return null;
+        gl.bindBuffer(gl.UNIFORM_BUFFER, phasesUbo);
+        gl.bufferData(gl.UNIFORM_BUFFER, block, gl.DYNAMIC_DRAW);
+        gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, phasesUbo);
+        const fb = gl.createFramebuffer();
+        gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+        const texs = [0, 1].map((a) => {
+          const tex = gl.createTexture();
+          gl.bindTexture(gl.TEXTURE_2D, tex);
+          gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 1, 1);
+          gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0 + a, gl.TEXTURE_2D, tex, 0);
+          return tex;
+        });
+        gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
+        gl.viewport(0, 0, 1, 1);
+        gl.useProgram(probe);
+        gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
+        gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
+        const vao = gl.createVertexArray();
+        gl.bindVertexArray(vao);
+        const vb = gl.createBuffer();
+        gl.bindBuffer(gl.ARRAY_BUFFER, vb);
+        gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([local[0], local[1], 0, 0]), gl.STATIC_DRAW);
+        gl.enableVertexAttribArray(0); gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 16, 0);
+        gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 2, gl.FLOAT, false, 16, 8);
+        gl.drawArrays(gl.POINTS, 0, 1);
+        const px = new Float32Array(4);
+        gl.readBuffer(gl.COLOR_ATTACHMENT1);
+        gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.FLOAT, px);
+        gl.bindVertexArray(null);
+        gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+        gl.deleteFramebuffer(fb); texs.forEach((x) => gl.deleteTexture(x)); gl.deleteBuffer(vb); gl.deleteVertexArray(vao);
+        return px[3];
+      },
     };
   }
-  const requestFft = (t) => {
-    if (fftBusy) return;
-    fftBusy = true;
-    fftWorker.postMessage({ type: 'frame', t });
-  };
 
-  // The stream: clock sync, body states.
+  // The stream: clock sync, body states, impacts (their rings ripple on the particle layer).
   const interp = new BodyInterpolator({ delay: 3 / state.tickHz, capacity: 90 });
   const session = new SwellSession(client.streamUrl(id), {
     interpolator: interp,
-    onTick: (f) => { state.lastTick = f; },
+    onTick: (f) => {
+      state.lastTick = f;
+      if (particles && f.impacts) surface.impacts.addAll(f.impacts);
+    },
   });
   await session.connect();
   session.subscribe();
+  // Impacts made before this page subscribed (the set merges one seen in both).
+  if (particles) surface.impacts.addAll((await client.impacts(id)).impacts);
+
+  // Hull sizes: tick frames carry states only, so each new body id's description (mass, hull
+  // kind and extent) is fetched once; a body is drawn from the moment it is known.
+  const hulls = new Map(); // id → {kind, length, beam, height, center} | 'pending'
+  state.hulls = hulls;
+  const describe = (bid) => {
+    if (hulls.has(bid)) return;
+    hulls.set(bid, 'pending');
+    client.body(id, bid).then((d) => { hulls.set(bid, d.hull); }, (e) => {
+      hulls.delete(bid);
+      if (e?.status !== 404) report(e); // a body removed meanwhile is no error
+    });
+  };
   state.session = session;
   state.interp = interp;
   state.surface = surface;
@@ -311,59 +432,26 @@ async function setup() {
   };
 
   let viewProj = null;
-  let eyeLocal = [0, 0, 0];
   const frameUniforms = (t) => {
     const origin = [Math.round(camera.target[0] / SNAP) * SNAP, Math.round(camera.target[1] / SNAP) * SNAP];
     state.origin = origin;
-    const u = surface.uniforms(t, origin);
-    gl.bindBuffer(gl.UNIFORM_BUFFER, phasesUbo);
-    gl.bufferData(gl.UNIFORM_BUFFER, u.block, gl.DYNAMIC_DRAW);
-    gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, phasesUbo);
-    return origin;
+    return { origin, u: surface.uniforms(t, origin) };
   };
 
   /** GPU (exported probe shader) vs server (/sample) vs this client (CPU) at world (x, z). */
   state.probeAt = async (wx, wz, t = session.serverTime()) => {
-    const origin = frameUniforms(t);
+    const { origin, u } = frameUniforms(t);
     const local = [wx - origin[0], wz - origin[1]];
-    let gpu = null;
-    if (floatTargets) {
-      const fb = gl.createFramebuffer();
-      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
-      const texs = [0, 1].map((a) => {
-        const tex = gl.createTexture();
-        gl.bindTexture(gl.TEXTURE_2D, tex);
-        gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 1, 1);
-        gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0 + a, gl.TEXTURE_2D, tex, 0);
-        return tex;
-      });
-      gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
-      gl.viewport(0, 0, 1, 1);
-      gl.useProgram(probe);
-      gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
-      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
-      const vao = gl.createVertexArray();
-      gl.bindVertexArray(vao);
-      const vb = gl.createBuffer();
-      gl.bindBuffer(gl.ARRAY_BUFFER, vb);
-      gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([local[0], local[1], 0, 0]), gl.STATIC_DRAW);
-      gl.enableVertexAttribArray(0); gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 16, 0);
-      gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 2, gl.FLOAT, false, 16, 8);
-      gl.drawArrays(gl.POINTS, 0, 1);
-      const px = new Float32Array(4);
-      gl.readBuffer(gl.COLOR_ATTACHMENT1);
-      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.FLOAT, px);
-      gpu = px[3];
-      gl.bindVertexArray(null);
-      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-      gl.deleteFramebuffer(fb); texs.forEach((x) => gl.deleteTexture(x)); gl.deleteBuffer(vb); gl.deleteVertexArray(vao);
-    }
+    const gpu = await renderer.probe(local, u.block);
     const server = (await client.sample(id, { t, points: [[wx, wz]] })).height[0];
     const cpu = surface.height(wx, wz, t);
     // Scenes with FFT layers: the exported shader samples the FFT textures, which hold the
     // worker's last frame (scene time state.fftT, up to 0.1 s from t), so the GPU probe is the
     // whole sea at that frame; the client's CPU evaluation (FFT from the spectrum) is exact in t.
-    state.probe = { world: [wx, wz], t, server, gpu, cpu, gpuLayers: fftLayers.length ? `FFT frame at t = ${state.fftT}` : 'all layers' };
+    state.probe = {
+      world: [wx, wz], t, server, gpu, cpu, ringsDropped: u.ringsDropped,
+      gpuLayers: fftLayers.length ? `FFT frame at t = ${state.fftT}` : u.ringsDropped ? `all layers, ${u.ringsDropped} rings left out` : 'all layers',
+    };
     const mm = (v) => (v == null ? 'n/a' : `${v.toFixed(4)} m`);
     $('probe').innerHTML = `probe (${wx.toFixed(2)}, ${wz.toFixed(2)}) at t = ${t.toFixed(3)} s<br>`
       + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}${fftLayers.length ? ' (FFT: last frame)' : ''}`
@@ -419,8 +507,10 @@ async function setup() {
   };
   state.pick = pick;
 
-  const hullSize = [8, 1.5, 3]; // length (x), height (y), beam (z): hull dimensions are not on the wire yet
   const render = () => {
+    // `swellViewer.paused = true` (tests and tools) stops drawing: on SwiftShader a particle
+    // scene's frame takes seconds, and probes (which draw too) would queue behind frames.
+    if (state.paused) { requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } }); return; }
     const dpr = Math.min(window.devicePixelRatio || 1, 2);
     const w = Math.floor(canvas.clientWidth * dpr), h = Math.floor(canvas.clientHeight * dpr);
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
@@ -428,51 +518,45 @@ async function setup() {
     state.t = t;
     // FFT frames on the CPU, in the worker: one per 1/10 s of scene time.
     if (fftLayer && !(Math.abs(t - state.fftT) < 0.1)) requestFft(t + 0.05);
-    const origin = frameUniforms(t);
+    if (particles) surface.impacts.prune(t, 2 * particles.ripples.lifetime);
+    const { origin, u } = frameUniforms(t);
     const tl = [camera.target[0] - origin[0], camera.target[1] - origin[1]];
     const eye = [tl[0] + camera.dist * Math.cos(camera.pitch) * Math.cos(camera.yaw), camera.dist * Math.sin(camera.pitch),
       tl[1] + camera.dist * Math.cos(camera.pitch) * Math.sin(camera.yaw)];
-    eyeLocal = eye;
     viewProj = mul(perspective(0.9, w / h, 0.5, 3000), lookAt(eye, [tl[0], 0, tl[1]], [0, 1, 0]));
-    gl.bindBuffer(gl.UNIFORM_BUFFER, cameraUbo);
-    gl.bufferData(gl.UNIFORM_BUFFER, new Float32Array(viewProj), gl.DYNAMIC_DRAW);
-    gl.bindBufferBase(gl.UNIFORM_BUFFER, 1, cameraUbo);
 
-    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    gl.viewport(0, 0, w, h);
-    gl.clearColor(0.5, 0.66, 0.8, 1);
-    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-    gl.enable(gl.DEPTH_TEST);
-    gl.useProgram(sea);
-    gl.uniform3fv(gl.getUniformLocation(sea, 'u_eye'), eyeLocal);
-    gl.uniformMatrix4fv(gl.getUniformLocation(sea, 'u_view_proj'), false, viewProj);
-    // The exported shader samples the FFT layer at units 0 and 1 (zeros until the first frame).
-    gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
-    gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
-    gl.bindVertexArray(seaVao);
-    gl.drawElements(gl.TRIANGLES, idx.length, gl.UNSIGNED_INT, 0);
-
-    // Bodies at server time minus the interpolation delay.
+    // Bodies at server time minus the interpolation delay, each as its hull's bounding box.
     const bodies = interp.at(t);
-    gl.useProgram(body);
-    gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_view_proj'), false, viewProj);
-    gl.bindVertexArray(boxVao);
+    const drawn = [];
+    const boxes = [];
     for (const b of bodies.values()) {
-      const p = [b.position[0] - origin[0], b.position[1], b.position[2] - origin[1]];
-      gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_model'), false, quatMat(b.rotation, hullSize, p));
-      gl.uniform3fv(gl.getUniformLocation(body, 'u_color'), [0.86, 0.42, 0.16]);
-      gl.drawArrays(gl.TRIANGLES, 0, 36);
+      describe(b.id);
+      const hull = hulls.get(b.id);
+      if (!hull || hull === 'pending') continue;
+      // The box's centre in the body frame, rotated with the body.
+      const [x, y, z, w] = b.rotation;
+      const c = hull.center;
+      const rc = [ // rotate c by the quaternion
+        (1 - 2 * (y * y + z * z)) * c[0] + 2 * (x * y - z * w) * c[1] + 2 * (x * z + y * w) * c[2],
+        2 * (x * y + z * w) * c[0] + (1 - 2 * (x * x + z * z)) * c[1] + 2 * (y * z - x * w) * c[2],
+        2 * (x * z - y * w) * c[0] + 2 * (y * z + x * w) * c[1] + (1 - 2 * (x * x + y * y)) * c[2]];
+      const p = [b.position[0] - origin[0] + rc[0], b.position[1] + rc[1], b.position[2] - origin[1] + rc[2]];
+      const size = [hull.length, hull.height, hull.beam]; // x, y, z of the unit box
+      boxes.push({ model: quatMat(b.rotation, size, p), color: [0.86, 0.42, 0.16] });
+      drawn.push({ id: b.id, size });
     }
-    gl.bindVertexArray(null);
+    renderer.frame({ w, h, block: u.block, viewProj, eye, origin, bodies: boxes });
     state.bodies = bodies;
+    state.drawn = drawn;
     state.frames++;
 
     const st = session.clockStats();
     const tick = state.lastTick;
-    $('hud').innerHTML = `<b>${id}</b> · model v${detail.model_version}<br>`
+    $('hud').innerHTML = `<b>${id}</b> · model v${detail.model_version} · ${renderer.kind}<br>`
       + `scene time ${t.toFixed(3)} s<br>tick ${tick ? tick.tick : '—'} (${state.tickHz} Hz)<br>`
       + `RTT ${(st.rtt * 1000).toFixed(2)} ms (min ${(st.minRtt * 1000).toFixed(2)})<br>`
       + `clock offset ${st.offset.toFixed(4)} s ± ${(st.minRtt * 500).toFixed(2)} ms · drift ${(st.drift * 1e6).toFixed(1)} ppm<br>`
+      + (particles ? `particles ${particles.count} · impacts ${surface.impacts.size} · rings ${surface.liveRings(t).length}<br>` : '')
       + `bodies ${bodies.size}${[...bodies.values()].slice(0, 3).map((b) => `<br>#${b.id} (${b.position.map((v) => v.toFixed(2)).join(', ')}) ${b.mode}`).join('')}`;
     state.ready = true;
     requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } });

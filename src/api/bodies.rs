@@ -8,8 +8,9 @@ use serde::Serialize;
 
 use crate::api::admin::require_admin;
 use crate::api::json::{RawBody, from_slice};
+use crate::api::types::{BodyDescription, HullExtent};
 use crate::bodies::runner::ensure_running;
-use crate::bodies::{BodyState, InputRequest, SpawnRequest, body_not_found};
+use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
 use crate::error::ApiError;
 use crate::state::AppState;
 
@@ -20,8 +21,25 @@ pub struct BodiesResponse {
     pub tick: i64,
     /// Scene time of the states, s.
     pub t: f64,
-    /// States in id order.
-    pub bodies: Vec<BodyState>,
+    /// Bodies in id order: state, mass and hull.
+    pub bodies: Vec<BodyDescription>,
+}
+
+/// Every body of `b` (or the one with id `only`) with its mass and hull, in id order.
+fn describe(b: &SceneBodies, only: Option<u64>) -> Vec<BodyDescription> {
+    let states = b.states(only.as_ref().map(std::slice::from_ref));
+    let record = b.record();
+    states
+        .into_iter()
+        .filter_map(|state| {
+            let r = record.bodies.iter().find(|r| r.id == state.id)?;
+            Some(BodyDescription {
+                state,
+                mass: r.spec.mass,
+                hull: HullExtent::from(&r.spec.hull),
+            })
+        })
+        .collect()
 }
 
 /// Journals the changes just made to `b` (call with its lock held); the seq to commit.
@@ -109,7 +127,7 @@ pub async fn list(
             BodiesResponse {
                 tick: b.tick(),
                 t: b.t(),
-                bodies: b.states(None),
+                bodies: describe(&b, None),
             }
         }
         None => {
@@ -123,16 +141,16 @@ pub async fn list(
     }))
 }
 
-/// `GET /v1/scenes/{id}/bodies/{bid}`.
+/// `GET /v1/scenes/{id}/bodies/{bid}`: the body's state, mass and hull.
 pub async fn get_one(
     State(state): State<AppState>,
     Path((id, bid)): Path<(String, String)>,
-) -> Result<axum::Json<BodyState>, ApiError> {
+) -> Result<axum::Json<BodyDescription>, ApiError> {
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
-    let st = cell.lock().state(bid)?;
-    Ok(axum::Json(st))
+    let one = describe(&cell.lock(), Some(bid)).pop();
+    Ok(axum::Json(one.ok_or_else(|| body_not_found(bid))?))
 }
 
 /// `DELETE /v1/scenes/{id}/bodies/{bid}` (admin): 204.
@@ -198,4 +216,43 @@ pub async fn input(
         axum::Json(serde_json::json!({"tick": tick})),
     )
         .into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::api::types::HullKind;
+    use swell_waves::body::{CellSpec, HullSpec};
+
+    /// A box hull is described by its own dimensions; a cells hull by the box around its
+    /// columns (each `sqrt(volume/height)` square), centred where that box is.
+    #[test]
+    fn hull_extent_of_box_and_cells() {
+        let b = HullExtent::from(&HullSpec::Box {
+            length: 8.0,
+            beam: 3.0,
+            height: 1.5,
+            cells: None,
+        });
+        assert_eq!(
+            (b.kind, b.length, b.beam, b.height, b.center),
+            (HullKind::Box, 8.0, 3.0, 1.5, [0.0; 3])
+        );
+        let cell = |x: f64, y: f64, z: f64, volume: f64, height: f64| CellSpec {
+            position: [x, y, z],
+            volume,
+            height,
+        };
+        // Columns of 2 x 2 m (volume 4 m³, 1 m high) at x = ±5, one of 1 x 1 m, 2 m high, at z = 3.
+        let c = HullExtent::from(&HullSpec::Cells {
+            cells: vec![
+                cell(-5.0, 0.0, 0.0, 4.0, 1.0),
+                cell(5.0, 0.0, 0.0, 4.0, 1.0),
+                cell(0.0, 0.5, 3.0, 2.0, 2.0),
+            ],
+        });
+        assert_eq!(c.kind, HullKind::Cells);
+        assert_eq!((c.length, c.beam, c.height), (12.0, 4.5, 2.0));
+        assert_eq!(c.center, [0.0, 0.5, 1.25]);
+    }
 }

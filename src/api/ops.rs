@@ -105,14 +105,18 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "get",
         "/v1/scenes/{id}/bodies",
-        "Floating bodies: tick, t and every body's state",
+        "Floating bodies: tick, t and every body's state, mass and hull (kind, length, beam, height, center)",
     ),
     (
         "post",
         "/v1/scenes/{id}/bodies",
         "Spawn a floating body (admin): {mass, hull, position, yaw?, drag?...} → 201 state",
     ),
-    ("get", "/v1/scenes/{id}/bodies/{bid}", "One body's state"),
+    (
+        "get",
+        "/v1/scenes/{id}/bodies/{bid}",
+        "One body's state, mass and hull (kind, length, beam, height, center)",
+    ),
     (
         "delete",
         "/v1/scenes/{id}/bodies/{bid}",

@@ -314,6 +314,89 @@ pub struct BodyState {
     pub quarantined: bool,
 }
 
+/// A floating body as `GET /v1/scenes/{id}/bodies` and `GET …/bodies/{bid}` describe it: its
+/// state (the fields of [`BodyState`], flattened) and what does not change after the spawn, its
+/// mass and hull, so a client can draw it at its size. Tick frames carry states only (their
+/// size per body stays what it was); a client fetches this once per new body id.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct BodyDescription {
+    /// The body's current state.
+    #[serde(flatten)]
+    pub state: BodyState,
+    /// Mass, kg.
+    pub mass: f64,
+    /// The hull's kind and extent.
+    pub hull: HullExtent,
+}
+
+/// A hull's kind and the box that bounds it in the body frame (x along the length, y up, z
+/// along the beam), m.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct HullExtent {
+    /// `box` or `cells`, as spawned.
+    pub kind: HullKind,
+    /// Extent along x, m: a box hull's length; for cells, the bounding box of the cells' columns
+    /// (each a square of side `sqrt(volume/height)` around its position).
+    pub length: f64,
+    /// Extent along z, m (a box hull's beam).
+    pub beam: f64,
+    /// Extent along y, m (a box hull's height).
+    pub height: f64,
+    /// Centre of that box in the body frame `[x, y, z]`, m (a box hull: the origin).
+    pub center: [f64; 3],
+}
+
+/// The hull kinds of a spawn request.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum HullKind {
+    /// `{"kind": "box", ...}`.
+    Box,
+    /// `{"kind": "cells", ...}`.
+    Cells,
+}
+
+impl From<&swell_waves::body::HullSpec> for HullExtent {
+    fn from(h: &swell_waves::body::HullSpec) -> Self {
+        use swell_waves::body::HullSpec;
+        match h {
+            HullSpec::Box {
+                length,
+                beam,
+                height,
+                ..
+            } => HullExtent {
+                kind: HullKind::Box,
+                length: *length,
+                beam: *beam,
+                height: *height,
+                center: [0.0; 3],
+            },
+            HullSpec::Cells { cells } => {
+                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for c in cells {
+                    let side = (c.volume / c.height).sqrt();
+                    let half = [0.5 * side, 0.5 * c.height, 0.5 * side];
+                    for a in 0..3 {
+                        lo[a] = lo[a].min(c.position[a] - half[a]);
+                        hi[a] = hi[a].max(c.position[a] + half[a]);
+                    }
+                }
+                if cells.is_empty() {
+                    (lo, hi) = ([0.0; 3], [0.0; 3]);
+                }
+                HullExtent {
+                    kind: HullKind::Cells,
+                    length: hi[0] - lo[0],
+                    beam: hi[2] - lo[2],
+                    height: hi[1] - lo[1],
+                    center: std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])),
+                }
+            }
+        }
+    }
+}
+
 /// A tick frame of the WebSocket stream: the scene's tick number, its time, and the body states
 /// at that tick (empty when the scene has no floating bodies, or none the subscriber asked
 /// for). Mirrors `swell.v1.Tick`.

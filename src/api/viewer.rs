@@ -1,7 +1,7 @@
 //! The browser viewer: `GET /viewer` and `/viewer/{scene}` serve a page that renders a scene's
 //! sea with the exported shaders and its floating bodies from the stream; `/viewer/assets/…`
-//! serves its scripts (the page's, and the worker that runs FFT layers off the main thread) and
-//! the `swell-client` package they run on.
+//! serves its scripts (the page's, its WebGPU renderer, and the worker that runs FFT layers off
+//! the main thread) and the `swell-client` package they run on.
 //!
 //! Every asset is built into the binary (`include_str!`): the page works offline and needs no
 //! CDN. It is read-only: it calls GET endpoints, `POST …/sample` and the stream, never an admin
@@ -19,6 +19,7 @@ use crate::state::AppState;
 const INDEX_HTML: &str = include_str!("../../clients/viewer/index.html");
 const VIEWER_JS: &str = include_str!("../../clients/viewer/viewer.js");
 const FFT_WORKER_JS: &str = include_str!("../../clients/viewer/fft-worker.js");
+const WEBGPU_JS: &str = include_str!("../../clients/viewer/webgpu.js");
 
 /// The `swell-client` package's modules, by file name (what `viewer.js` imports from
 /// `/viewer/assets/client/`).
@@ -28,7 +29,12 @@ const CLIENT: &[(&str, &str)] = &[
     ("errors.js", include_str!("../../clients/js/src/errors.js")),
     ("fft.js", include_str!("../../clients/js/src/fft.js")),
     ("interp.js", include_str!("../../clients/js/src/interp.js")),
+    ("libm.js", include_str!("../../clients/js/src/libm.js")),
     ("math.js", include_str!("../../clients/js/src/math.js")),
+    (
+        "particles.js",
+        include_str!("../../clients/js/src/particles.js"),
+    ),
     ("proto.js", include_str!("../../clients/js/src/proto.js")),
     (
         "session.js",
@@ -48,6 +54,7 @@ pub fn routes() -> Router<AppState> {
         .route("/viewer/{scene}", get(page))
         .route("/viewer/assets/viewer.js", get(script))
         .route("/viewer/assets/fft-worker.js", get(fft_worker))
+        .route("/viewer/assets/webgpu.js", get(webgpu))
         .route("/viewer/assets/client/{file}", get(client_module))
 }
 
@@ -72,6 +79,10 @@ async fn script() -> Response {
 
 async fn fft_worker() -> Response {
     asset("text/javascript; charset=utf-8", FFT_WORKER_JS)
+}
+
+async fn webgpu() -> Response {
+    asset("text/javascript; charset=utf-8", WEBGPU_JS)
 }
 
 async fn client_module(Path(file): Path<String>) -> Result<Response, ApiError> {
@@ -100,6 +111,7 @@ mod tests {
         }
         assert!(VIEWER_JS.contains("/viewer/assets/client/index.js"));
         assert!(VIEWER_JS.contains("/viewer/assets/fft-worker.js"));
+        assert!(VIEWER_JS.contains("/viewer/assets/webgpu.js"));
         assert!(FFT_WORKER_JS.contains("/viewer/assets/client/fft.js"));
         assert!(!INDEX_HTML.contains("https://") && !VIEWER_JS.contains("https://"));
     }

@@ -237,6 +237,27 @@ export class SwellClient {
     return parseSpectrum(new Uint8Array(await r.arrayBuffer()));
   }
 
+  /**
+   * GET …/impacts[?t=]: `{t, impacts: [{tick, t, position, strength, radius}]}`, every impact
+   * that can still be rippling at t (default the scene's now) or later, in canonical order.
+   * Feed them, and the `impacts` of tick frames, to `surface.impacts` (particles.js ImpactSet).
+   */
+  impacts(id, { t } = {}) {
+    checkSceneId(id); checkOptTime(t);
+    return this._json('GET', `/v1/scenes/${id}/impacts${t != null ? `?t=${t}` : ''}`);
+  }
+
+  /** POST …/impacts (admin): a splash `{position: [x, z], t?, strength, radius}` → `{tick, t}` (202). */
+  addImpact(id, impact) {
+    checkSceneId(id);
+    if (!impact || typeof impact !== 'object') throw new ArgumentError('impact', 'an impact is an object');
+    checkXZ('position', impact.position);
+    checkOptTime(impact.t);
+    checkFinite('strength', impact.strength);
+    checkFinite('radius', impact.radius);
+    return this._json('POST', `/v1/scenes/${id}/impacts`, { body: JSON.stringify(impact), contentType: 'application/json', admin: true });
+  }
+
   /** GET …/bodies: `{tick, t, bodies: [...]}`. */
   bodies(id) { return this._json('GET', `/v1/scenes/${checkSceneId(id)}/bodies`); }
 

@@ -7,11 +7,14 @@
 // - `Surface` (surface.js): local sine/Gerstner evaluation bit-identical to the server, and the
 //   frame uniforms of the exported shaders.
 // - `FftLayer`, `parseSpectrum` (fft.js): FFT layers from the exported spectrum.
+// - `ParticleLayer`, `ImpactSet` (particles.js): wave particles and impact rings, to the
+//   server's bits (with the model's exp/atan2/tanh ported in libm.js).
 export { SwellClient, checkSceneId, checkSample, checkOrientation } from './client.js';
 export { SwellSession, ClockSync } from './session.js';
 export { BodyInterpolator } from './interp.js';
 export { Surface, normalOf, jacobianOf, DEFAULT_INVERSION } from './surface.js';
 export { FftLayer, parseSpectrum, ifft2 } from './fft.js';
+export { ParticleLayer, ImpactSet, Ring, canonicalCmp } from './particles.js';
 export { ArgumentError, SwellError, TransportError } from './errors.js';
 export { reducePhase, sinCos, roundTiesAway, bitsHex, fromBitsHex } from './math.js';
 export {

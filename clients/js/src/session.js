@@ -9,8 +9,12 @@
 // - Tick subscription with an interest set (`bodies`, `region`); frames go to `onTick` and to an
 //   optional `BodyInterpolator`.
 // - Reconnect: when the socket closes without `close()` having been called, it reopens after
-//   an exponential backoff (with jitter), re-syncs the clock and re-sends the subscription.
-//   Requests in flight when the socket drops are rejected with `TransportError`.
+//   an exponential backoff (with jitter), re-sends the subscription and re-syncs the clock from
+//   scratch: the samples of the old connection are dropped (a restarted or other server, or
+//   another network path, may have another offset and round trip; mixing them would keep the
+//   old connection's lowest-RTT samples in the estimate). Until the new connection's first
+//   pong, `serverTime()` still answers from the old estimate. Requests in flight when the
+//   socket drops are rejected with `TransportError`.
 
 import { ArgumentError, SwellError, TransportError } from './errors.js';
 import { checkOrientation, checkSample, checkFinite } from './client.js';
@@ -92,7 +96,13 @@ export class SwellSession {
     this.onClose = options.onClose ?? null;
     this.interpolator = options.interpolator ?? null;
     this.now = options.now ?? monotonicSeconds;
+    this.clockOptions = options.clock;
     this.clock = new ClockSync(options.clock);
+    // The estimate of the previous connection, used by serverTime() until the new one has a
+    // sample (see `_resync`).
+    this.previousClock = null;
+    /** Resolves when the clock re-sync after the latest reconnect is done (null before one). */
+    this.resyncing = null;
     this.nextId = 1;
     this.pending = new Map();
     this.subscription = null;
@@ -162,8 +172,19 @@ export class SwellSession {
     this._retry = setTimeout(() => {
       this._retry = null;
       if (this.closed) return;
-      this._open().then(() => { this.reconnects++; }, () => {});
+      this._open().then(() => {
+        this.reconnects++;
+        this.resyncing = this._resync();
+      }, () => {});
     }, delay);
+  }
+
+  // A fresh clock estimate for the new connection: old samples are dropped, `syncPings` pings
+  // sent one after another. A failure (the socket dropped again) is left to the next reconnect.
+  _resync() {
+    this.previousClock = this.clock;
+    this.clock = new ClockSync(this.clockOptions);
+    return this.syncNow(this.syncPings).then(() => { this.previousClock = null; }, () => {});
   }
 
   /** Resolves when the socket is open (now or after a reconnect). */
@@ -245,13 +266,15 @@ export class SwellSession {
 
   /** Scene time now (s), from the synced clock. */
   serverTime() {
-    if (!this.clock.synced) throw new TransportError('the clock is not synced yet: await connect()');
-    return this.clock.sceneTime(this.now());
+    const clock = this.clock.synced ? this.clock : this.previousClock;
+    if (!clock?.synced) throw new TransportError('the clock is not synced yet: await connect()');
+    return clock.sceneTime(this.now());
   }
 
   /** Clock offset (scene time − client time, s), round trip of the last pong and its minimum (s). */
   clockStats() {
-    return { offset: this.clock.offset, drift: this.clock.drift, rtt: this.clock.rtt, minRtt: this.clock.minRtt };
+    const c = this.clock.synced ? this.clock : (this.previousClock ?? this.clock);
+    return { offset: c.offset, drift: c.drift, rtt: c.rtt, minRtt: c.minRtt };
   }
 
   /** A sample query on the socket: the same answer as POST …/sample. */

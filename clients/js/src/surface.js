@@ -9,9 +9,12 @@
 //
 // FFT layers are not analytic: a `Surface` built with FFT layers needs an `fft` evaluator per
 // FFT layer (see fft.js, within a documented tolerance of the server) or refuses to evaluate.
+// Particle layers (particles.js) are evaluated to the server's bits, with the rings of the
+// surface's `impacts` (an ImpactSet) on its first particle layer, as the server does.
 
 import { TAU, reducePhase, sinCos } from './math.js';
 import { ArgumentError } from './errors.js';
+import { ParticleLayer, ImpactSet, MAX_SHADER_PARTICLES } from './particles.js';
 
 /** Standard gravity, m/s² (the model's default). */
 export const STANDARD_GRAVITY = 9.81;
@@ -47,16 +50,24 @@ export class Surface {
   /**
    * @param {Array<{kind: string, waves?: object[]}>} layers  layers in order; sine/gerstner with
    *   built waves `{amplitude, wavenumber, omega, direction: [x, z], phase, steepness}`.
-   * @param {{fft?: Array<object|null>}} [options] per layer index, an FFT evaluator with
-   *   `sample(x0, z0, t, derivatives)` returning `{d, dx, dz}` (see fft.js).
+   * @param {{fft?: Array<object|null>, impacts?: ImpactSet, gravity?: number, depth?: number|null}} [options]
+   *   `fft`: per layer index, an FFT evaluator with `sample(x0, z0, t, derivatives)` returning
+   *   `{d, dx, dz}` (see fft.js); `impacts`: the scene's impacts (default an empty set, filled
+   *   by the caller: `surface.impacts.addAll(...)`); `gravity`, `depth`: the surface's
+   *   dispersion, for the speed of impact rings (`fromDerived` passes the scene's).
    */
   constructor(layers, options = {}) {
     if (!Array.isArray(layers) || layers.length === 0) {
       throw new ArgumentError('layers', 'a surface needs at least one layer');
     }
+    this.impacts = options.impacts ?? new ImpactSet();
+    const dispersion = { gravity: options.gravity ?? STANDARD_GRAVITY, depth: options.depth ?? null };
     this.layers = layers.map((l, i) => {
       if (l.kind === 'fft') {
         return { kind: 'fft', info: l, fft: options.fft?.[i] ?? null };
+      }
+      if (l.kind === 'particles') {
+        return { kind: 'particles', info: l, particles: new ParticleLayer(l, dispersion, `layers[${i}]`) };
       }
       if (l.kind !== 'sine' && l.kind !== 'gerstner') {
         throw new ArgumentError(`layers[${i}].kind`, `unknown layer kind ${JSON.stringify(l.kind)}`);
@@ -85,6 +96,21 @@ export class Surface {
     this.horizontal = this.layers.some((l) =>
       l.kind === 'fft' ? l.info.choppiness > 0 : l.kind === 'gerstner' && l.waves.some((w) => w.steepness > 0));
     this._sc = [0, 0];
+    this._pv = [0, 0, 0];
+    this._rings = { t: NaN, version: -1, rings: [] };
+    // The layer impacts ripple on: the first particle layer (surface.rs `impact_layer`).
+    this.impactLayer = this.layers.find((l) => l.kind === 'particles') ?? null;
+  }
+
+  /** The rings of `impacts` alive at t on the impact layer, `[{ring, state, invR2}]` (cached per t and set version). */
+  liveRings(t) {
+    const c = this._rings;
+    if (!Object.is(c.t, t) || c.version !== this.impacts.version) {
+      c.rings = this.impactLayer ? this.impactLayer.particles.liveRings(t, this.impacts) : [];
+      c.t = t;
+      c.version = this.impacts.version;
+    }
+    return c.rings;
   }
 
   /** From a scene's `derived` (GET /v1/scenes/{id}). */
@@ -92,7 +118,7 @@ export class Surface {
     if (!derived || !Array.isArray(derived.layers)) {
       throw new ArgumentError('derived', 'derived.layers is missing: pass scene.derived from GET /v1/scenes/{id}');
     }
-    return new Surface(derived.layers, options);
+    return new Surface(derived.layers, { gravity: derived.gravity, depth: derived.depth, ...options });
   }
 
   /**
@@ -124,7 +150,7 @@ export class Surface {
 
   /** Every analytic wave in shader slot order (layer order, then wave order). */
   analyticWaves() {
-    return this.layers.flatMap((l) => (l.kind === 'fft' ? [] : l.waves));
+    return this.layers.flatMap((l) => (l.kind === 'fft' || l.kind === 'particles' ? [] : l.waves));
   }
 
   /**
@@ -142,6 +168,18 @@ export class Surface {
         if (derivatives) {
           ddx[0] += s.dx[0]; ddx[1] += s.dx[1]; ddx[2] += s.dx[2];
           ddz[0] += s.dz[0]; ddz[1] += s.dz[1]; ddz[2] += s.dz[2];
+        }
+        continue;
+      }
+      if (L.kind === 'particles') {
+        // The layer's own sums, then added to the surface's (surface.rs `add_particles`):
+        // particles move the surface vertically only.
+        const rings = L === this.impactLayer ? this.liveRings(t) : [];
+        const p = L.particles.sample(x0, z0, t, rings, this._pv);
+        d[1] += p[0];
+        if (derivatives) {
+          ddx[1] += p[1];
+          ddz[1] += p[2];
         }
         continue;
       }
@@ -244,8 +282,10 @@ export class Surface {
   /**
    * The frame's uniform block for the exported shaders (docs/clients.md), in f64:
    * `phases[i] = wrap(k_i·(d_i·o) − ω_i·t + φ_i)` for every sine and Gerstner wave, and `block`,
-   * those rounded to f32 and padded to `4·max(1, ⌈n/4⌉)` values, then one vec4 per FFT layer
-   * (its grid offset). Equal to GET …/uniforms.
+   * those rounded to f32 and padded to `4·max(1, ⌈n/4⌉)` values, then, for a surface with one
+   * particle layer of at most 512 particles (what the shader exports), the particle members with
+   * the live rings of `impacts` (particles.js `shaderBlock`), then one vec4 per FFT layer (its
+   * grid offset). Equal to GET …/uniforms.
    */
   uniforms(t, origin = [0, 0]) {
     if (!Number.isFinite(t)) throw new ArgumentError('t', `t must be finite, got ${t}`);
@@ -255,19 +295,24 @@ export class Surface {
     const [ox, oz] = origin;
     const phases = [];
     for (const L of this.layers) {
-      if (L.kind === 'fft') continue;
+      if (L.kind === 'fft' || L.kind === 'particles') continue;
       for (let w = 0; w < L.n; w++) {
         const along = L.dxs[w] * ox + L.dzs[w] * oz;
         phases.push(reducePhase(L.k[w] * along - L.om[w] * t + L.ph[w]));
       }
     }
+    const waves = 4 * Math.max(1, Math.ceil(phases.length / 4));
+    const particleLayers = this.layers.filter((l) => l.kind === 'particles');
+    const exported = particleLayers.length === 1 && particleLayers[0].particles.count <= MAX_SHADER_PARTICLES;
+    const more = exported ? particleLayers[0].particles.shaderBlock(t, [ox, oz], this.impacts) : null;
     // Then one vec4 per FFT layer: the origin's grid coordinate on its tile, (o mod L)·N/L per
     // axis (Rust's rem_euclid, then ·N/L, in that order: the server's bits), for the exported
     // shader's FFT sampling (crates/swell-shaders/src/fft.rs).
     const ffts = this.layers.filter((l) => l.kind === 'fft');
-    const head = 4 * Math.max(1, Math.ceil(phases.length / 4));
+    const head = waves + (more ? more.values.length : 0);
     const block = new Float32Array(head + 4 * ffts.length);
     phases.forEach((p, i) => { block[i] = p; });
+    if (more) block.set(more.values, waves);
     const grid = (x, L, n) => {
       let r = x % L;
       if (r < 0) r += L;
@@ -278,7 +323,7 @@ export class Surface {
       block[head + 4 * f] = grid(ox, l.info.tile_size, l.info.resolution);
       block[head + 4 * f + 1] = grid(oz, l.info.tile_size, l.info.resolution);
     });
-    return { t, origin: [ox, oz], phases, block };
+    return { t, origin: [ox, oz], phases, block, ringsDropped: more ? more.ringsDropped : 0 };
   }
 }
 

@@ -10,13 +10,13 @@ import { inflateSync } from 'node:zlib';
 export const CHROMIUM = process.env.CHROMIUM ?? 'chromium';
 
 export class Browser {
-  static async launch({ width = 1280, height = 720 } = {}) {
+  static async launch({ width = 1280, height = 720, extraArgs = [] } = {}) {
     const b = new Browser();
     b.dir = mkdtempSync(join(tmpdir(), 'swell-chromium-'));
     b.proc = spawn(CHROMIUM, ['--headless', '--no-sandbox', '--disable-gpu-sandbox', '--use-angle=swiftshader',
       '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist', '--no-first-run', '--no-default-browser-check',
       '--disable-extensions', '--mute-audio', `--window-size=${width},${height}`, `--user-data-dir=${b.dir}`,
-      '--remote-debugging-port=0', '--remote-debugging-address=127.0.0.1', 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe'] });
+      '--remote-debugging-port=0', '--remote-debugging-address=127.0.0.1', ...extraArgs, 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe'] });
     const url = await new Promise((resolve, reject) => {
       let err = '';
       const timer = setTimeout(() => reject(new Error(`chromium did not start:\n${err}`)), 30000);

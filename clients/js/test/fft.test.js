@@ -1,6 +1,6 @@
 // FFT layers from the exported spectrum: the JS inverse FFT against a direct DFT, and the CPU
 // evaluation (grid times, bicubic, as the server reads by default) against a live server's
-// /sample. Tolerance: FFT_TOLERANCE_M, documented in docs/clients.md; the measured figure is
+// /sample and against the golden vectors' FFT cases. Tolerance: FFT_TOLERANCE_M, documented in docs/clients.md; the measured figure is
 // printed.
 import { describe, test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -8,6 +8,8 @@ import { ifft2, FftLayer } from '../src/fft.js';
 import { Surface } from '../src/surface.js';
 import { SwellClient } from '../src/client.js';
 import { SwellProcess, available } from './server.js';
+import { VECTORS } from './golden.js';
+import { fromBitsHex } from '../src/math.js';
 
 export const FFT_TOLERANCE_M = 1e-9; // measured ~1e-15 (open-sea) to ~1e-14 (storm): FFT rounding only
 
@@ -30,9 +32,47 @@ test('ifft2 equals a direct inverse DFT', () => {
 });
 
 describe('FFT layers against a live server', { skip: available() ? false : 'no swell binary' }, () => {
-  let srv; let http;
-  before(async () => { srv = await SwellProcess.start(); http = new SwellClient(srv.url); });
+  let srv; let http; let admin;
+  before(async () => {
+    srv = await SwellProcess.start();
+    http = new SwellClient(srv.url);
+    admin = new SwellClient(srv.url, { adminToken: srv.token });
+  });
   after(async () => { await srv?.dispose(); });
+
+  // The golden vectors' FFT cases (proto/vectors/surface_v1.json): the spectrum comes from the
+  // server (the case's spec put as a scene), the evaluation is this package's; every field of
+  // every time × point within FFT_TOLERANCE_M of the vector (not bit for bit: other butterflies).
+  for (const c of VECTORS.cases.filter((k) => k.spec.layers.some((l) => l.kind === 'fft'))) {
+    test(`golden ${c.name}: every field within ${FFT_TOLERANCE_M} of the vector`, async () => {
+      const id = `golden-${c.name.replaceAll('_', '-')}`.slice(0, 64);
+      const detail = await admin.putScene(id, { description: 'golden', ...c.spec });
+      const fft = [];
+      for (const [i, l] of detail.derived.layers.entries()) {
+        if (l.kind === 'fft') fft[i] = new FftLayer(await http.spectrum(id, i));
+      }
+      const surface = Surface.fromDerived(detail.derived, { fft });
+      let worst = 0;
+      let folded = 0;
+      for (const e of c.expected) {
+        const r = surface.query(e.point[0], e.point[1], e.t);
+        const want = (h) => fromBitsHex(h);
+        const diffs = [
+          Math.abs(r.height - want(e.bits.height)),
+          ...r.normal.map((v, k) => Math.abs(v - want(e.bits.normal[k]))),
+          ...r.displacement.map((v, k) => Math.abs(v - want(e.bits.displacement[k]))),
+          Math.abs(r.jacobian - want(e.bits.jacobian)),
+          Math.abs(r.residual - want(e.bits.residual)),
+        ];
+        const d = Math.max(...diffs);
+        assert.ok(d <= FFT_TOLERANCE_M, `${c.name} t=${e.t} ${e.point}: ${d} (${JSON.stringify(diffs)})`);
+        if (r.folded === e.bits.folded) folded++;
+        worst = Math.max(worst, d);
+      }
+      assert.equal(folded, c.expected.length, 'folded flags');
+      console.log(`golden ${c.name}: ${c.expected.length} time × point, largest difference ${worst.toExponential(2)}`);
+    });
+  }
 
   for (const scene of ['open-sea', 'storm']) {
     test(`${scene}: CPU FFT evaluation within ${FFT_TOLERANCE_M} m of /sample`, async () => {

@@ -1,6 +1,7 @@
 // The golden vectors bit for bit: the local evaluator against proto/vectors/surface_v1.json.
 // Cases with explicit deep-water waves are built from their spec here; the cascade case needs
-// the server's generated waves and is checked in live.test.js (FFT cases in fft.test.js).
+// the server's generated waves and is checked in live.test.js; the FFT cases need the server's
+// spectrum and are checked, within the FFT tolerance, in fft.test.js.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { Surface } from '../src/surface.js';

@@ -29,7 +29,8 @@ describe('live server', { skip }, () => {
 
   test('scenes and scene detail', async () => {
     const { scenes } = await http.scenes();
-    assert.deepEqual(scenes.map((s) => s.id).sort(), ['calm', 'harbour', 'lake', 'open-sea', 'storm']);
+    assert.deepEqual(scenes.map((s) => s.id).filter((id) => !['golden-lake', 'ripple-shallow'].includes(id)).sort(),
+      ['calm', 'harbour', 'lake', 'open-sea', 'storm']);
     const lake = await http.scene('lake');
     assert.equal(lake.model_version, VECTORS.model_version);
     assert.equal(lake.derived.layers[0].kind, 'gerstner');
@@ -81,6 +82,76 @@ describe('live server', { skip }, () => {
         const h = await http.height(scene, 13.7, -4.2, { t: tt });
         assert.equal(bitsHex(surface.height(13.7, -4.2, tt)), bitsHex(h.height));
       }
+    });
+  }
+
+  // Particle layers (issue 15): ambient particles and the rings of posted impacts, evaluated
+  // locally from scene.derived and GET …/impacts, against /sample, every field, bit for bit.
+  // `harbour` is deep water with no wind direction; `ripple-shallow` is finite depth (the ring
+  // speed goes through the ported tanh) with a wind direction and several scales.
+  const ringPoints = (impacts, t, surface) => impacts.flatMap((e) => {
+    const ring = surface.impactLayer.particles.ring(e);
+    const st = ring.state(t);
+    if (!st) return [];
+    return [0.3, 1.9, 2.6, 4.4].map((a, j) => [e.position[0] + (st.distance + 0.2 * (j - 1.5)) * Math.cos(a),
+      e.position[1] + (st.distance + 0.2 * (j - 1.5)) * Math.sin(a)]);
+  });
+  const particleScenes = {
+    harbour: null,
+    'ripple-shallow': {
+      description: 'particles on finite depth', depth: 2.5, seed: 99,
+      layers: [
+        { kind: 'sine', waves: [{ amplitude: 0.2, wavelength: 17, direction: [1, 0.4] }] },
+        { kind: 'particles', count: 300, tile_size: 20, radius: 0.8, direction: [1, 0.5], spread: 70, scales: [0.5, 1],
+          ripples: { particles: 6, decay: 25, floor: 1e-4, lifetime: 40 } },
+      ],
+    },
+  };
+  for (const [scene, spec] of Object.entries(particleScenes)) {
+    test(`${scene}: particle layer and impact rings locally equal /sample and /uniforms bit for bit`, async () => {
+      const detail = spec ? await admin.putScene(scene, spec) : await http.scene(scene);
+      const layer = detail.derived.layers.find((l) => l.kind === 'particles');
+      assert.equal(layer.particles_tile.length, layer.count);
+      const surface = Surface.fromDerived(detail.derived);
+      assert.ok(surface.impactLayer.particles.exact);
+      const bare = Surface.fromDerived(detail.derived); // never gets the impacts
+      const { t } = await http.clock(scene);
+      // Splashes in the past (rings already out and split), now-ish and at a later time.
+      for (const imp of [{ position: [3.5, -2], t: t - 9, strength: 0.6, radius: 0.7 },
+        { position: [-12, 7.25], t: t - 2.5, strength: 0.35, radius: 1.3 },
+        { position: [40, 40], t: t + 1, strength: 0.9, radius: 0.4 },
+        { position: [-0.5, 0.25], strength: 0.2, radius: 0.5 }]) {
+        await admin.addImpact(scene, imp);
+      }
+      const list = await http.impacts(scene, { t: t - 30 });
+      assert.equal(list.impacts.length, 4);
+      surface.impacts.addAll(list.impacts);
+      let touched = 0;
+      for (const tt of [t, t + 0.75, t + 3.3]) {
+        const pts = [...points, [0.3, 0.1], ...ringPoints(list.impacts, tt, surface)];
+        const server = await http.sample(scene, { t: tt, points: pts, fields });
+        pts.forEach(([x, z], i) => {
+          const r = surface.query(x, z, tt);
+          const where = `${scene} t=${tt} (${x}, ${z})`;
+          assert.equal(bitsHex(r.height), bitsHex(server.height[i]), `height ${where}`);
+          assert.equal(bits(r.normal), bits(server.normal[i]), `normal ${where}`);
+          assert.equal(bits(r.displacement), bits(server.displacement[i]), `displacement ${where}`);
+          assert.equal(bitsHex(r.jacobian), bitsHex(server.jacobian[i]));
+          assert.equal(bitsHex(r.residual), bitsHex(server.residual[i]));
+          if (r.height !== bare.height(x, z, tt)) touched++;
+        });
+        for (const origin of [[0, 0], [-37.5, 12.5], [2.5e5, -1e4]]) {
+          const su = await http.uniforms(scene, { t: tt, origin });
+          const lu = surface.uniforms(tt, origin);
+          assert.equal(bits(lu.phases), bits(su.phases));
+          assert.equal(lu.block.length, su.block.length, `${scene} block length`);
+          assert.deepEqual(Array.from(lu.block), su.block, `${scene} uniforms t=${tt} origin=${origin}`);
+          assert.equal(lu.ringsDropped, su.rings_dropped);
+          assert.ok(lu.block[lu.phases.length > 0 ? 4 * Math.ceil(lu.phases.length / 4) : 4] >= 2, 'live rings in the block');
+        }
+      }
+      console.log(`${scene}: ${touched} probes inside a live ring, every field equal to /sample`);
+      assert.ok(touched >= 12, `only ${touched} probes were inside a live ring`);
     });
   }
 
@@ -212,11 +283,17 @@ describe('reconnect', { skip }, () => {
       await sleep(300);
       assert.ok(closes >= 1, 'the socket closed with the server');
       frames.length = 0;
+      const restartedAt = performance.now() / 1000;
       await srv.start();
       await s.opened();
       for (let i = 0; i < 200 && frames.length < 3; i++) await sleep(20);
       assert.ok(frames.length >= 3, 'tick frames resume after the restart without a new subscribe');
       assert.ok(s.reconnects >= 1);
+      // The clock was re-synced on the new connection only: no sample from before the restart.
+      for (let i = 0; i < 100 && !s.resyncing; i++) await sleep(10);
+      await s.resyncing;
+      assert.ok(s.clock.samples.length >= s.syncPings && s.clock.samples.every((x) => x.mid > restartedAt),
+        'clock samples from the new connection only');
       await s.syncNow(3);
       assert.ok(Math.abs(s.serverTime() - (wallSeconds() - EPOCH)) < 0.005);
     } finally {

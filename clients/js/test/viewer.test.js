@@ -1,6 +1,8 @@
 // The viewer in headless Chromium (CDP, SwiftShader WebGL2): no console errors, a canvas that is
-// not blank, body positions equal to the streamed state at the same tick, the probe's GPU height
-// within the shader-parity bound of /sample. Skips without a swell binary or chromium.
+// not blank, body positions equal to the streamed state at the same tick, hulls drawn at their
+// spawned sizes, the probe's GPU height within the shader-parity bound of /sample (on harbour:
+// inside live impact rings, with the particle uniforms computed by the page); the same on the
+// WebGPU renderer where Chromium has an adapter. Skips without a swell binary or chromium.
 //
 // SWELL_VIEWER_SHOT=path also writes a screenshot of open-sea with boats there (docs/viewer.png
 // is made this way: see docs/clients.md "The viewer").
@@ -13,6 +15,10 @@ import { Browser, CHROMIUM, decodePng, pixelStats } from './cdp.js';
 import { SwellClient, SwellSession } from '../src/index.js';
 
 const HEIGHT_BOUND_M = 2e-3; // issue 13's shader-parity bound
+// WebGPU on SwiftShader in headless Chromium: the adapter needs the first two; presenting a
+// WebGPU canvas needs Vulkan on SwiftShader too (without it the first present loses the device:
+// "A valid external Instance reference no longer exists").
+const WEBGPU_FLAGS = ['--enable-unsafe-webgpu', '--use-webgpu-adapter=swiftshader', '--enable-features=Vulkan', '--use-vulkan=swiftshader'];
 let hasChromium = true;
 try { execFileSync(CHROMIUM, ['--version'], { stdio: 'ignore' }); } catch { hasChromium = false; }
 const skip = !available() ? 'no swell binary' : !hasChromium ? `no chromium (${CHROMIUM})` : false;
@@ -39,11 +45,21 @@ describe('viewer in headless chromium', { skip }, () => {
     assert.equal((await fetch(`${srv.url}/viewer/assets/client/nope.js`)).status, 404);
   });
 
-  test('lake: renders, streams a body, probes within the parity bound', async () => {
+  test('lake: renders, streams bodies at their hull sizes, probes within the parity bound', async () => {
     const spawned = await admin.spawnBody('lake', { mass: 3000, hull: hull(8, 3, 1.5), position: [6, 0.5, -4], yaw: 0.4 });
+    const dinghy = await admin.spawnBody('lake', { mass: 150, hull: hull(2.5, 1.2, 0.6), position: [-5, 0.3, 3], yaw: -1.1 });
     const page = await browser.open(`${srv.url}/viewer/lake`);
     await page.waitFor('window.swellViewer && swellViewer.ready && swellViewer.frames > 3');
     await page.waitFor('swellViewer.lastTick && swellViewer.lastTick.bodies.length > 0');
+
+    // Hulls are drawn at the size they were spawned with ([length, height, beam]: x, y, z),
+    // from GET …/bodies/{id}, fetched once per body.
+    const described = (await http.bodies('lake')).bodies;
+    assert.deepEqual(described.find((b) => b.id === dinghy.id).hull, { kind: 'box', length: 2.5, beam: 1.2, height: 0.6, center: [0, 0, 0] });
+    const drawn = await page.waitFor('swellViewer.drawn && swellViewer.drawn.length === 2 && swellViewer.drawn', 10000);
+    const sizeOf = (bid) => drawn.find((d) => d.id === bid)?.size;
+    assert.deepEqual(sizeOf(spawned.id), [8, 1.5, 3]);
+    assert.deepEqual(sizeOf(dinghy.id), [2.5, 0.6, 1.2]);
 
     const hud = await page.eval(`document.getElementById('hud').textContent`);
     assert.match(hud, /lake/);
@@ -88,6 +104,106 @@ describe('viewer in headless chromium', { skip }, () => {
     assert.ok(Math.abs(clicked.gpu - clicked.server) <= HEIGHT_BOUND_M, JSON.stringify(clicked));
     assert.match(await page.eval(`document.getElementById('probe').textContent`), /server .* GPU/);
     assert.deepEqual(page.errors, []);
+  });
+
+  test('harbour (particles + impact rings): renders, probes inside rings within the parity bound', async () => {
+    const started = Date.now();
+    const page = await browser.open(`${srv.url}/viewer/harbour`);
+    await page.waitFor('window.swellViewer && swellViewer.ready && swellViewer.frames > 2', 60000);
+    assert.equal(await page.eval('swellViewer.scene'), 'harbour');
+    // Two splashes near the view's origin, made after the page subscribed: they reach it in
+    // tick frames. Their rings live about 47 and 45 s (the strength and radius set that: a ring
+    // dies when its particles fall below the 0.1 mm floor), long enough for slow SwiftShader
+    // frames (the probes run about 30 s after the splash here).
+    const t = await page.eval('swellViewer.t');
+    console.log(`harbour ready at ${((Date.now() - started) / 1000).toFixed(1)} s, frames ${await page.eval('swellViewer.frames')}, t ${t}`);
+    await admin.addImpact('harbour', { position: [4, -3], t: t + 0.5, strength: 8, radius: 1.5 });
+    await admin.addImpact('harbour', { position: [-6, 5], t: t + 1, strength: 6, radius: 1.2 });
+    await page.waitFor(`/particles 512 · impacts 2 · rings 2/.test(document.getElementById('hud').textContent)`, 30000);
+    // One more frame drawn with the rings, then drawing paused: a SwiftShader frame of 512
+    // particles × 3 scales per vertex takes seconds, and the screenshot and probes (which draw
+    // too) would otherwise queue behind frames while the rings age.
+    const f0 = await page.eval('swellViewer.frames');
+    await page.waitFor(`swellViewer.frames > ${f0 + 1}`, 30000);
+    await page.eval('swellViewer.paused = true');
+    console.log(`rings seen and drawn at ${((Date.now() - started) / 1000).toFixed(1)} s, t ${await page.eval('swellViewer.t')}`);
+    const png = decodePng(await page.screenshot());
+    const stats = pixelStats(png);
+    console.log(`harbour screenshot at ${((Date.now() - started) / 1000).toFixed(1)} s: luma mean ${stats.mean.toFixed(1)}, std ${stats.std.toFixed(1)}, ${stats.colours} colours`);
+    assert.ok(stats.std > 8 && stats.colours > 100, `canvas looks blank: ${JSON.stringify(stats)}`);
+
+    // The page's particle uniforms equal GET /uniforms (the exported shader reads them).
+    const mine = await page.eval(`(() => { const u = swellViewer.surface.uniforms(${t + 2}, swellViewer.origin); return { block: Array.from(u.block), origin: swellViewer.origin }; })()`);
+    const server = await http.uniforms('harbour', { t: t + 2, origin: mine.origin });
+    assert.deepEqual(mine.block, server.block, 'page uniforms = /uniforms');
+    assert.equal(mine.block[4], 2, 'two live rings in the block');
+
+    // Probes on each live ring (and one off them): GPU within the bound, CPU the server's bits.
+    let worst = 0;
+    let inRing = 0;
+    for (const [k, a] of [[0, 0.4], [0, 2.2], [1, -1.3], [1, 3.0], [-1, 0]]) {
+      const p = await page.eval(`(async () => {
+        const t = swellViewer.session.serverTime();
+        const live = swellViewer.surface.liveRings(t);
+        const r = live[${k}];
+        const [x, z] = r ? [r.ring.center[0] + r.state.distance * Math.cos(${a}), r.ring.center[1] + r.state.distance * Math.sin(${a})] : [swellViewer.origin[0] + 9.5, swellViewer.origin[1] - 11.25];
+        const p = await swellViewer.probeAt(x, z, t);
+        return { ...p, rings: live.length, ring: !!r };
+      })()`);
+      assert.equal(p.rings, 2, JSON.stringify(p));
+      assert.ok(Math.abs(p.gpu - p.server) <= HEIGHT_BOUND_M, JSON.stringify(p));
+      assert.equal(p.cpu, p.server, `client CPU height is the server bits: ${JSON.stringify(p)}`);
+      if (p.ring) inRing++;
+      worst = Math.max(worst, Math.abs(p.gpu - p.server));
+    }
+    assert.equal(inRing, 4);
+    console.log(`harbour probe |GPU − server| max ${(worst * 1e3).toFixed(4)} mm (bound ${HEIGHT_BOUND_M * 1e3} mm), 4 probes on live rings; ${((Date.now() - started) / 1000).toFixed(1)} s`);
+    assert.deepEqual(page.errors, []);
+  });
+
+  // The WebGPU renderer, in a second Chromium with WebGPU on SwiftShader (Vulkan), where this
+  // one has an adapter: the default Chromium here has none, so the tests above run WebGL2.
+  test('lake and harbour on WebGPU (where available): exported WGSL renders, hulls at size, probes within the bound', async (t) => {
+    const gpuBrowser = await Browser.launch({ extraArgs: WEBGPU_FLAGS });
+    try {
+      const probePage = await gpuBrowser.open(`${srv.url}/healthz`);
+      const has = await probePage.eval('(async () => !!(navigator.gpu && await navigator.gpu.requestAdapter()))()');
+      if (!has) { t.skip(`no WebGPU adapter in ${CHROMIUM} with ${WEBGPU_FLAGS.join(' ')}`); return; }
+      const boat = await admin.spawnBody('lake', { mass: 900, hull: hull(5, 2, 1), position: [3, 0.5, 6], yaw: 0.2 });
+      const page = await gpuBrowser.open(`${srv.url}/viewer/lake`);
+      await page.waitFor('window.swellViewer && (swellViewer.errors.length > 0 || (swellViewer.ready && swellViewer.frames > 3))', 60000);
+      assert.deepEqual(await page.eval('swellViewer.errors'), []);
+      assert.equal(await page.eval('swellViewer.backend'), 'webgpu', 'WebGPU chosen where available');
+      assert.match(await page.eval(`document.getElementById('hud').textContent`), /lake · model v\d+ · webgpu/);
+      const drawn = await page.waitFor(`swellViewer.drawn && swellViewer.drawn.some((d) => d.id === ${boat.id}) && swellViewer.drawn`, 10000);
+      assert.deepEqual(drawn.find((d) => d.id === boat.id).size, [5, 1, 2]);
+      const stats = pixelStats(decodePng(await page.screenshot()));
+      console.log(`lake on WebGPU: luma mean ${stats.mean.toFixed(1)}, std ${stats.std.toFixed(1)}, ${stats.colours} colours`);
+      assert.ok(stats.std > 8 && stats.colours > 100, `WebGPU canvas looks blank: ${JSON.stringify(stats)}`);
+      let worst = 0;
+      for (const [x, z] of [[12.5, -7.25], [-31, 44.5], [0.75, 0.5]]) {
+        const p = await page.eval(`swellViewer.probeAt(swellViewer.origin[0] + ${x}, swellViewer.origin[1] + ${z})`);
+        assert.ok(Math.abs(p.gpu - p.server) <= HEIGHT_BOUND_M, JSON.stringify(p));
+        assert.equal(p.cpu, p.server);
+        worst = Math.max(worst, Math.abs(p.gpu - p.server));
+      }
+      console.log(`lake on WebGPU: probe |GPU − server| max ${(worst * 1e3).toFixed(4)} mm (bound ${HEIGHT_BOUND_M * 1e3} mm)`);
+      assert.deepEqual(page.errors, []);
+
+      // harbour: the particle members of the WGSL uniform block (ambient particles and rings).
+      const hpage = await gpuBrowser.open(`${srv.url}/viewer/harbour`);
+      await hpage.waitFor('window.swellViewer && (swellViewer.errors.length > 0 || (swellViewer.ready && swellViewer.frames > 2))', 60000);
+      await hpage.eval('swellViewer.paused = true');
+      assert.deepEqual(await hpage.eval('swellViewer.errors'), []);
+      assert.equal(await hpage.eval('swellViewer.backend'), 'webgpu');
+      for (const [x, z] of [[2.25, -1.5], [-7, 9.75]]) {
+        const p = await hpage.eval(`swellViewer.probeAt(swellViewer.origin[0] + ${x}, swellViewer.origin[1] + ${z})`);
+        assert.ok(Math.abs(p.gpu - p.server) <= HEIGHT_BOUND_M, JSON.stringify(p));
+        assert.equal(p.cpu, p.server);
+        console.log(`harbour on WebGPU: |GPU − server| ${(Math.abs(p.gpu - p.server) * 1e3).toFixed(4)} mm`);
+      }
+      assert.deepEqual(hpage.errors, []);
+    } finally { await gpuBrowser.close(); }
   });
 
   test('open-sea (FFT + Gerstner) with boats: renders without errors', async () => {

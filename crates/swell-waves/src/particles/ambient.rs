@@ -167,6 +167,17 @@ impl Ambient {
         (self.u0[i] * self.tile, self.w[i] * self.tile, self.a[i])
     }
 
+    /// Particle i in tile units, exactly as stored: start `u0_i` (in `[0, 1)²`), velocity `w_i`
+    /// (tiles/s) and amplitude (m, signed). [`Ambient::position`] is `wrap(u0_i + w_i·t)` of
+    /// these, so a client holding them evaluates the same bits ([`Ambient::particle`]'s metres
+    /// are these times L, which rounds unless L is a power of two).
+    ///
+    /// # Panics
+    /// If `i >= self.len()`.
+    pub fn particle_tile(&self, i: usize) -> (DVec2, DVec2, f64) {
+        (self.u0[i], self.w[i], self.a[i])
+    }
+
     /// Position of particle i at time t in tile units, `wrap(u0_i + w_i·t)` ∈ `[0, 1)²`
     /// (multiply by `s·L` for world metres at scale s).
     ///

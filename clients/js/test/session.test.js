@@ -1,0 +1,100 @@
+// The session's clock logic without a server: drift tracking in ClockSync on synthetic samples,
+// and the re-sync on reconnect against a fake WebSocket whose server clock jumps while the
+// socket is down (a restarted server that was seeked). Time is the test's: `now` is a counter.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { ClockSync, SwellSession } from '../src/session.js';
+
+test('ClockSync tracks drift: the slope of offset against time, from the low-RTT samples', () => {
+  // Scene clock = 1000 + (1 + 2e-4)·client clock; one-way delays 1–6 ms, asymmetric noise.
+  const drift = 2e-4;
+  const scene = (c) => 1000 + (1 + drift) * c;
+  const c = new ClockSync({ window: 64, best: 4 });
+  let x = 7;
+  const noise = () => { x = (x * 1103515245 + 12345) % 2147483648; return x / 2147483648; };
+  for (let i = 0; i < 60; i++) {
+    const sent = i * 0.1;
+    const up = 0.001 + 0.005 * noise();
+    const down = 0.001 + 0.005 * noise();
+    c.add(sent, sent + up + down, scene(sent + up));
+  }
+  assert.ok(Math.abs(c.drift - drift) < 2e-5, `drift ${c.drift}, want ${drift}`);
+  for (const at of [6.2, 10, 30]) {
+    const err = c.sceneTime(at) - scene(at);
+    assert.ok(Math.abs(err) < 0.003, `sceneTime(${at}) off by ${err} s`);
+  }
+  // Without the drift term the estimate would be 2e-4 · (30 − 3) ≈ 5 ms off at t = 30 s.
+  const noDrift = c.offset + 30;
+  assert.ok(Math.abs(noDrift - scene(30)) > 0.004);
+  // Under a second of samples says nothing about drift: it stays 0.
+  const short = new ClockSync();
+  for (let i = 0; i < 8; i++) short.add(i * 0.1, i * 0.1 + 0.002, scene(i * 0.1 + 0.001));
+  assert.equal(short.drift, 0);
+});
+
+// A fake WebSocket to a server whose scene clock is `now + server.offset`, answering pings after
+// `server.rtt` (half each way) on the test's clock.
+function fakeServer() {
+  const server = { offset: 500, rtt: 0.002, sockets: [], now: 0, up: true };
+  class FakeSocket {
+    constructor(url, proto) {
+      this.url = url; this.proto = proto; this.readyState = 0;
+      server.sockets.push(this);
+      setTimeout(() => {
+        if (!server.up) { this.onerror?.({}); return; }
+        this.readyState = 1;
+        this.onopen?.();
+      }, 1);
+    }
+    send(text) {
+      const m = JSON.parse(text);
+      if (m.type !== 'ping') return;
+      server.now += server.rtt / 2;
+      const pong = { type: 'pong', id: m.id, client_time: m.client_time, scene_time: server.now + server.offset, tick: 0 };
+      server.now += server.rtt / 2;
+      setTimeout(() => this.onmessage?.({ data: JSON.stringify(pong) }), 0);
+    }
+    close(code = 1006) {
+      if (this.readyState === 3) return;
+      this.readyState = 3;
+      setTimeout(() => this.onclose?.({ code }), 0);
+    }
+  }
+  return { server, FakeSocket };
+}
+
+test('a reconnect drops the old clock samples and re-syncs to the new server clock', async () => {
+  const { server, FakeSocket } = fakeServer();
+  const s = new SwellSession('ws://fake/v1/scenes/calm/stream', {
+    WebSocket: FakeSocket, now: () => server.now, pingInterval: 1e6, syncPings: 5, backoff: { initial: 1, max: 2 },
+  });
+  await s.connect();
+  try {
+  assert.ok(Math.abs(s.serverTime() - (server.now + 500)) < 1e-9);
+  assert.equal(s.clock.samples.length, 5);
+  // The old connection had the faster path (1 ms RTT vs 20 ms after): kept, its samples would
+  // win the lowest-RTT selection and pin the old offset.
+  server.rtt = 0.001;
+  await s.syncNow(5);
+  const old = s.clock;
+  // The server restarts seeked 3 s ahead, on a slower path.
+  server.offset = 503;
+  server.rtt = 0.02;
+  server.sockets.at(-1).close(1001);
+  await new Promise((r) => setTimeout(r, 10));
+  await s.opened();
+  for (let i = 0; i < 200 && !s.resyncing; i++) await new Promise((r) => setTimeout(r, 1));
+  assert.ok(s.resyncing, 'a clock re-sync started after the reconnect');
+  await s.resyncing;
+  assert.equal(s.reconnects, 1);
+  assert.notEqual(s.clock, old, 'a fresh estimate after the reconnect');
+  assert.equal(s.clock.samples.length, 5, 'only the new connection\'s samples');
+  assert.equal(s.previousClock, null);
+  const err = s.serverTime() - (server.now + 503);
+  assert.ok(Math.abs(err) < 0.011, `serverTime off by ${err} s after the reconnect`);
+  // What keeping the old samples would have given: their 1 ms RTTs win, the offset stays ~500.
+  const mixed = new ClockSync();
+  for (const smp of [...old.samples, ...s.clock.samples]) mixed.add(smp.mid - smp.rtt / 2, smp.mid + smp.rtt / 2, smp.offset + smp.mid);
+  assert.ok(Math.abs(mixed.sceneTime(server.now) - (server.now + 503)) > 1, 'old samples would pin the old offset');
+  } finally { s.close(); }
+});
