@@ -593,7 +593,8 @@ impl FleetBodies {
                 }
             };
             let _ = b.take_events();
-            cell.publish(&b);
+            // Not published here: a tick's states are published once, at the watermark, when
+            // every command of the tick is applied (a frame must not carry half a tick).
             drop(b);
             if spawn {
                 self.record(&nonce, out);
