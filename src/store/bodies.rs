@@ -467,13 +467,17 @@ impl FleetBodies {
                     {
                         snapped = Instant::now();
                         let world = state.bodies.get(scene).map(|c| c.lock().world_record());
-                        let json = serde_json::to_string(&Snap::of(f, world, token))
-                            .unwrap_or_default();
+                        let json =
+                            serde_json::to_string(&Snap::of(f, world, token)).unwrap_or_default();
                         if write_snapshot(&mut conn, scene, token, &json, prev_snap).await? {
                             prev_snap = Some(f.last);
                             metrics::counter!("swell_store_body_snapshots_total").increment(1);
                         } else {
-                            tracing::warn!(scene, token, "store: body snapshot refused: the lease has a newer holder");
+                            tracing::warn!(
+                                scene,
+                                token,
+                                "store: body snapshot refused: the lease has a newer holder"
+                            );
                             metrics::counter!("swell_store_body_fenced_total").increment(1);
                             prev_snap = None;
                         }
@@ -706,7 +710,10 @@ impl FleetBodies {
                 match ours {
                     Ok(1) => renewed = Instant::now(),
                     Ok(_) => {
-                        tracing::warn!(scene, "store: lost the body lease (renewal refused: it has a newer holder)");
+                        tracing::warn!(
+                            scene,
+                            "store: lost the body lease (renewal refused: it has a newer holder)"
+                        );
                         metrics::counter!("swell_store_body_fenced_total").increment(1);
                         token = None;
                         lock(&self.0.leases).remove(scene);
@@ -716,7 +723,10 @@ impl FleetBodies {
                 }
                 if renewed.elapsed() >= LEASE_TTL {
                     // Could not renew in time: another replica may hold it now.
-                    tracing::warn!(scene, "store: gave up the body lease (not renewed within its TTL)");
+                    tracing::warn!(
+                        scene,
+                        "store: gave up the body lease (not renewed within its TTL)"
+                    );
                     token = None;
                     lock(&self.0.leases).remove(scene);
                     continue;
@@ -729,7 +739,10 @@ impl FleetBodies {
                 match call.invoke_async::<i64>(&mut conn).await {
                     Ok(1) => last_wm = Some(r.tick),
                     Ok(_) => {
-                        tracing::warn!(scene, "store: watermark refused: the lease has a newer holder");
+                        tracing::warn!(
+                            scene,
+                            "store: watermark refused: the lease has a newer holder"
+                        );
                         metrics::counter!("swell_store_body_fenced_total").increment(1);
                         token = None;
                         lock(&self.0.leases).remove(scene);
