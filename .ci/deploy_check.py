@@ -7,6 +7,8 @@ Usage: deploy_check.py PATH/TO/swell
   with each other (ports, service names, secret keys, labels, grace periods).
 - Every flag, subcommand and SWELL_* variable they use exists in `swell --help`,
   `swell serve --help` and `swell healthcheck --help` of the binary given.
+- The example scenes (ConfigMap, compose) use ids that `swell scenes` does not list: a config
+  scene with a built-in id replaces the built-in without a word.
 - Dynamic where it is cheap: the image's HEALTHCHECK command runs against a real `swell serve`
   started with the ConfigMap's scenes TOML (exit 0) and against a closed port (exit 1); nginx
   checks docker/nginx.conf (`nginx -t`) with only the upstream and listen addresses substituted.
@@ -219,6 +221,15 @@ def main():
     check(cfg_key in cm and str(Path(cfg_path).parent) in mounts.values(), f"--config {cfg_path} is the ConfigMap's {cfg_key}")
     kfiles = yaml.safe_load((DOCKER / "k8s/kustomization.yaml").read_text()).get("resources", [])
     check(sorted(kfiles) == sorted(p.name for p in (DOCKER / "k8s").glob("*.yaml") if p.name != "kustomization.yaml"), "kustomization lists every manifest")
+
+    # --- example scenes are extra scenes, not built-in ones replaced in silence (a config scene
+    # with a built-in id overrides it, and the example then proves nothing)
+    builtin = {line.split("\t")[0] for line in subprocess.run([swell, "scenes"], capture_output=True, text=True, check=True).stdout.splitlines() if line}
+    check(len(builtin) >= 4, f"`swell scenes` lists the built-in scenes ({sorted(builtin)})")
+    compose_toml = compose.get("configs", {}).get("scenes", {}).get("content", "")
+    for where, text in [("the ConfigMap", cm.get(cfg_key, "")), ("compose's scenes config", compose_toml)]:
+        ids = set(tomllib.loads(text).get("scenes", {}))
+        check(ids and not ids & builtin, f"{where} defines scenes {sorted(ids)}, none of them built in")
 
     # --- dynamic: the ConfigMap's TOML loads, HEALTHCHECK works against a real server
     with tempfile.TemporaryDirectory() as tmp:

@@ -5,6 +5,8 @@
 
 #[path = "common/procs.rs"]
 mod procs;
+#[path = "common/replay.rs"]
+mod replay;
 
 use std::time::{Duration, Instant};
 
@@ -863,6 +865,9 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     }
     let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/bay", Some(spec(0.5))).await;
     assert_eq!(st, 201, "{v}");
+    // The reference: the whole body log, recorded as it is written, replayed in this process.
+    let served = v["spec"].clone();
+    let rec = replay::Recorder::start(&redis.url(), "bay").await;
     until(&c, &rs[2], "/v1/scenes/bay", Instant::now(), |st, _| {
         st == 200
     })
@@ -956,13 +961,27 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         common.len()
     );
     assert!(common.len() >= 10, "{} common ticks", common.len());
-    // (A frame whose tick's states were late carries the latest ones instead; that is the only
-    // allowed difference, and it is rare.)
-    assert!(
-        same * 10 >= common.len() * 9,
+    // A frame's tick is the tick of its states (a late tick is skipped, never filled with older
+    // states), so every tick all three sent is identical...
+    assert_eq!(
+        same,
+        common.len(),
         "{same} of {} frames identical",
         common.len()
     );
+    // ... and every frame of every replica is the single-process replay at its tick.
+    let newest = frames
+        .iter()
+        .filter_map(|f| f.keys().next_back().copied())
+        .max()
+        .unwrap();
+    let reference = replay::replay(&rec.until_watermark(newest).await, &served);
+    for (i, f) in frames.iter().enumerate() {
+        for (tick, text) in f {
+            let bodies: Value = serde_json::from_str(text).unwrap();
+            replay::assert_replayed(&reference, *tick, &bodies, &format!("replica {i}'s frame"));
+        }
+    }
     drop(socks);
 
     // Paused: every replica settles at the same tick with the same bits.
@@ -980,6 +999,13 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     assert!(
         texts.iter().all(|t| t == &texts[0]),
         "states differ at tick {tick}:\n{texts:#?}"
+    );
+    let reference = replay::replay(&rec.until_watermark(tick).await, &served);
+    replay::assert_replayed(
+        &reference,
+        tick,
+        &serde_json::from_str(&texts[0]).unwrap(),
+        "paused replicas",
     );
     let (st, _) = admin(
         &c,
@@ -1001,17 +1027,21 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     let mut acked = 0;
     let mut refused = 0;
     let mut taken: Option<Duration> = None;
+    // Each input has its own force, so the log shows which ones are in it: (force, apply tick).
+    let mut acknowledged: Vec<(f64, i64)> = Vec::new();
     while killed_at.elapsed() < Duration::from_secs(4) {
-        let (st, _) = admin(
+        let force = 20000.0 + acknowledged.len() as f64;
+        let (st, v) = admin(
             &c,
             &rs[via],
             Method::POST,
             "/v1/scenes/bay/bodies/1/input",
-            Some(json!({"force": [0, 0, 20000], "ticks": 5})),
+            Some(json!({"force": [0, 0, force], "ticks": 5})),
         )
         .await;
         if st == 202 {
-            acked += 1
+            acked += 1;
+            acknowledged.push((force, v["tick"].as_i64().unwrap()));
         } else {
             refused += 1
         }
@@ -1046,6 +1076,17 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     assert!(
         texts.iter().all(|t| t == &texts[0]),
         "survivors differ at tick {tick}:\n{texts:#?}"
+    );
+    // The survivors equal the uninterrupted single-process replay, and every acknowledged input
+    // is in the log at the tick its answer gave.
+    let entries = rec.until_watermark(tick).await;
+    replay::replay_has_inputs(&entries, &acknowledged);
+    let reference = replay::replay(&entries, &served);
+    replay::assert_replayed(
+        &reference,
+        tick,
+        &serde_json::from_str(&texts[0]).unwrap(),
+        "survivors after the failover",
     );
     // A replica started now rebuilds the same world from Redis (snapshot + log).
     let late = Replica::spawn(&redis.url(), &["--snapshot-interval", "1"]);
@@ -1109,6 +1150,8 @@ async fn kill_9_of_the_sequencer_during_a_swell_load_mixed_run_through_nginx() {
     let nginx = procs::Nginx::start(&ports, &c).await;
     let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/bay", Some(spec(0.5))).await;
     assert_eq!(st, 201, "{v}");
+    let served = v["spec"].clone();
+    let rec = replay::Recorder::start(&redis.url(), "bay").await;
     for r in &rs[1..] {
         until(&c, r, "/v1/scenes/bay", Instant::now(), |st, _| st == 200).await;
     }
@@ -1125,8 +1168,46 @@ async fn kill_9_of_the_sequencer_during_a_swell_load_mixed_run_through_nginx() {
         .await;
         assert_eq!(st, 201, "{v}");
     }
+    for r in &rs {
+        until(&c, r, "/v1/scenes/bay/bodies", Instant::now(), |st, v| {
+            st == 200 && v["bodies"].as_array().is_some_and(|b| b.len() == 3)
+        })
+        .await;
+    }
+    // Body inputs through nginx for the whole run (one every ~40 ms, each with its own force,
+    // timed so a failure can be placed against the kill).
+    let driver = {
+        let (c, base) = (c.clone(), nginx.base.clone());
+        tokio::spawn(async move {
+            let mut sent: Vec<(Instant, u16, f64, Option<i64>)> = Vec::new();
+            let start = Instant::now();
+            while start.elapsed() < Duration::from_millis(4800) {
+                let k = sent.len();
+                let force = 30000.0 + k as f64;
+                let at = Instant::now();
+                let r = c
+                    .post(format!("{base}/v1/scenes/bay/bodies/{}/input", k % 3))
+                    .bearer_auth(TOKEN)
+                    .json(&json!({"force": [0, 0, force], "ticks": 3}))
+                    .send()
+                    .await;
+                let (st, tick) = match r {
+                    Ok(r) => {
+                        let st = r.status().as_u16();
+                        let v: Value = r.json().await.unwrap_or(Value::Null);
+                        (st, v["tick"].as_i64())
+                    }
+                    Err(_) => (0, None),
+                };
+                sent.push((at, st, force, tick));
+                tokio::time::sleep(Duration::from_millis(40)).await;
+            }
+            sent
+        })
+    };
     // 5 s of `mixed` (90% height, 9% samples, 1% orientation at 200 req/s, open loop) and 3
     // tick subscribers, all through nginx; the sequencer is killed 1.5 s in.
+    let load_started = Instant::now();
     let run = std::process::Command::new(&load)
         .args([
             "mixed",
@@ -1176,6 +1257,7 @@ async fn kill_9_of_the_sequencer_during_a_swell_load_mixed_run_through_nginx() {
     });
     let req = &report["requests"];
     let (ok, errors) = (req["ok"].as_u64().unwrap(), req["errors"].as_u64().unwrap());
+    let inputs = driver.await.unwrap();
     eprintln!(
         "chaos: sequencer (replica {seq}) killed; lease taken after {taken:?}; swell-load mixed through nginx: {ok} ok, {errors} failed {}; stream: {} frames, {} gaps, disconnects {}",
         req["errors_by_kind"],
@@ -1195,8 +1277,61 @@ async fn kill_9_of_the_sequencer_during_a_swell_load_mixed_run_through_nginx() {
     );
     assert!(ok >= 900, "{ok} answered of ~1000");
     // Errors only from requests that were in flight on the killed replica (nginx retries GETs
-    // on another upstream, not POSTs).
+    // on another upstream, not POSTs)...
     assert!(errors <= 20, "{errors} failed requests");
+    // ... so only from the second of the kill to that of the lease's move (swell-load counts
+    // failures by the second they were due; its window starts a few ms after `load_started`).
+    let by_second: Vec<u64> = req["errors_per_second"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_u64().unwrap())
+        .collect();
+    let kill_s = killed_at.duration_since(load_started).as_secs_f64();
+    let window = (kill_s - 0.5).floor()..=(kill_s + taken.as_secs_f64()).floor();
+    eprintln!(
+        "chaos: swell-load errors by second {by_second:?}; kill at {kill_s:.2} s; failover window {window:?} s"
+    );
+    for (second, n) in by_second.iter().enumerate() {
+        assert!(
+            *n == 0 || window.contains(&(second as f64)),
+            "{n} swell-load errors in second {second}, outside the failover window {window:?}"
+        );
+    }
+    // The body inputs: acknowledged ones carry their apply tick; failures only around the kill.
+    let rel = |at: Instant| {
+        if at >= killed_at {
+            at.duration_since(killed_at).as_secs_f64()
+        } else {
+            -killed_at.duration_since(at).as_secs_f64()
+        }
+    };
+    let acknowledged: Vec<(f64, i64)> = inputs
+        .iter()
+        .filter(|i| i.1 == 202)
+        .map(|i| (i.2, i.3.expect("a 202 names its apply tick")))
+        .collect();
+    let failed: Vec<(f64, u16)> = inputs
+        .iter()
+        .filter(|i| i.1 != 202)
+        .map(|i| (rel(i.0), i.1))
+        .collect();
+    eprintln!(
+        "chaos: body inputs through nginx: {} acknowledged, {} failed (seconds after the kill, status): {failed:?}",
+        acknowledged.len(),
+        failed.len()
+    );
+    assert!(
+        acknowledged.len() >= 40,
+        "only {} inputs acknowledged",
+        acknowledged.len()
+    );
+    for (at, st) in &failed {
+        assert!(
+            (-0.5..=taken.as_secs_f64() + 0.5).contains(at),
+            "an input failed ({st}) {at:.2} s after the kill, outside the failover window"
+        );
+    }
     // The survivors carry on identically.
     let survivors: Vec<&Replica> = rs.iter().filter(|r| r.proc.is_some()).collect();
     let (st, _) = admin(
@@ -1219,4 +1354,304 @@ async fn kill_9_of_the_sequencer_during_a_swell_load_mixed_run_through_nginx() {
         .unwrap()
         .len();
     assert_eq!(n, 3);
+    // ... equal to the uninterrupted single-process replay of the log, which holds every
+    // acknowledged input at the tick its answer gave.
+    let entries = rec.until_watermark(tick).await;
+    replay::replay_has_inputs(&entries, &acknowledged);
+    let reference = replay::replay(&entries, &served);
+    replay::assert_replayed(
+        &reference,
+        tick,
+        &serde_json::from_str(&texts[0]).unwrap(),
+        "survivors of the chaos run",
+    );
+}
+
+/// The scenes a replica says it sequences (`/readyz`).
+async fn sequencing(c: &Client, r: &Replica) -> Vec<String> {
+    let (_, v) = get(c, r, "/readyz").await;
+    v["store"]["sequencing"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| s.as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Waits (at most `limit`) until `r`'s log contains `needle`.
+async fn until_logged(r: &Replica, needle: &str, limit: Duration) {
+    let start = Instant::now();
+    while !r.log().contains(needle) {
+        assert!(
+            start.elapsed() < limit,
+            "replica :{} never logged {needle:?}:\n{}",
+            r.port,
+            r.log()
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// The snapshot write is fenced in Redis: a holder of an old token writes nothing, neither the
+/// snapshot nor the trim (they used to be plain SET and XTRIM behind the replica's own belief
+/// that it held the lease, so a sequencer paused past its lease could overwrite the new
+/// holder's snapshot with an older one when it resumed).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_body_snapshot_under_an_old_fencing_token_writes_nothing() {
+    use redis::AsyncCommands as _;
+    use swell::store::bodies::write_snapshot;
+    use swell::store::fleet::EntryId;
+    let _serial = SERIAL.lock().await;
+    let redis = Redis::start();
+    let mut conn = replay::connect(&redis.url()).await;
+    let log = "swell:bodies:cove:log";
+    let mut ids = Vec::new();
+    for w in 0..5 {
+        let id: String = conn.xadd(log, "*", &[("wm", w)]).await.unwrap();
+        ids.push(EntryId::parse(&id).unwrap());
+    }
+    let _: () = conn.set("swell:bodies:cove:lease", "8").await.unwrap();
+    let xlen = |mut conn: redis::aio::MultiplexedConnection| async move {
+        conn.xlen::<_, usize>(log).await.unwrap()
+    };
+
+    // Token 7 (deposed): refused, nothing written, nothing trimmed.
+    let wrote = write_snapshot(&mut conn, "cove", 7, r#"{"old":true}"#, Some(ids[3]))
+        .await
+        .unwrap();
+    assert!(!wrote);
+    assert_eq!(
+        replay::get(&redis.url(), "swell:bodies:cove:snap").await,
+        None
+    );
+    assert_eq!(xlen(conn.clone()).await, 5);
+    // No lease at all (expired, nobody took it yet): refused too.
+    let _: () = conn.del("swell:bodies:cove:lease").await.unwrap();
+    assert!(
+        !write_snapshot(&mut conn, "cove", 8, "{}", Some(ids[3]))
+            .await
+            .unwrap()
+    );
+    assert_eq!(xlen(conn.clone()).await, 5);
+
+    // Token 8 (the holder): written, and the log trimmed to the entry named (it stays).
+    let _: () = conn.set("swell:bodies:cove:lease", "8").await.unwrap();
+    let wrote = write_snapshot(&mut conn, "cove", 8, r#"{"new":true}"#, Some(ids[3]))
+        .await
+        .unwrap();
+    assert!(wrote);
+    assert_eq!(
+        replay::get(&redis.url(), "swell:bodies:cove:snap")
+            .await
+            .as_deref(),
+        Some(r#"{"new":true}"#)
+    );
+    assert_eq!(xlen(conn.clone()).await, 2);
+    // Without a trim point only the snapshot is written.
+    assert!(
+        write_snapshot(&mut conn, "cove", 8, r#"{"newer":true}"#, None)
+            .await
+            .unwrap()
+    );
+    assert_eq!(xlen(conn).await, 2);
+}
+
+/// Followers and sequencers that stop and resume, issue 12's audit:
+/// - a follower stopped (SIGSTOP) for longer than two snapshot intervals finds the log trimmed
+///   past its last read and reloads from the snapshot (it used to read on from whatever the
+///   stream still held, silently skipping the trimmed commands and watermarks);
+/// - a sequencer stopped past its lease and resumed learns from Redis that it was deposed and
+///   writes nothing under its old token (no watermark, and the snapshot in Redis stays the new
+///   holder's);
+/// - through both, every replica stays equal to the single-process replay of the log.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stopped_follower_reloads_past_a_trim_and_a_deposed_sequencer_cannot_write() {
+    let _serial = SERIAL.lock().await;
+    let redis = Redis::start();
+    let c = client();
+    let rs: Vec<Replica> = (0..3)
+        .map(|_| Replica::spawn(&redis.url(), &["--snapshot-interval", "1"]))
+        .collect();
+    for r in &rs {
+        r.wait_ready(&c).await;
+    }
+    let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/cove", Some(spec(0.5))).await;
+    assert_eq!(st, 201, "{v}");
+    let served = v["spec"].clone();
+    let rec = replay::Recorder::start(&redis.url(), "cove").await;
+    for r in &rs[1..] {
+        until(&c, r, "/v1/scenes/cove", Instant::now(), |st, _| st == 200).await;
+    }
+    for x in [0.0, 20.0] {
+        let body = json!({"mass": 3000, "hull": {"kind": "box", "length": 8, "beam": 3, "height": 1.5},
+            "position": [x, 1.0, 0.0]});
+        let (st, v) = admin(
+            &c,
+            &rs[0],
+            Method::POST,
+            "/v1/scenes/cove/bodies",
+            Some(body),
+        )
+        .await;
+        assert_eq!(st, 201, "{v}");
+    }
+    for r in &rs {
+        until(&c, r, "/v1/scenes/cove/bodies", Instant::now(), |st, v| {
+            st == 200 && v["bodies"].as_array().is_some_and(|b| b.len() == 2)
+        })
+        .await;
+    }
+    let seq = sequencer_of(&c, &rs, "cove").await.expect("a sequencer");
+    let others: Vec<usize> = (0..3).filter(|i| *i != seq).collect();
+    let (follower, via) = (others[0], others[1]);
+    let mut k = 0u32;
+    let mut input = |r: usize| {
+        k += 1;
+        let c = c.clone();
+        let url = rs[r].url(&format!("/v1/scenes/cove/bodies/{}/input", k % 2));
+        async move {
+            let resp = c
+                .post(url)
+                .bearer_auth(TOKEN)
+                .json(&json!({"force": [10000.0 + f64::from(k), 0, 0], "ticks": 4}))
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(resp.status(), 202, "{}", resp.text().await.unwrap());
+        }
+    };
+
+    // 1. A follower stopped for 3.5 s while inputs go through another replica: snapshots every
+    // second trim the log one snapshot behind, so the entries after its last read are gone.
+    rs[follower].proc.as_ref().unwrap().signal("STOP");
+    let stopped = Instant::now();
+    while stopped.elapsed() < Duration::from_millis(3500) {
+        input(via).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    rs[follower].proc.as_ref().unwrap().signal("CONT");
+    until_logged(
+        &rs[follower],
+        "trimmed past this replica's last read",
+        Duration::from_secs(10),
+    )
+    .await;
+
+    // 2. The sequencer stopped past its lease (1.5 s): another replica takes it with a higher
+    // token, snapshots and trims under it; then the old one resumes.
+    let token = |v: Option<String>| v.and_then(|t| t.parse::<u64>().ok());
+    let old = token(replay::get(&redis.url(), "swell:bodies:cove:lease").await)
+        .expect("the lease holds a token");
+    rs[seq].proc.as_ref().unwrap().signal("STOP");
+    let t0 = Instant::now();
+    loop {
+        let mut holder = None;
+        for i in &others {
+            if sequencing(&c, &rs[*i]).await.iter().any(|s| s == "cove") {
+                holder = Some(*i);
+            }
+        }
+        if holder.is_some() {
+            eprintln!("lease moved {:?} after SIGSTOP", t0.elapsed());
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "nobody took the lease"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let new = token(replay::get(&redis.url(), "swell:bodies:cove:lease").await).unwrap();
+    assert!(new > old, "new token {new}, old {old}");
+    let t1 = Instant::now();
+    while t1.elapsed() < Duration::from_millis(1500) {
+        input(via).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    rs[seq].proc.as_ref().unwrap().signal("CONT");
+    // It learns it was deposed (a renewal, watermark or snapshot refused by Redis, or a renewal
+    // that could not be made in time) and stops sequencing.
+    let start = Instant::now();
+    while !["newer holder", "gave up the body lease"]
+        .iter()
+        .any(|n| rs[seq].log().contains(n))
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "the resumed sequencer never noticed it was deposed:\n{}",
+            rs[seq].log()
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    until(&c, &rs[seq], "/readyz", Instant::now(), |st, v| {
+        st == 200
+            && v["store"]["sequencing"]
+                .as_array()
+                .is_some_and(|a| !a.iter().any(|s| s == "cove"))
+    })
+    .await;
+    // Give its tasks time to try anything they still had in hand, inputs going on.
+    let t2 = Instant::now();
+    while t2.elapsed() < Duration::from_millis(1500) {
+        input(seq).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    // Nothing was written under the old token after the new one's first watermark, and the
+    // snapshot in Redis is a holder's of the new token (or a later one).
+    let snap: Value = serde_json::from_str(
+        &replay::get(&redis.url(), "swell:bodies:cove:snap")
+            .await
+            .unwrap(),
+    )
+    .unwrap();
+    let snap_token = snap["token"]
+        .as_u64()
+        .expect("the snapshot names its token");
+    assert!(
+        snap_token >= new,
+        "snapshot token {snap_token}, lease token {new}"
+    );
+    let entries = rec.entries();
+    let first_new = entries
+        .iter()
+        .position(|e| e.fence() == Some(new))
+        .expect("watermarks under the new token");
+    let stale = entries[first_new..]
+        .iter()
+        .filter(|e| e.fence() == Some(old))
+        .count();
+    assert_eq!(
+        stale, 0,
+        "{stale} watermarks under the old token after the new holder's first"
+    );
+
+    // Every replica, the resumed ones included, equals the others and the replay.
+    let (st, _) = admin(
+        &c,
+        &rs[via],
+        Method::PUT,
+        "/v1/scenes/cove/clock",
+        Some(json!({"paused": true})),
+    )
+    .await;
+    assert_eq!(st, 200);
+    let refs: Vec<&Replica> = rs.iter().collect();
+    let (tick, texts) = settled_bodies(&c, &refs, "cove").await;
+    assert!(
+        texts.iter().all(|t| t == &texts[0]),
+        "replicas differ at tick {tick}:\n{texts:#?}"
+    );
+    let reference = replay::replay(&rec.until_watermark(tick).await, &served);
+    replay::assert_replayed(
+        &reference,
+        tick,
+        &serde_json::from_str(&texts[0]).unwrap(),
+        "replicas after a stopped follower and a deposed sequencer",
+    );
+    eprintln!(
+        "stop/resume: {} log entries recorded, {k} inputs, settled at tick {tick}, old token {old}, new {new}, snapshot token {snap_token}",
+        entries.len()
+    );
 }

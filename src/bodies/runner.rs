@@ -55,6 +55,11 @@ impl SceneBodiesCell {
         });
     }
 
+    /// A receiver of the publications from now on (the tick loop wakes on them).
+    pub fn watch(&self) -> watch::Receiver<Published> {
+        self.published.subscribe()
+    }
+
     /// The latest published states.
     pub fn latest(&self) -> Published {
         self.published.borrow().clone()

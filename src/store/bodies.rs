@@ -34,7 +34,13 @@
 //! # Snapshots
 //! The sequencer writes `…:snap` every `--snapshot-interval` seconds: the world at a watermark, the pending
 //! commands and the stream id it covers; then trims the log to the previous snapshot's id (one
-//! interval of slack for a slow follower). A joining replica starts from the snapshot.
+//! interval of slack for a slow follower). Both in one script that checks the lease's fencing
+//! token, like the watermark's: a deposed sequencer (paused past its lease, then resumed) cannot
+//! overwrite the new holder's snapshot with an older one, nor trim. A joining replica starts
+//! from the snapshot. A follower that falls more than an interval behind (starved, paused) would
+//! find the entries after its last read trimmed away: after every read it checks that its last
+//! entry is still in the stream (the trim removes a prefix, so if it is, nothing after it is
+//! gone) and otherwise reloads from the snapshot instead of silently skipping entries.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::{Arc, Mutex};
@@ -103,6 +109,10 @@ struct Follow {
 /// log entry both include.
 #[derive(Debug, Serialize, Deserialize)]
 struct Snap {
+    /// The fencing token of the sequencer that wrote it (absent in snapshots written before
+    /// fencing covered them).
+    #[serde(default)]
+    token: Option<u64>,
     /// `ms-seq` of the last entry included.
     last: String,
     watermark: Option<i64>,
@@ -112,8 +122,9 @@ struct Snap {
 }
 
 impl Snap {
-    fn of(f: &Follow, world: Option<WorldRecord>) -> Snap {
+    fn of(f: &Follow, world: Option<WorldRecord>, token: u64) -> Snap {
         Snap {
+            token: Some(token),
             last: f.last.to_string(),
             watermark: f.watermark,
             pending: f
@@ -176,11 +187,21 @@ local id = redis.call('XADD', KEYS[1], '*', 'cmd', ARGV[1], 'nonce', ARGV[2], 't
 return {id, t}
 ";
 
-/// KEYS: log, wm, lease. ARGV: token, watermark. Returns 1, or 0 if the lease is not ours.
+/// KEYS: log, wm, lease. ARGV: token, watermark. Returns 1, or 0 if the lease is not ours. The
+/// entry names its writer's token (`fence`), so the log shows which holder moved it.
 const WATERMARK_SCRIPT: &str = r"
 if redis.call('GET', KEYS[3]) ~= ARGV[1] then return 0 end
 redis.call('SET', KEYS[2], ARGV[2])
-redis.call('XADD', KEYS[1], '*', 'wm', ARGV[2])
+redis.call('XADD', KEYS[1], '*', 'wm', ARGV[2], 'fence', ARGV[1])
+return 1
+";
+
+/// KEYS: snap, log, lease. ARGV: token, snapshot JSON, id to trim the log to ('' none).
+/// Returns 1, or 0 (nothing written) if the lease is not ours.
+const SNAPSHOT_SCRIPT: &str = r"
+if redis.call('GET', KEYS[3]) ~= ARGV[1] then return 0 end
+redis.call('SET', KEYS[1], ARGV[2])
+if ARGV[3] ~= '' then redis.call('XTRIM', KEYS[2], 'MINID', ARGV[3]) end
 return 1
 ";
 
@@ -429,24 +450,37 @@ impl FleetBodies {
                     if entries.is_empty() {
                         continue;
                     }
+                    // Checked after the read: entries trimmed while it blocked show too.
+                    if trimmed_past(&mut conn, scene, f.last).await? {
+                        tracing::warn!(scene, last = %f.last, "store: the body log was trimmed past this replica's last read; reloading from the snapshot");
+                        metrics::counter!("swell_store_body_log_reloads_total").increment(1);
+                        *f = self.load_snapshot(&mut conn, state, scene).await?;
+                        continue;
+                    }
                     self.apply_batch(state, scene, f, entries).await;
                     // The sequencer snapshots what its follower holds (exact: the world at the
-                    // last watermark and the commands after it), then trims the log.
-                    if self.is_sequencer(scene) && snapped.elapsed() >= self.0.snapshot_every {
+                    // last watermark and the commands after it), then trims the log; the script
+                    // checks the lease's token, not this replica's belief that it holds it.
+                    let token = lock(&self.0.leases).get(scene).copied();
+                    if let Some(token) = token
+                        && snapped.elapsed() >= self.0.snapshot_every
+                    {
                         snapped = Instant::now();
                         let world = state.bodies.get(scene).map(|c| c.lock().world_record());
-                        let json = serde_json::to_string(&Snap::of(f, world)).unwrap_or_default();
-                        let _: () = conn.set(key(scene, "snap"), json).await?;
-                        if let Some(p) = prev_snap {
-                            let _: i64 = redis::cmd("XTRIM")
-                                .arg(key(scene, "log"))
-                                .arg("MINID")
-                                .arg(p.to_string())
-                                .query_async(&mut conn)
-                                .await?;
+                        let json =
+                            serde_json::to_string(&Snap::of(f, world, token)).unwrap_or_default();
+                        if write_snapshot(&mut conn, scene, token, &json, prev_snap).await? {
+                            prev_snap = Some(f.last);
+                            metrics::counter!("swell_store_body_snapshots_total").increment(1);
+                        } else {
+                            tracing::warn!(
+                                scene,
+                                token,
+                                "store: body snapshot refused: the lease has a newer holder"
+                            );
+                            metrics::counter!("swell_store_body_fenced_total").increment(1);
+                            prev_snap = None;
                         }
-                        prev_snap = Some(f.last);
-                        metrics::counter!("swell_store_body_snapshots_total").increment(1);
                     }
                 }
             };
@@ -603,7 +637,8 @@ impl FleetBodies {
                 }
             };
             let _ = b.take_events();
-            cell.publish(&b);
+            // Not published here: a tick's states are published once, at the watermark, when
+            // every command of the tick is applied (a frame must not carry half a tick).
             drop(b);
             if spawn {
                 self.record(&nonce, out);
@@ -686,7 +721,11 @@ impl FleetBodies {
                 match ours {
                     Ok(1) => renewed = Instant::now(),
                     Ok(_) => {
-                        tracing::warn!(scene, "store: lost the body lease");
+                        tracing::warn!(
+                            scene,
+                            "store: lost the body lease (renewal refused: it has a newer holder)"
+                        );
+                        metrics::counter!("swell_store_body_fenced_total").increment(1);
                         token = None;
                         lock(&self.0.leases).remove(scene);
                         continue;
@@ -695,6 +734,10 @@ impl FleetBodies {
                 }
                 if renewed.elapsed() >= LEASE_TTL {
                     // Could not renew in time: another replica may hold it now.
+                    tracing::warn!(
+                        scene,
+                        "store: gave up the body lease (not renewed within its TTL)"
+                    );
                     token = None;
                     lock(&self.0.leases).remove(scene);
                     continue;
@@ -707,6 +750,11 @@ impl FleetBodies {
                 match call.invoke_async::<i64>(&mut conn).await {
                     Ok(1) => last_wm = Some(r.tick),
                     Ok(_) => {
+                        tracing::warn!(
+                            scene,
+                            "store: watermark refused: the lease has a newer holder"
+                        );
+                        metrics::counter!("swell_store_body_fenced_total").increment(1);
                         token = None;
                         lock(&self.0.leases).remove(scene);
                         continue;
@@ -734,6 +782,46 @@ impl FleetBodies {
             lock(&self.0.leases).remove(scene);
         }
     }
+}
+
+/// Writes `snapshot` (JSON) as `scene`'s body snapshot and trims its log to `trim_to` (ids
+/// before it go), in one script, if `token` is the lease's fencing token now. Returns whether it
+/// wrote: `false` means the lease has another holder and nothing changed.
+///
+/// # Errors
+/// Redis unreachable or answering with an error.
+pub async fn write_snapshot(
+    conn: &mut impl redis::aio::ConnectionLike,
+    scene: &str,
+    token: u64,
+    snapshot: &str,
+    trim_to: Option<EntryId>,
+) -> redis::RedisResult<bool> {
+    let script = redis::Script::new(SNAPSHOT_SCRIPT);
+    let mut call = script.key(key(scene, "snap"));
+    call.key(key(scene, "log"))
+        .key(key(scene, "lease"))
+        .arg(token)
+        .arg(snapshot)
+        .arg(trim_to.map(|p| p.to_string()).unwrap_or_default());
+    Ok(call.invoke_async::<i64>(conn).await? == 1)
+}
+
+/// Whether the log was trimmed past `last`, the follower's last read entry: it is gone from the
+/// stream (a trim removes a prefix, so while `last` is there nothing after it is gone). A
+/// follower that read nothing yet (`last` = 0-0, no snapshot when it started) is behind when a
+/// snapshot exists now: a trim only ever follows one.
+async fn trimmed_past(
+    conn: &mut MultiplexedConnection,
+    scene: &str,
+    last: EntryId,
+) -> redis::RedisResult<bool> {
+    if last == EntryId::default() {
+        return conn.exists(key(scene, "snap")).await;
+    }
+    let at = last.to_string();
+    let found: redis::streams::StreamRangeReply = conn.xrange(key(scene, "log"), &at, &at).await?;
+    Ok(found.ids.is_empty())
 }
 
 fn too_many(scene: &str, max: usize) -> ApiError {

@@ -12,12 +12,21 @@
 //! beyond ~1000 ticks per real second, or a seek).
 //!
 //! # Floating bodies
-//! The loop never steps bodies: the scene's body loop ([`crate::bodies::runner`]) is the only
-//! stepping path. Before each frame the loop waits (at most [`BODY_WAIT_TICKS`] tick periods)
-//! for the body loop to publish the states of the frame's tick, which it does right after the
-//! same tick boundary, and puts them in the frame. If they do not come in time (an overloaded
-//! server, or a clock jump the body loop has not handled yet) the frame carries the latest states
-//! and `swell_tick_body_lag_total` counts it.
+//! The loop never steps bodies: the scene's body loop ([`crate::bodies::runner`]), or in a fleet
+//! the scene's log follower ([`crate::store::bodies`]), is the only stepping path. Before each
+//! frame the loop waits (at most [`BODY_WAIT_TICKS`] tick periods) for the states of the clock's
+//! tick, which the body loop publishes right after the same tick boundary (a follower when the
+//! sequencer's watermark reaches it).
+//!
+//! **A frame's tick is always the tick of the states it carries**, so a client interpolating
+//! between frames never puts states at the wrong time. When the states of the clock's tick do
+//! not come in time (an overloaded server, a clock jump the body loop has not handled yet, a
+//! fleet whose sequencer is failing over) the frame is labelled with the tick of the latest
+//! published states instead, if no frame carried them yet, and skipped otherwise (clients see
+//! skipped ticks, which the stream contract allows); `swell_tick_body_lag_total` counts each such
+//! tick. The loop also wakes on every publication, so states that come after their tick's wait
+//! gave up still go out at once, under their own tick, unless a later frame went out first. Earlier, a late frame carried the latest states under the clock's tick: states one or
+//! more ticks old, labelled as new, so replicas' frames for one tick could differ.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
@@ -100,31 +109,35 @@ pub fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool)
         .clamp(MIN_SLEEP, MAX_SLEEP)
 }
 
-/// The bodies to put in the frame of `tick`: the body loop's states for that tick (see the module
-/// docs). No bodies: an empty list, at once.
+/// The tick and bodies of the frame to send at clock tick `tick`: the states published for that
+/// tick, or (late) the latest published states with their own tick (see the module docs). No
+/// bodies: `tick` and an empty list, at once.
 async fn bodies_for(
     state: &AppState,
     id: &str,
     tick: i64,
     reading: &ClockReading,
-) -> Vec<BodyState> {
+) -> (i64, Vec<BodyState>) {
     let Some(cell) = state.bodies.get(id) else {
-        return Vec::new();
+        return (tick, Vec::new());
     };
     let latest = cell.latest();
     if latest.states.is_empty() && cell.lock().is_empty() {
-        return Vec::new();
+        return (tick, Vec::new());
     }
     let wait = Duration::from_secs_f64(BODY_WAIT_TICKS / reading.tick_hz).min(MAX_SLEEP);
     let (published, exact) = cell.states_at(tick, reading.rate >= 0.0, wait).await;
     if !exact {
         metrics::counter!("swell_tick_body_lag_total").increment(1);
     }
-    Arc::unwrap_or_clone(published.states)
+    (published.tick, Arc::unwrap_or_clone(published.states))
 }
 
 async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>) {
+    // The last clock tick handled, and the tick of the last frame sent (they differ when body
+    // states were late: see the module docs).
     let mut last: Option<i64> = None;
+    let mut sent: Option<i64> = None;
     // Impacts added before the loop started are not news: a joining client lists them with
     // `GET …/impacts`; frames carry those accepted since (see `crate::impacts`).
     let mut impacts_seen = state
@@ -144,13 +157,35 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
             entry
         };
         let Some(entry) = entry else { return };
+        // Subscribed before anything is read, so a publication from now on wakes the sleep below.
+        let cell = state.bodies.get(&id);
+        let mut published = cell.as_ref().map(|c| c.watch());
         let reading = state.read_clock(&entry);
         let tick = tick_of(reading.t, reading.tick_hz);
-        if last != Some(tick) {
+        let forward = reading.rate >= 0.0;
+        let frame = if last != Some(tick) {
+            last = Some(tick);
+            // A tick is never repeated: states already sent (no new ones came) wait for the next
+            // turn, and so do the impacts accepted meanwhile.
+            Some(bodies_for(&state, &id, tick, &reading).await).filter(|(t, _)| sent != Some(*t))
+        } else {
+            // States published after their tick's frame stopped waiting for them (the tick was
+            // skipped): sent now, under their own tick, if no later frame went out.
+            cell.as_ref().and_then(|c| {
+                let p = c.latest();
+                let due = if forward {
+                    p.tick <= tick && sent.is_none_or(|s| p.tick > s)
+                } else {
+                    p.tick >= tick && sent.is_none_or(|s| p.tick < s)
+                };
+                let any = !p.states.is_empty() || !c.lock().is_empty();
+                (due && any).then(|| (p.tick, Arc::unwrap_or_clone(p.states)))
+            })
+        };
+        if let Some((tick, bodies)) = frame {
             let t = tick as f64 / reading.tick_hz;
-            let bodies = bodies_for(&state, &id, tick, &reading).await;
-            // An error only means no receiver right now; the next turn decides whether to stop.
             let impacts = crate::impacts::frame_events(&entry.scene, &mut impacts_seen);
+            // An error only means no receiver right now; the next turn decides whether to stop.
             let _ = tx.send(Arc::new(SharedTick::new(Tick {
                 tick,
                 t,
@@ -158,7 +193,7 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
                 impacts,
             })));
             metrics::counter!("swell_ticks_total").increment(1);
-            last = Some(tick);
+            sent = Some(tick);
         }
         let wait = until_next_tick(
             reading.t,
@@ -167,8 +202,20 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
             reading.rate,
             reading.paused,
         );
+        // Woken early by a body publication: late states go out as soon as they exist.
+        let publication = async {
+            let changed = match published.as_mut() {
+                Some(rx) => rx.changed().await.is_ok(),
+                None => false,
+            };
+            if !changed {
+                // No bodies, or the scene's bodies were dropped: only the clock wakes the loop.
+                std::future::pending::<()>().await;
+            }
+        };
         tokio::select! {
             () = tokio::time::sleep(wait) => {}
+            () = publication => {}
             () = state.shutdown.cancelled() => {}
         }
     }

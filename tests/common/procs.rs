@@ -65,7 +65,7 @@ pub fn which(name: &str, package: &str) -> PathBuf {
             return p;
         }
     }
-    panic!("{name} not found: apt-get install -y {package} (.ci/fleet-check does)");
+    panic!("{name} not found: apt-get install -y {package} (.ci/fleet-deps does)");
 }
 
 /// Sends one inline Redis command and returns the first reply line (`+PONG`).

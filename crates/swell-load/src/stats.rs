@@ -131,6 +131,8 @@ struct Inner {
     sent: u64,
     received: u64,
     errors: BTreeMap<String, (u64, String)>,
+    /// Failures by whole second of their due time since the window's start.
+    errors_per_second: Vec<u64>,
     kinds: BTreeMap<QueryKind, KindStats>,
 }
 
@@ -157,6 +159,7 @@ impl Recorder {
                 sent: 0,
                 received: 0,
                 errors: BTreeMap::new(),
+                errors_per_second: Vec::new(),
                 kinds: BTreeMap::new(),
             }),
             live_done: AtomicU64::new(0),
@@ -201,6 +204,11 @@ impl Recorder {
             Outcome::Err { label, detail } => {
                 k.errors += 1;
                 g.errors.entry(label).or_insert((0, detail)).0 += 1;
+                let second = at.saturating_duration_since(self.window.start).as_secs() as usize;
+                if g.errors_per_second.len() <= second {
+                    g.errors_per_second.resize(second + 1, 0);
+                }
+                g.errors_per_second[second] += 1;
             }
         }
     }
@@ -250,6 +258,7 @@ impl Recorder {
                     first: detail.clone(),
                 })
                 .collect(),
+            errors_per_second: g.errors_per_second.clone(),
             by_query: if g.kinds.len() > 1 {
                 g.kinds
                     .iter()
@@ -319,6 +328,10 @@ pub struct RequestSummary {
     pub bytes_received: u64,
     /// Failures by label.
     pub errors_by_kind: Vec<ErrorCount>,
+    /// Failures by whole second of their due time since the measured window began (`[3]`:
+    /// requests due in the fourth second), up to the last second with one; empty without
+    /// failures. Ties errors to an event of the run (a replica killed, a failover).
+    pub errors_per_second: Vec<u64>,
     /// Per query kind (`mixed` only).
     pub by_query: Vec<KindSummary>,
 }
@@ -363,5 +376,26 @@ mod tests {
         assert!((s.latency.max_ms - 100.0).abs() < 0.1, "{:?}", s.latency);
         assert_eq!(s.by_query.len(), 2);
         assert_eq!(r.live_done.load(Ordering::Relaxed), 103);
+        assert_eq!(s.errors_per_second, [1]);
+    }
+
+    #[test]
+    fn errors_are_counted_by_the_second_they_were_due() {
+        let w = Window::new(Duration::ZERO, Duration::from_secs(10));
+        let r = Recorder::new(w);
+        let err = || Outcome::Err {
+            label: "502".into(),
+            detail: "x".into(),
+        };
+        for ms in [2100, 2900, 4000] {
+            r.record(
+                w.start + Duration::from_millis(ms),
+                QueryKind::Height,
+                Duration::ZERO,
+                err(),
+            );
+        }
+        let s = r.summary(Duration::from_secs(10));
+        assert_eq!(s.errors_per_second, [0, 0, 2, 0, 1]);
     }
 }
