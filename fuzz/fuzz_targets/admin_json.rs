@@ -73,7 +73,7 @@ fn step(b: &mut SceneBodies, scene: &Scene, what: &dyn std::fmt::Debug) {
     let target = b.tick() + 5;
     b.advance_to(
         target,
-        &scene.surface,
+        swell::bodies::Sea::Direct(&scene.surface),
         scene.spec.tick_hz,
         scene.spec.surface.gravity,
     );

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use redis::AsyncCommands as _;
 use redis::streams::{StreamRangeReply, StreamReadOptions, StreamReadReply};
 use serde_json::Value;
-use swell::bodies::{BodyState, SceneBodies};
+use swell::bodies::{BodyState, SceneBodies, Sea};
 use swell::scene::{Scene, SceneSpec};
 use swell::store::bodies::BodyCmd;
 
@@ -167,7 +167,7 @@ pub fn replay(entries: &[Entry], spec: &Value) -> BTreeMap<i64, Vec<BodyState>> 
                 let cmd = pending.remove(&k).unwrap();
                 let tick = k.0;
                 let b = world.get_or_insert_with(|| SceneBodies::new(tick, hz, g).unwrap());
-                b.advance_to(tick, &scene.surface, hz, g);
+                b.advance_to(tick, Sea::Direct(&scene.surface), hz, g);
                 match cmd {
                     BodyCmd::Spawn(req) => {
                         b.spawn(&req).expect("a logged spawn applies");
@@ -185,7 +185,7 @@ pub fn replay(entries: &[Entry], spec: &Value) -> BTreeMap<i64, Vec<BodyState>> 
                 }
             }
             if let Some(b) = world.as_mut() {
-                b.advance_to(w, &scene.surface, hz, g);
+                b.advance_to(w, Sea::Direct(&scene.surface), hz, g);
                 out.insert(w, b.states(None));
             }
         }
