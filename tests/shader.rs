@@ -31,6 +31,19 @@ async fn shader_in_every_language_for_every_builtin_scene_with_version_headers_a
         let hash = detail["spec_hash"].as_str().unwrap().to_owned();
         for lang in LANGS {
             let path = format!("/v1/scenes/{id}/shader?lang={lang}");
+            if lang.contains("include") && detail["spec"]["layers"].to_string().contains("\"fft\"")
+            {
+                // The engine includes carry no FFT layer yet: 422 naming why, not a shader
+                // without its FFT layer.
+                let (st, v) = s.get_json(&path).await;
+                assert_eq!(st, 422, "{path}: {v}");
+                assert_eq!(v["error"]["code"], "shader_unavailable", "{v}");
+                assert!(
+                    v["error"]["message"].as_str().unwrap().contains("FFT"),
+                    "{v}"
+                );
+                continue;
+            }
             let r = s.get(&path).await;
             assert_eq!(r.status(), 200, "{path}");
             assert!(header(&r, "content-type").starts_with("text/plain"));

@@ -133,7 +133,8 @@ fn shader_error(e: ShaderError) -> ApiError {
     match e {
         ShaderError::TooManyWaves { .. }
         | ShaderError::NotRepresentable { .. }
-        | ShaderError::TooManyParticles { .. } => ApiError::new(
+        | ShaderError::TooManyParticles { .. }
+        | ShaderError::IncludeWithFft { .. } => ApiError::new(
             StatusCode::UNPROCESSABLE_ENTITY,
             "shader_unavailable",
             e.to_string(),

@@ -54,6 +54,18 @@ pub enum ShaderError {
         /// The entry point's name.
         entry: &'static str,
     },
+    /// An engine include asked for a surface with FFT layers: the includes carry the sine,
+    /// Gerstner and particle layers (uniforms only); an FFT layer needs its textures and pass
+    /// shaders, which they do not declare yet.
+    #[error(
+        "lang {lang} (an engine include) cannot carry this surface's {layers} FFT layer(s) yet: use lang=hlsl or glsl_es with the FFT pass shaders (entry=swell_fft_*, docs/clients.md)"
+    )]
+    IncludeWithFft {
+        /// The include's language name.
+        lang: &'static str,
+        /// FFT layers in the surface.
+        layers: usize,
+    },
     /// An entry point the language cannot hold (a compute shader in GLSL ES 3.00).
     #[error(
         "entry {entry} is a compute shader: lang {lang} has none (use wgsl, glsl, hlsl or msl, or the fragment passes)"

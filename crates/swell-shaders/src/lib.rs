@@ -112,10 +112,18 @@ pub const NAGA_VERSION: &str = "30.0.1";
 /// [`ShaderError::TooManyWaves`] or [`ShaderError::NotRepresentable`] when the surface cannot be
 /// emitted; [`ShaderError::Naga`] if naga rejects the module or fails to write it (a bug in the
 /// emitter, caught by the tests for every built-in scene); [`ShaderError::NeedsLayer`] for an
-/// FFT pass entry point (use [`export_fft`]).
+/// FFT pass entry point (use [`export_fft`]); [`ShaderError::IncludeWithFft`] for an engine
+/// include of a surface with FFT layers.
 pub fn export(surface: &Surface, lang: Lang, entry: Option<Entry>) -> Result<String, ShaderError> {
     if let Some(e) = entry.filter(|e| e.is_fft()) {
         return Err(ShaderError::NeedsLayer { entry: e.name() });
+    }
+    let ffts = fft::layers(surface).len();
+    if lang.is_include() && ffts > 0 {
+        return Err(ShaderError::IncludeWithFft {
+            lang: lang.name(),
+            layers: ffts,
+        });
     }
     let source = wgsl::emit(surface)?;
     finish(source, lang, entry)
