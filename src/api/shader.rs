@@ -390,14 +390,29 @@ mod tests {
             let scene = Scene::build(&id, spec).unwrap();
             for lang in Lang::ALL {
                 for entry in [None, Some(Entry::Vertex), Some(Entry::ProbeFragment)] {
-                    let text = swell_shaders::export(&scene.surface, lang, entry)
-                        .unwrap_or_else(|e| panic!("{id} {lang:?} {entry:?}: {e}"));
+                    let out = swell_shaders::export(&scene.surface, lang, entry);
+                    if lang.is_include() && scene.surface.has_fft() {
+                        // The engine includes carry no FFT layer yet, and say so.
+                        assert!(
+                            matches!(out, Err(ShaderError::IncludeWithFft { .. })),
+                            "{id} {lang:?}"
+                        );
+                        continue;
+                    }
+                    let text = out.unwrap_or_else(|e| panic!("{id} {lang:?} {entry:?}: {e}"));
                     assert!(text.contains("swell_sample"), "{id} {lang:?}");
                 }
                 for (li, _) in swell_shaders::fft::layers(&scene.surface) {
                     for entry in Entry::FFT {
-                        swell_shaders::export_fft(&scene.surface, li, lang, Some(entry))
-                            .unwrap_or_else(|e| panic!("{id} layer {li} {lang:?} {entry:?}: {e}"));
+                        let out = swell_shaders::export_fft(&scene.surface, li, lang, Some(entry));
+                        if lang.is_include() {
+                            assert!(
+                                matches!(out, Err(ShaderError::IncludeWithFft { .. })),
+                                "{id} {lang:?}"
+                            );
+                            continue;
+                        }
+                        out.unwrap_or_else(|e| panic!("{id} layer {li} {lang:?} {entry:?}: {e}"));
                     }
                 }
             }

@@ -139,13 +139,20 @@ pub fn export(surface: &Surface, lang: Lang, entry: Option<Entry>) -> Result<Str
 /// # Errors
 /// [`ShaderError::BadLayer`] when `layer` is not an FFT layer or its frequencies are too high
 /// for the f32 phase ([`fft::cycle_bits`]); [`ShaderError::Naga`] as [`export`]. A surface
-/// entry point here is [`ShaderError::BadLayer`] too (it is not in a pass module).
+/// entry point here is [`ShaderError::BadLayer`] too (it is not in a pass module); an engine
+/// include language is [`ShaderError::IncludeWithFft`] (the passes are plain shaders).
 pub fn export_fft(
     surface: &Surface,
     layer: usize,
     lang: Lang,
     entry: Option<Entry>,
 ) -> Result<String, ShaderError> {
+    if lang.is_include() {
+        return Err(ShaderError::IncludeWithFft {
+            lang: lang.name(),
+            layers: fft::layers(surface).len(),
+        });
+    }
     if let Some(e) = entry.filter(|e| !e.is_fft()) {
         return Err(ShaderError::BadLayer {
             layer,
