@@ -60,8 +60,16 @@ fn every_language_and_entry_point_translates_and_validates() {
         crate::translate::parse_and_validate(&wgsl).unwrap();
         for lang in Lang::ALL {
             for entry in Entry::ALL {
-                let out = export(&s, lang, Some(entry))
-                    .unwrap_or_else(|e| panic!("{name} {lang:?} {entry:?}: {e}"));
+                let out = export(&s, lang, Some(entry));
+                if lang.is_include() && s.has_fft() {
+                    // The engine includes carry no FFT layer yet, and say so.
+                    assert!(
+                        matches!(out, Err(ShaderError::IncludeWithFft { .. })),
+                        "{name} {lang:?}"
+                    );
+                    continue;
+                }
+                let out = out.unwrap_or_else(|e| panic!("{name} {lang:?} {entry:?}: {e}"));
                 match lang {
                     Lang::Wgsl => assert_eq!(out, wgsl),
                     Lang::Glsl => {
@@ -194,7 +202,10 @@ fn too_many_waves_is_an_error_not_a_truncated_shader() {
 #[test]
 fn output_is_deterministic() {
     for (_, s) in all_surfaces() {
-        for lang in Lang::ALL {
+        for lang in Lang::ALL
+            .into_iter()
+            .filter(|l| !(l.is_include() && s.has_fft()))
+        {
             assert_eq!(
                 export(&s, lang, None).unwrap(),
                 export(&s, lang, None).unwrap()
