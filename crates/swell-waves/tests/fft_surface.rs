@@ -341,3 +341,31 @@ fn a_tile_size_out_of_range_is_an_error_naming_it() {
         }
     }
 }
+
+/// Regression (issue 11, the `scene_spec` fuzz target in a 10-minute run): `repeat_period =
+/// 1.991e303` built a layer whose heights were NaN (the evolution's phase ω_q·(t mod T) left the
+/// range the deterministic `sin_cos` reduces). The period is now bounded, and the error names it.
+#[test]
+fn a_repeat_period_out_of_range_is_an_error_naming_it() {
+    let layer = |period: f64| {
+        serde_json::from_value::<SurfaceSpec>(json!({"layers": [{"kind": "fft",
+            "resolution": 64, "tile_size": 32.0, "repeat_period": period,
+            "wind_direction": [2.0, 0.3],
+            "spectrum": {"kind": "jonswap", "wind_speed": 11.0, "fetch": 100000.0}}]}))
+        .unwrap()
+    };
+    for period in [1.991e303, 1.0e7, 0.0, -5.0] {
+        let e = Surface::new(&layer(period)).unwrap_err();
+        assert_eq!(e.field(), "layers[0].repeat_period", "period {period}: {e}");
+    }
+    // The longest period builds and answers finite heights, late in its cycle too.
+    let s = Surface::new(&layer(swell_waves::fft::MAX_REPEAT_PERIOD)).unwrap();
+    for t in [12.345, 9.99e5] {
+        let at = s
+            .at(t, QueryFields::HEIGHT, &QueryOptions::default())
+            .unwrap();
+        for p in [(0.0, 0.0), (-401.5, 3.0)] {
+            assert!(at.height(p.0, p.1).is_finite(), "t {t} at {p:?}");
+        }
+    }
+}

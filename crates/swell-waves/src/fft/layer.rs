@@ -31,6 +31,13 @@ pub const MIN_TILE_SIZE: f64 = 1.0;
 /// `tile_size = 1e308` answered NaN heights).
 pub const MAX_TILE_SIZE: f64 = 100_000.0;
 
+/// Longest repeat period T, s (about 11.6 days). The evolution's phase ω_q·(t mod T) must stay
+/// where the deterministic `sin_cos` reduces exactly (|x| ≲ 2.7·10¹⁰ rad): the fastest mode a
+/// layer can hold (N = 1024 on a 1 m tile at g = 1000 m/s²) is ~1.8·10³ rad/s, so 10⁶ s keeps
+/// every phase under 2·10⁹ rad. Far beyond it heights were NaN (found by the `scene_spec` fuzz
+/// target: `repeat_period = 1.991e303`).
+pub const MAX_REPEAT_PERIOD: f64 = 1.0e6;
+
 /// One entry of the half plane `m = 0 … N/2 − 1`: the wave vector k = Δk·(m, n), its quantised
 /// frequency and the amplitudes of the waves along +k and −k.
 #[derive(Debug, Clone, Copy, Default)]
@@ -160,7 +167,7 @@ impl FftLayer {
     /// [`SpecError`] naming the field, when:
     /// - `{field}.resolution` is not a power of two in 16..=1024;
     /// - `{field}.tile_size` is not in [[`MIN_TILE_SIZE`], [`MAX_TILE_SIZE`]] m;
-    /// - `{field}.repeat_period` is not finite and > 0;
+    /// - `{field}.repeat_period` is not in (0, [`MAX_REPEAT_PERIOD`]] s;
     /// - `{field}.choppiness` is not in [0, 10];
     /// - `{field}.time_step` is not finite and in [[`MIN_TIME_STEP`], `repeat_period`];
     /// - `{field}.wind_direction` is not finite or is the zero vector;
@@ -195,6 +202,13 @@ impl FftLayer {
             MAX_CHOPPINESS,
         )?;
         let repeat_period = positive(&format!("{field}.repeat_period"), spec.repeat_period)?;
+        if repeat_period > MAX_REPEAT_PERIOD {
+            return Err(SpecError::OutOfRange {
+                field: format!("{field}.repeat_period"),
+                value: repeat_period,
+                allowed: format!("(0, {MAX_REPEAT_PERIOD}] s"),
+            });
+        }
         let (grid_steps, time_step) = time_grid(field, spec.time_step, repeat_period)?;
         direction(&format!("{field}.wind_direction"), spec.wind_direction)?;
         let (min_wl, max_wl) = match spec.band {

@@ -63,8 +63,8 @@ mod velocity;
 pub use fields::{FftFields, FftGrid};
 pub use frame::FftFrame;
 pub use layer::{
-    FftLayer, GridPosition, MAX_CHOPPINESS, MAX_RESOLUTION, MAX_TILE_SIZE, MIN_RESOLUTION,
-    MIN_TILE_SIZE,
+    FftLayer, GridPosition, MAX_CHOPPINESS, MAX_REPEAT_PERIOD, MAX_RESOLUTION, MAX_TILE_SIZE,
+    MIN_RESOLUTION, MIN_TILE_SIZE,
 };
 pub use sample::{FftSample, SampleFilter, lerp_samples, sample_between};
 pub use velocity::FftVelocityFrame;
