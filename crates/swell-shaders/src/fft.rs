@@ -225,28 +225,13 @@ const SWELL_FFT_LAMBDA: f32 = {lambda};
     Ok(s)
 }
 
-/// The polynomials of the model's single-precision turn kernel
-/// ([`swell_waves::math::sin_cos_turns_f32`]): `sin(πu)` and `cos(πu)` on u ∈ [−½, ½].
-/// The passes use it rather than the GPU's `sin`/`cos`, whose accuracy is the driver's
-/// (SwiftShader's cost a 256² storm layer 3 mm of displacement through the twiddles; this
-/// kernel is within 5·10⁻⁷ everywhere and the same on every GPU). A test pins these values to
-/// the model's kernel, bit for bit.
-#[allow(clippy::excessive_precision)]
-const SINPI: [f32; 5] = [
-    3.141_592_502_593_994,
-    -5.167_706_966_400_146,
-    2.550_031_423_568_726,
-    -0.598_045_170_307_159_4,
-    0.077_220_155_298_709_87,
-];
-#[allow(clippy::excessive_precision)]
-const COSPI: [f32; 5] = [
-    1.0,
-    -4.934_795_379_638_672,
-    4.058_451_175_689_697,
-    -1.332_093_834_877_014,
-    0.220_080_688_595_771_8,
-];
+// The polynomials of the model's single-precision turn kernel
+// (`swell_waves::math::sin_cos_turns_f32`), the model's own constants: `sin(πu)` and `cos(πu)`
+// on u ∈ [−½, ½]. The passes use it rather than the GPU's `sin`/`cos`, whose accuracy is the
+// driver's (SwiftShader's cost a 256² storm layer 3 mm of displacement through the twiddles;
+// this kernel is within 5·10⁻⁷ everywhere and the same on every GPU). A test pins the shader's
+// kernel to the model's, bit for bit.
+use swell_waves::math::{COSPI_F32 as COSPI, SINPI_F32 as SINPI};
 
 /// `(sin 2πu, cos 2πu)` for u in [−½, ½], the shader's `swell_sincos_turns` in Rust (the same
 /// operations in the same order as the model's kernel), for the CPU twin of the passes.

@@ -11,7 +11,7 @@ mod trig;
 
 pub use phase::{TAU, reduce_phase, reduce_turns, round_ties_away};
 pub use rng::{SwellRng, mode_key, splitmix64};
-pub use trig::{cos, sin, sin_cos, sin_cos_turns_f32};
+pub use trig::{COSPI_F32, SINPI_F32, cos, sin, sin_cos, sin_cos_turns_f32};
 
 /// `e^x`, from the pure-Rust `libm` crate (bit-identical on every platform).
 #[inline]

@@ -88,20 +88,24 @@ fn flip(v: f64, neg: bool) -> f64 {
     f64::from_bits(v.to_bits() ^ (u64::from(neg) << 63))
 }
 
-// Single-precision polynomials for sin(πu) and cos(πu) on u ∈ [−½, ½] (near-minimax, fitted
-// for this crate by iteratively reweighted least squares on Chebyshev nodes, with cos's constant
-// term held at 1 so that cos 0 = 1 exactly; fit errors 3.3e-9 and 5.3e-8, below half an f32 ulp
-// of 1).
+/// Coefficients of the single-precision polynomial for sin(πu) on u ∈ [−½, ½], in powers of
+/// z = u²: `sin(πu) ≈ u·(c₀ + z·(c₁ + z·(c₂ + z·(c₃ + z·c₄))))`, evaluated in f32 in that order
+/// ([`sin_cos_turns_f32`]). Near-minimax, fitted for this crate by iteratively reweighted least
+/// squares on Chebyshev nodes; fit error 3.3·10⁻⁹, below half an f32 ulp of 1. Public so that
+/// GPU code generated from the model (the shader crate) uses the very same kernel.
 #[allow(clippy::excessive_precision)]
-const SINPI: [f32; 5] = [
+pub const SINPI_F32: [f32; 5] = [
     3.141_592_502_593_994,
     -5.167_706_966_400_146,
     2.550_031_423_568_726,
     -0.598_045_170_307_159_4,
     0.077_220_155_298_709_87,
 ];
+/// Coefficients of the single-precision polynomial for cos(πu) on u ∈ [−½, ½], in powers of
+/// z = u²: `cos(πu) ≈ c₀ + z·(c₁ + z·(c₂ + z·(c₃ + z·c₄)))`, with c₀ held at 1 so that cos 0 = 1
+/// exactly; fit error 5.3·10⁻⁸. See [`SINPI_F32`].
 #[allow(clippy::excessive_precision)]
-const COSPI: [f32; 5] = [
+pub const COSPI_F32: [f32; 5] = [
     1.0,
     -4.934_795_379_638_672,
     4.058_451_175_689_697,
@@ -124,8 +128,11 @@ const COSPI: [f32; 5] = [
 #[inline(always)]
 pub fn sin_cos_turns_f32(u: f32) -> (f32, f32) {
     let z = u * u;
-    let s = u * (SINPI[0] + z * (SINPI[1] + z * (SINPI[2] + z * (SINPI[3] + z * SINPI[4]))));
-    let c = COSPI[0] + z * (COSPI[1] + z * (COSPI[2] + z * (COSPI[3] + z * COSPI[4])));
+    let s = u
+        * (SINPI_F32[0]
+            + z * (SINPI_F32[1] + z * (SINPI_F32[2] + z * (SINPI_F32[3] + z * SINPI_F32[4]))));
+    let c = COSPI_F32[0]
+        + z * (COSPI_F32[1] + z * (COSPI_F32[2] + z * (COSPI_F32[3] + z * COSPI_F32[4])));
     ((s + s) * c, c * c - s * s)
 }
 
