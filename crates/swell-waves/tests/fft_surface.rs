@@ -354,13 +354,18 @@ fn a_repeat_period_out_of_range_is_an_error_naming_it() {
             "spectrum": {"kind": "jonswap", "wind_speed": 11.0, "fetch": 100000.0}}]}))
         .unwrap()
     };
-    for period in [1.991e303, 1.0e7, 0.0, -5.0] {
+    // The second, a subnormal period (2π/T infinite), from the target's rerun after the first fix.
+    for period in [1.991e303, 1.0e7, 1.996e-321, 0.5, 0.0, -5.0] {
         let e = Surface::new(&layer(period)).unwrap_err();
         assert_eq!(e.field(), "layers[0].repeat_period", "period {period}: {e}");
     }
-    // The longest period builds and answers finite heights, late in its cycle too.
-    let s = Surface::new(&layer(swell_waves::fft::MAX_REPEAT_PERIOD)).unwrap();
-    for t in [12.345, 9.99e5] {
+    // The bounds build and answer finite heights, late in the cycle too.
+    for (period, t) in [
+        (swell_waves::fft::MAX_REPEAT_PERIOD, 12.345),
+        (swell_waves::fft::MAX_REPEAT_PERIOD, 9.99e5),
+        (swell_waves::fft::MIN_REPEAT_PERIOD, 0.75),
+    ] {
+        let s = Surface::new(&layer(period)).unwrap();
         let at = s
             .at(t, QueryFields::HEIGHT, &QueryOptions::default())
             .unwrap();

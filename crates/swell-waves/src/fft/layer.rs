@@ -9,7 +9,7 @@ use std::sync::Arc;
 use super::frame::GridPool;
 use super::transform::InverseRealFft2;
 use super::{DEFAULT_TIME_STEP, FftBackend, FftSpec, MIN_TIME_STEP};
-use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
+use crate::error::{SpecError, direction, finite, in_range, non_negative};
 use crate::math::{SwellRng, TAU, mode_key};
 use crate::spectrum::Dispersion;
 
@@ -30,6 +30,12 @@ pub const MIN_TILE_SIZE: f64 = 1.0;
 /// wrap of positions into the tile stop being finite (found by the `config_toml` fuzz target:
 /// `tile_size = 1e308` answered NaN heights).
 pub const MAX_TILE_SIZE: f64 = 100_000.0;
+
+/// Shortest repeat period T, s. ω is quantised to whole multiples of 2π/T; below a second that
+/// step (≥ 2π rad/s) is coarser than the spectrum's own frequencies, so the sea degenerates, and
+/// a subnormal period made 2π/T infinite and every height NaN (found by the `scene_spec` fuzz
+/// target's 10-minute rerun: `repeat_period = 1.996e-321`).
+pub const MIN_REPEAT_PERIOD: f64 = 1.0;
 
 /// Longest repeat period T, s (about 11.6 days). The evolution's phase ω_q·(t mod T) must stay
 /// where the deterministic `sin_cos` reduces exactly (|x| ≲ 2.7·10¹⁰ rad): the fastest mode a
@@ -167,7 +173,7 @@ impl FftLayer {
     /// [`SpecError`] naming the field, when:
     /// - `{field}.resolution` is not a power of two in 16..=1024;
     /// - `{field}.tile_size` is not in [[`MIN_TILE_SIZE`], [`MAX_TILE_SIZE`]] m;
-    /// - `{field}.repeat_period` is not in (0, [`MAX_REPEAT_PERIOD`]] s;
+    /// - `{field}.repeat_period` is not in [[`MIN_REPEAT_PERIOD`], [`MAX_REPEAT_PERIOD`]] s;
     /// - `{field}.choppiness` is not in [0, 10];
     /// - `{field}.time_step` is not finite and in [[`MIN_TIME_STEP`], `repeat_period`];
     /// - `{field}.wind_direction` is not finite or is the zero vector;
@@ -201,14 +207,12 @@ impl FftLayer {
             0.0,
             MAX_CHOPPINESS,
         )?;
-        let repeat_period = positive(&format!("{field}.repeat_period"), spec.repeat_period)?;
-        if repeat_period > MAX_REPEAT_PERIOD {
-            return Err(SpecError::OutOfRange {
-                field: format!("{field}.repeat_period"),
-                value: repeat_period,
-                allowed: format!("(0, {MAX_REPEAT_PERIOD}] s"),
-            });
-        }
+        let repeat_period = in_range(
+            &format!("{field}.repeat_period"),
+            spec.repeat_period,
+            MIN_REPEAT_PERIOD,
+            MAX_REPEAT_PERIOD,
+        )?;
         let (grid_steps, time_step) = time_grid(field, spec.time_step, repeat_period)?;
         direction(&format!("{field}.wind_direction"), spec.wind_direction)?;
         let (min_wl, max_wl) = match spec.band {
