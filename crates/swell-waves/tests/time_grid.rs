@@ -61,9 +61,10 @@ fn the_step_divides_the_repeat_period() {
     let s = sea(Some(0.07), 300.0);
     assert_eq!(layer(&s).grid_steps(), 4286);
     assert_eq!(layer(&s).time_step(), 300.0 / 4286.0);
-    // A period shorter than the default step: one step, the whole period.
-    let s = sea(None, 0.01);
+    // A step as long as the period (the shortest period, 1 s): one step, the whole period.
+    let s = sea(Some(1.0), swell_waves::fft::MIN_REPEAT_PERIOD);
     assert_eq!(layer(&s).grid_steps(), 1);
+    assert_eq!(layer(&s).time_step(), 1.0);
 }
 
 #[test]
