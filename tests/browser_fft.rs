@@ -31,8 +31,6 @@
 
 mod common;
 
-use std::process::Command;
-
 use common::{TestServer, config};
 use serde_json::{Value, json};
 
@@ -236,18 +234,6 @@ try { result = { ok: true, cases: run() }; } catch (e) { result = { ok: false, e
 document.getElementById('out').textContent = JSON.stringify(result);
 "#;
 
-fn unescape_html(s: &str) -> String {
-    s.replace("&lt;", "<")
-        .replace("&gt;", ">")
-        .replace("&quot;", "\"")
-        .replace("&#39;", "'")
-        .replace("&amp;", "&")
-}
-
-fn chromium() -> String {
-    std::env::var("CHROMIUM").unwrap_or_else(|_| "chromium".into())
-}
-
 /// Max over probes of (|Δheight|, |Δdisplacement|, normal angle in degrees).
 fn errors(run: &Value, v: &Value, n: usize) -> (f64, f64, f64) {
     let px = |k: &str, i: usize| run[k][i].as_f64().expect("finite pixel");
@@ -327,51 +313,13 @@ async fn fft_passes_in_headless_chromium_match_sample() {
         runs_of.push((id, runs));
     }
 
-    let dir = tempfile::tempdir().unwrap();
-    let page = dir.path().join("fft.html");
-    std::fs::write(
-        &page,
-        format!(
-            "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\nconst CASES = {};\n{PAGE_JS}</script></body></html>",
-            Value::Array(page_cases)
-        ),
-    )
-    .unwrap();
     let started = std::time::Instant::now();
-    let output = Command::new("timeout")
-        .arg("300")
-        .arg(chromium())
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-dev-shm-usage",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--ignore-gpu-blocklist",
-            "--no-first-run",
-            "--virtual-time-budget=60000",
-        ])
-        .arg(format!(
-            "--user-data-dir={}",
-            dir.path().join("profile").display()
-        ))
-        .arg("--dump-dom")
-        .arg(format!("file://{}", page.display()))
-        .output()
-        .expect("chromium runs (set CHROMIUM to its path)");
-    let dom = String::from_utf8_lossy(&output.stdout);
-    let Some(start) = dom.find("<pre id=\"out\">") else {
-        panic!(
-            "no result in the DOM; chromium status {:?}, stderr:\n{}",
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        );
-    };
-    let rest = &dom[start + "<pre id=\"out\">".len()..];
-    let body = unescape_html(&rest[..rest.find("</pre>").unwrap()]);
-    let result: Value = serde_json::from_str(&body)
-        .unwrap_or_else(|e| panic!("page result is not JSON ({e}): {body}"));
-    assert_eq!(result["ok"], json!(true), "page failed: {result}");
+    let result = common::browser::run_webgl_page(
+        "fft",
+        &format!("const CASES = {};\n{PAGE_JS}", Value::Array(page_cases)),
+        300,
+        60_000,
+    );
     eprintln!(
         "chromium ran the FFT pages in {:.1} s",
         started.elapsed().as_secs_f64()

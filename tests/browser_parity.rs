@@ -53,10 +53,6 @@ fn probes() -> Vec<[f64; 2]> {
         .collect()
 }
 
-fn chromium() -> String {
-    std::env::var("CHROMIUM").unwrap_or_else(|_| "chromium".into())
-}
-
 /// The page: compiles each scene's probe program, then per run uploads the uniform block, draws
 /// the probes as points into an N×1 pair of RGBA32F targets and reads both back. Results (or
 /// the first error) go into `<pre id="out">` as JSON, before the load event, so `--dump-dom`
@@ -225,14 +221,6 @@ async function run() {
 })();
 "#;
 
-fn unescape_html(s: &str) -> String {
-    s.replace("&lt;", "<")
-        .replace("&gt;", ">")
-        .replace("&quot;", "\"")
-        .replace("&#39;", "'")
-        .replace("&amp;", "&")
-}
-
 struct Case {
     scene: String,
     /// `(t, origin)` per run, in page order.
@@ -364,7 +352,7 @@ async fn run_webgpu_page(dir: &std::path::Path, page_cases: &Value) -> Result<Va
     );
     let (addr, mut rx, server) = serve_page(page).await;
     let log = dir.join("chromium-webgpu.log");
-    let mut child = Command::new(chromium())
+    let mut child = Command::new(common::browser::chromium())
         .args([
             "--headless",
             "--no-sandbox",
@@ -524,50 +512,13 @@ async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
     let page_cases = Value::Array(page_cases);
 
     // WebGL2: a file page, its result in the DOM.
-    let dir = tempfile::tempdir().unwrap();
-    let page = dir.path().join("parity.html");
-    std::fs::write(
-        &page,
-        format!(
-            "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\nconst CASES = {page_cases};\n{PAGE_JS}</script></body></html>"
-        ),
-    )
-    .unwrap();
     let started = std::time::Instant::now();
-    let output = Command::new("timeout")
-        .arg("180")
-        .arg(chromium())
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-dev-shm-usage",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--ignore-gpu-blocklist",
-            "--no-first-run",
-            "--virtual-time-budget=10000",
-        ])
-        .arg(format!(
-            "--user-data-dir={}",
-            dir.path().join("profile").display()
-        ))
-        .arg("--dump-dom")
-        .arg(format!("file://{}", page.display()))
-        .output()
-        .expect("chromium runs (set CHROMIUM to its path)");
-    let dom = String::from_utf8_lossy(&output.stdout);
-    let Some(start) = dom.find("<pre id=\"out\">") else {
-        panic!(
-            "no result in the DOM; chromium status {:?}, stderr:\n{}",
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        );
-    };
-    let rest = &dom[start + "<pre id=\"out\">".len()..];
-    let body = unescape_html(&rest[..rest.find("</pre>").unwrap()]);
-    let result: Value = serde_json::from_str(&body)
-        .unwrap_or_else(|e| panic!("page result is not JSON ({e}): {body}"));
-    assert_eq!(result["ok"], json!(true), "page failed: {result}");
+    let result = common::browser::run_webgl_page(
+        "parity",
+        &format!("const CASES = {page_cases};\n{PAGE_JS}"),
+        180,
+        10_000,
+    );
     eprintln!(
         "chromium ran {} scenes × {} frames × {} probes in {:.1} s (WebGL2, GLSL ES)",
         cases.len(),
@@ -584,6 +535,7 @@ async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
 
     // WebGPU: the same cases through the WGSL, on loopback HTTP.
     let started = std::time::Instant::now();
+    let dir = tempfile::tempdir().unwrap();
     match run_webgpu_page(dir.path(), &page_cases).await {
         Ok(result) => {
             assert_eq!(result["ok"], json!(true), "webgpu page failed: {result}");

@@ -1,6 +1,8 @@
 //! Test harness: a real server on 127.0.0.1 with an ephemeral port, in this process.
 #![allow(dead_code, unreachable_pub)]
 
+pub mod browser;
+
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
