@@ -13,8 +13,9 @@
 //!   they are never logged: every path that steps the bodies derives them again.
 //!
 //! The set is held per scene ([`SceneImpacts`], on [`crate::scene::Scene`]); queries see the
-//! union of both parts. Bodies do not feel impact ripples (they step on the surface without
-//! them), so a body's trajectory never depends on when an impact arrived.
+//! union of both parts. Bodies feel both too, but from a tick recorded in their own history
+//! ([`crate::bodies::SceneBodies::feel`]), so a body's trajectory never depends on when an
+//! impact happened to arrive.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, RwLock};

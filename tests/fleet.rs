@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use procs::{Redis, Replica, TOKEN, client, replicas};
 use reqwest::{Client, Method};
 use serde_json::{Value, json};
+use swell::store::bodies::BodyCmd;
 
 /// The tests of this file run one at a time: each starts Redis and three replicas, and the
 /// 200 ms bound must not measure another test's load on a 2-core machine.
@@ -863,7 +864,13 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     for r in &rs {
         r.wait_ready(&c).await;
     }
-    let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/bay", Some(spec(0.5))).await;
+    // With a particle layer (no ambient particles): the impact below ripples under the boats.
+    let mut bay = spec(0.5);
+    bay["layers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"kind": "particles", "count": 0}));
+    let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/bay", Some(bay)).await;
     assert_eq!(st, 201, "{v}");
     // The reference: the whole body log, recorded as it is written, replayed in this process.
     let served = v["spec"].clone();
@@ -910,6 +917,29 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     )
     .await;
     assert_eq!(st, 202, "{v}");
+    // An impact through replica 3 under boat 0: every replica's bodies feel it from the tick
+    // the log sequenced it at (issue 15), as the replay below does.
+    let (st, v) = admin(
+        &c,
+        &rs[2],
+        Method::POST,
+        "/v1/scenes/bay/impacts",
+        Some(json!({"position": [2.0, 0.5], "strength": 0.8, "radius": 1.5})),
+    )
+    .await;
+    assert_eq!(st, 202, "{v}");
+    let logged = Instant::now();
+    while !rec
+        .entries()
+        .iter()
+        .any(|e| matches!(e.command(), Some((_, BodyCmd::Impact(_)))))
+    {
+        assert!(
+            logged.elapsed() < Duration::from_secs(5),
+            "the impact never reached the body log"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
 
     // Tick frames from all three replicas: the same states for the same tick.
     let mut socks = Vec::new();

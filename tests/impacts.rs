@@ -519,6 +519,79 @@ async fn bodies_splash_and_leave_wakes_identically_on_every_server_and_after_kil
     b_server.stop().await;
 }
 
+/// The bodies of `scene` as the server wrote them at its current tick: equal text is equal
+/// bits.
+async fn bodies_text(s: &Srv, scene: &str) -> String {
+    let v = s
+        .ok(Method::GET, &format!("/v1/scenes/{scene}/bodies"), None)
+        .await;
+    format!("{} {}", v["tick"], v["bodies"])
+}
+
+/// Issue 15, "queries, orientation and bodies see the particles": an API impact under a
+/// floating boat rocks it, from the tick the impact reached its world, to the same bits on
+/// another server and after a kill -9 (the journal sequences the impact among the body
+/// events); the same boat on the same sea without the impact does something else.
+#[tokio::test]
+async fn an_api_impact_rocks_boats_identically_on_every_server_and_after_kill_9() {
+    let dirs = tempfile::tempdir().unwrap();
+    let da = dirs.path().join("a");
+    let a = Srv::spawn(&da).await;
+    let b_server = TestServer::start(config()).await;
+    let b = Srv::of(&b_server);
+    for s in [&a, &b] {
+        s.ok(Method::PUT, "/v1/scenes/dock", Some(&dock(None)))
+            .await;
+    }
+    b.ok(Method::PUT, "/v1/scenes/plain", Some(&dock(None)))
+        .await;
+    let splash =
+        json!({"position": [3.0, 0.0], "t": 3020.0 / 30.0, "strength": 0.5, "radius": 1.0});
+    for (s, scene, hit) in [(&a, "dock", true), (&b, "dock", true), (&b, "plain", false)] {
+        s.seek(scene, 3000).await;
+        // Floating at its draft, centred 3 m from where the impact lands.
+        s.ok(
+            Method::POST,
+            &format!("/v1/scenes/{scene}/bodies"),
+            Some(&hull(0.0, 0.63, None)),
+        )
+        .await;
+        s.seek(scene, 3015).await;
+        if hit {
+            let v = s
+                .ok(
+                    Method::POST,
+                    &format!("/v1/scenes/{scene}/impacts"),
+                    Some(&splash),
+                )
+                .await;
+            assert_eq!(v["tick"], 3020, "{v}");
+        }
+        for tick in [3030, 3045, 3060] {
+            s.seek(scene, tick).await;
+        }
+    }
+    let at_3060 = bodies_text(&b, "dock").await;
+    assert_eq!(bodies_text(&a, "dock").await, at_3060);
+    assert_ne!(
+        bodies_text(&b, "plain").await,
+        at_3060,
+        "the impact rocks the boat"
+    );
+    // kill -9 and restart: the journal brings the impact back into the body world's history.
+    drop(a);
+    let a = Srv::spawn(&da).await;
+    assert_eq!(bodies_text(&a, "dock").await, at_3060);
+    for s in [&a, &b] {
+        for tick in [3075, 3090] {
+            s.seek("dock", tick).await;
+        }
+    }
+    assert_eq!(bodies_text(&a, "dock").await, bodies_text(&b, "dock").await);
+    drop(b);
+    b_server.stop().await;
+}
+
 #[tokio::test]
 async fn bad_body_impact_settings_are_rejected_with_the_field_named() {
     let s = TestServer::start(config()).await;

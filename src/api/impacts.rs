@@ -92,7 +92,10 @@ pub async fn create(
             .impacts
             .check_room(&impact, layer.ripples().lifetime)
             .map_err(refused)?;
-        fleet.add_impact(&id, impact, MAX_SCENE_IMPACTS).await?;
+        let wanted = state.read_clock(&entry).tick + 1;
+        fleet
+            .add_impact(&id, impact, MAX_SCENE_IMPACTS, wanted)
+            .await?;
         metrics::counter!("swell_impacts_total").increment(1);
         return Ok((
             StatusCode::ACCEPTED,
@@ -107,13 +110,25 @@ pub async fn create(
         .impacts
         .add_checked(impact, layer.ripples().lifetime)
         .map_err(refused)?;
-    if let Some(j) = state.journal() {
-        let seq = j
+    let mut seq = match state.journal() {
+        Some(j) => j
             .append(Op::Impact {
                 scene: id.clone(),
                 impact,
             })
+            .map_err(ApiError::internal)?,
+        None => 0,
+    };
+    // The scene's bodies feel it from their current tick: recorded in their history under
+    // their lock, so a replay feels it from the same tick (crate::bodies::SceneBodies::feel).
+    if let Some(cell) = state.bodies.get(&id) {
+        let mut b = cell.lock();
+        b.feel(impact);
+        let body_seq = crate::journal::snapshot::append_body_events(state.journal(), &id, &mut b)
             .map_err(ApiError::internal)?;
+        seq = seq.max(body_seq);
+    }
+    if let Some(j) = state.journal() {
         j.commit(seq).await.map_err(ApiError::internal)?;
     }
     metrics::counter!("swell_impacts_total").increment(1);

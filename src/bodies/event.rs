@@ -56,6 +56,13 @@ pub enum BodyEvent {
         /// The input, `from_tick` relative to the world's anchor (as the world holds it).
         input: BodyInput,
     },
+    /// The bodies feel an API impact from scene tick `at` on ([`SceneBodies::feel`]).
+    Impact {
+        /// Scene tick of the world when it reached it.
+        at: i64,
+        /// The impact.
+        impact: swell_waves::particles::Impact,
+    },
     /// The world was re-anchored from scene tick `at` to `to` (a clock jump or a settings
     /// change), keeping every body's state and the rest of its inputs.
     Reanchored {
@@ -97,6 +104,9 @@ pub struct WorldRecord {
     /// Per body, the distance travelled since its last wake impact, m.
     #[serde(default)]
     pub wake: BTreeMap<u64, f64>,
+    /// The API impacts the bodies feel ([`SceneBodies::felt_impacts`]).
+    #[serde(default)]
+    pub felt: Vec<swell_waves::particles::Impact>,
 }
 
 /// Most ticks a replay steps between two events (or from the last event to the clock at
@@ -129,6 +139,7 @@ impl SceneBodies {
                 .collect(),
             impacts: self.derived.clone(),
             wake: self.wake.clone(),
+            felt: self.felt.clone(),
         }
     }
 
@@ -161,7 +172,12 @@ impl SceneBodies {
             fresh: Vec::new(),
             impacts_version: 0,
             wake: BTreeMap::new(),
+            felt: Vec::new(),
+            ripples: None,
         };
+        for i in &rec.felt {
+            b.feel_quietly(*i);
+        }
         // Keep only what validates, in the order derived (a damaged record cannot put an
         // impact the model rejects into a scene).
         b.derived = rec
@@ -250,6 +266,7 @@ impl SceneBodies {
             BodyEvent::Spawned { at, .. }
             | BodyEvent::Removed { at, .. }
             | BodyEvent::Input { at, .. }
+            | BodyEvent::Impact { at, .. }
             | BodyEvent::Reanchored { at, .. } => *at,
         };
         if self.step_to(at, surface) {
@@ -275,6 +292,11 @@ impl SceneBodies {
             BodyEvent::Input { input, .. } => {
                 if let Err(e) = self.world.input(*input) {
                     tracing::error!(body = input.body, error = %e, "replay: skipping an input");
+                }
+            }
+            BodyEvent::Impact { impact, .. } => {
+                if !self.feel_quietly(*impact) {
+                    tracing::error!("replay: skipping an impact the model rejects");
                 }
             }
             BodyEvent::Reanchored {

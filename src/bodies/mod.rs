@@ -17,7 +17,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 use swell_waves::body::{BodyInput, BodySpec, HullSpec, SEA_WATER_DENSITY, World, WorldSettings};
-use swell_waves::{QueryOptions, Surface};
+use swell_waves::particles::{Impact, Impacts};
+use swell_waves::{QueryOptions, Surface, SurfaceAt};
 
 pub use crate::api::types::BodyState;
 use crate::error::ApiError;
@@ -60,7 +61,8 @@ fn step_options() -> QueryOptions {
 }
 
 /// Where a body step reads the sea. Both give the same bits (a cached grid frame is the frame
-/// the model computes for that grid time), so a live world and its replay agree.
+/// the model computes for that grid time), so a live world and its replay agree. The ripples the
+/// bodies feel ([`SceneBodies::ripples`]) are added to either.
 #[derive(Clone, Copy)]
 pub enum Sea<'a> {
     /// The scene's surface, every FFT frame computed for the step (journal replay, tests).
@@ -86,13 +88,41 @@ impl<'a> Sea<'a> {
         }
     }
 
-    /// One fixed step of `world` on this sea.
-    fn step(self, world: &mut World, options: &QueryOptions) -> Result<(), swell_waves::SpecError> {
+    /// One fixed step of `world` on this sea, rippled by `ripples` when given.
+    fn step(
+        self,
+        world: &mut World,
+        options: &QueryOptions,
+        ripples: Option<&Impacts>,
+    ) -> Result<(), swell_waves::SpecError> {
+        let rippled = |sea: SurfaceAt<'a>| match ripples {
+            Some(r) => ripple(sea, r),
+            None => sea,
+        };
         match self {
-            Sea::Direct(surface) => world.step_surface(surface, options),
-            Sea::Shared { cache, scene, now } => world.step_with(&scene.surface, options, |t| {
-                cache.frames_at(scene, t, now, swell_waves::QueryFields::HEIGHT, options)
+            Sea::Direct(surface) => world.step_with(surface, options, |t| {
+                surface
+                    .at(t, swell_waves::QueryFields::HEIGHT, options)
+                    .map(rippled)
             }),
+            Sea::Shared { cache, scene, now } => world.step_with(&scene.surface, options, |t| {
+                cache
+                    .frames_at(scene, t, now, swell_waves::QueryFields::HEIGHT, options)
+                    .map(rippled)
+            }),
+        }
+    }
+}
+
+/// `sea` with the rings of `impacts` alive at its time. More rings alive at once than the model
+/// allows (which the limits on API and body impacts keep out of reach) leaves the sea without
+/// them: the same on every path, since it depends only on the set and the time.
+fn ripple<'s>(sea: SurfaceAt<'s>, impacts: &Impacts) -> SurfaceAt<'s> {
+    match sea.clone().with_impacts(impacts) {
+        Ok(rippled) => rippled,
+        Err(e) => {
+            tracing::warn!(error = %e, t = sea.t(), "bodies step without ripples: too many rings");
+            sea
         }
     }
 }
@@ -225,7 +255,19 @@ pub struct SceneBodies {
     impacts_version: u64,
     /// Per body, horizontal distance travelled since its last wake impact, m.
     wake: BTreeMap<u64, f64>,
+    /// API impacts the bodies feel, in canonical order: each one sequenced into the body
+    /// world's own history (a [`BodyEvent::Impact`] in the journal, an `impact` command in a
+    /// fleet's body log) at the tick it reached the world, so a replay feels it from the same
+    /// tick. Pruned like `derived`.
+    felt: Vec<Impact>,
+    /// `felt` and `derived` as one set, what the bodies step on; `None` when either changed
+    /// since it was built.
+    ripples: Option<std::sync::Arc<Impacts>>,
 }
+
+/// Most API impacts a body world feels at once (the scene's own limit on API impacts): a
+/// replay of an old journal cannot hold more.
+pub const MAX_FELT_IMPACTS: usize = crate::impacts::MAX_SCENE_IMPACTS;
 
 /// One body as persisted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -273,6 +315,8 @@ impl SceneBodies {
             fresh: Vec::new(),
             impacts_version: 0,
             wake: BTreeMap::new(),
+            felt: Vec::new(),
+            ripples: None,
         })
     }
 
@@ -475,7 +519,11 @@ impl SceneBodies {
                 .collect(),
             None => Vec::new(),
         };
-        if sea.step(&mut self.world, options).is_err() {
+        let ripples = self.ripples();
+        if sea
+            .step(&mut self.world, options, ripples.as_deref())
+            .is_err()
+        {
             return false;
         }
         if let Some((rules, lifetime)) = rules {
@@ -543,12 +591,23 @@ impl SceneBodies {
         }
         if changed {
             self.impacts_version += 1;
+            self.ripples = None;
         }
     }
 
     /// Drops body impacts more than [`BODY_IMPACT_HISTORY`] behind the bodies' time, and those
-    /// after it (left in the future by a re-anchor back in time).
+    /// after it (left in the future by a re-anchor back in time); and felt API impacts more than
+    /// [`BODY_IMPACT_HISTORY`] behind (an API impact may lie in the future: it stays).
     fn prune_impacts(&mut self) {
+        if !self.felt.is_empty() {
+            let old = self
+                .felt
+                .partition_point(|e| e.t < self.world.time() - BODY_IMPACT_HISTORY);
+            if old > 0 {
+                self.felt.drain(..old);
+                self.ripples = None;
+            }
+        }
         if self.derived.is_empty() {
             return;
         }
@@ -562,7 +621,58 @@ impl SceneBodies {
         self.derived.drain(..old);
         if self.derived.len() != n {
             self.impacts_version += 1;
+            self.ripples = None;
         }
+    }
+
+    /// Makes the bodies feel an API impact from their current tick on (recorded as a
+    /// [`BodyEvent::Impact`]). An impact the model rejects is ignored (every path ignores it
+    /// alike); beyond [`MAX_FELT_IMPACTS`] the oldest felt one goes.
+    pub fn feel(&mut self, impact: Impact) {
+        if self.feel_quietly(impact) {
+            self.events.push(BodyEvent::Impact {
+                at: self.tick(),
+                impact,
+            });
+        }
+    }
+
+    /// [`SceneBodies::feel`] without recording it (a replay). Returns whether it was added.
+    fn feel_quietly(&mut self, impact: Impact) -> bool {
+        if impact.validate("").is_err() {
+            return false;
+        }
+        let at = self
+            .felt
+            .partition_point(|e| e.canonical_cmp(&impact).is_le());
+        self.felt.insert(at, impact);
+        if self.felt.len() > MAX_FELT_IMPACTS {
+            self.felt.remove(0);
+        }
+        self.ripples = None;
+        true
+    }
+
+    /// The API impacts the bodies feel, in canonical order.
+    pub fn felt_impacts(&self) -> &[Impact] {
+        &self.felt
+    }
+
+    /// What the bodies step on besides the surface: the felt API impacts and their own, as one
+    /// set (`None` when there are none, so scenes without impacts pay nothing). Cached until
+    /// either part changes.
+    fn ripples(&mut self) -> Option<std::sync::Arc<Impacts>> {
+        if self.felt.is_empty() && self.derived.is_empty() {
+            return None;
+        }
+        if self.ripples.is_none() {
+            let mut all = Vec::with_capacity(self.felt.len() + self.derived.len());
+            all.extend_from_slice(&self.felt);
+            all.extend_from_slice(&self.derived);
+            // Both parts are validated and bounded far below the model's set limit.
+            self.ripples = Impacts::from_events(all).ok().map(std::sync::Arc::new);
+        }
+        self.ripples.clone()
     }
 
     /// Bumped whenever the derived body impacts change (cheap change detection for
@@ -875,6 +985,69 @@ mod tests {
         assert_eq!(a.states(None), b.states(None));
         assert!(c.derived_impacts().is_empty());
         assert_eq!(a.impacts_version(), 1);
+    }
+
+    /// Issue 15, "impacts from the API and from bodies ripple identically on every path": a
+    /// boat feels an API impact's rings from the tick the impact reached its world on, and a
+    /// journal replay of the world's events, or a world rebuilt from a record taken midway,
+    /// steps to the very same bits. Without the impact the boat does something else.
+    #[test]
+    fn bodies_feel_api_impacts_identically_live_replayed_and_restored() {
+        let s = sea(r#", {"kind": "particles", "count": 0}"#);
+        let impact = Impact {
+            t: 12.0 / 30.0,
+            position: [2.0, 0.5],
+            strength: 0.5,
+            radius: 1.0,
+        };
+        let live = |feel: bool, split_at: Option<i64>| {
+            let mut b = SceneBodies::new(0, 30.0, 9.81).unwrap();
+            b.spawn(&boat()).unwrap();
+            b.advance_to(10, Sea::Direct(&s), 30.0, 9.81);
+            if feel {
+                b.feel(impact);
+            }
+            for t in [17, 30, 41, 60] {
+                if split_at == Some(t) {
+                    b = SceneBodies::from_world_record(&b.world_record()).unwrap();
+                }
+                b.advance_to(t, Sea::Direct(&s), 30.0, 9.81);
+            }
+            b
+        };
+        let mut a = live(true, None);
+        let plain = live(false, None);
+        assert_eq!(a.felt_impacts(), &[impact]);
+        let moved = |b: &SceneBodies| {
+            let st = b.state(0).unwrap();
+            st.position
+                .iter()
+                .chain(&st.velocity)
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_ne!(moved(&a), moved(&plain), "the ripple rocks the boat");
+        // Restored midway from a record: the same bits.
+        assert_eq!(moved(&live(true, Some(30))), moved(&a));
+        // Replayed from the journal's events: the same bits.
+        let events = a.take_events();
+        assert!(
+            events
+                .iter()
+                .any(|e| matches!(e, BodyEvent::Impact { at: 10, .. })),
+            "{events:?}"
+        );
+        let mut r = SceneBodies::from_created(&events[0]).unwrap();
+        for e in &events[1..] {
+            r.replay(e, &s);
+        }
+        r.step_to(60, &s);
+        assert_eq!(moved(&r), moved(&a));
+        // The felt impact goes once its rings are long dead (an hour behind the bodies).
+        let h = (BODY_IMPACT_HISTORY * 30.0) as i64;
+        a.advance_to(h + 100, Sea::Direct(&s), 30.0, 9.81);
+        a.advance_to(h + 101, Sea::Direct(&s), 30.0, 9.81);
+        assert!(a.felt_impacts().is_empty());
     }
 
     #[test]

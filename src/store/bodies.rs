@@ -89,6 +89,10 @@ pub enum BodyCmd {
         /// The input.
         input: InputRequest,
     },
+    /// The bodies feel an API impact from this tick on ([`crate::bodies::SceneBodies::feel`]).
+    /// Appended with the impact itself ([`crate::store::Fleet::add_impact`]), only to a scene
+    /// that has a body log: a world that does not exist yet has nothing to feel it.
+    Impact(swell_waves::particles::Impact),
 }
 
 /// What applying a command gave (kept for the replica that appended it).
@@ -172,7 +176,8 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-fn key(scene: &str, what: &str) -> String {
+/// A scene's body key `swell:bodies:<scene>:<what>` (`log`, `wm`, `snap`, `lease`, `fence`).
+pub(crate) fn key(scene: &str, what: &str) -> String {
     format!("swell:bodies:{scene}:{what}")
 }
 
@@ -602,6 +607,9 @@ impl FleetBodies {
             let tick = k.0;
             let cell = match state.bodies.get(scene) {
                 Some(c) => c,
+                // Nothing to feel it (the same on every replica: the world exists from the
+                // first spawn in the log on).
+                None if matches!(cmd, BodyCmd::Impact(_)) => continue,
                 None => match state.bodies.get_or_create(scene, tick, hz, g) {
                     Ok(c) => c,
                     Err(e) => {
@@ -634,6 +642,11 @@ impl FleetBodies {
                         input.from_tick = None;
                     }
                     b.input(id, &input).and_then(|()| b.state(id))
+                }
+                BodyCmd::Impact(impact) => {
+                    b.feel(impact);
+                    // Only spawns' outcomes are recorded (an impact's answer does not wait).
+                    Err(ApiError::internal("impacts have no outcome"))
                 }
             };
             let _ = b.take_events();

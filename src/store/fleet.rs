@@ -96,14 +96,24 @@ return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], '
 ";
 
 /// Appends an API impact to its scene's list and the feed entry that announces it, atomically,
-/// unless the list is full.
-/// KEYS: the scene's impact list, the impact index set, feed. ARGV: impact JSON, op JSON, nonce,
-/// scene id, most impacts, max feed length. Returns the new entry's id, or `full:<n>`.
+/// unless the list is full; and, when the scene has a body log, the `impact` command that makes
+/// its bodies feel it, sequenced as any body command is (at the tick asked for, or one past the
+/// watermark: see [`crate::store::bodies`]). One script, so queries and bodies never disagree
+/// on whether an acknowledged impact exists.
+/// KEYS: the scene's impact list, the impact index set, feed, the scene's body log, its
+/// watermark. ARGV: impact JSON, op JSON, nonce, scene id, most impacts, max feed length, body
+/// command JSON, wanted tick. Returns the new feed entry's id, or `full:<n>`.
 const IMPACT_SCRIPT: &str = r"
 local n = redis.call('LLEN', KEYS[1])
 if n >= tonumber(ARGV[5]) then return 'full:' .. n end
 redis.call('RPUSH', KEYS[1], ARGV[1])
 redis.call('SADD', KEYS[2], ARGV[4])
+if redis.call('EXISTS', KEYS[4]) == 1 then
+  local t = tonumber(ARGV[8])
+  local wm = redis.call('GET', KEYS[5])
+  if wm and t <= tonumber(wm) then t = tonumber(wm) + 1 end
+  redis.call('XADD', KEYS[4], '*', 'cmd', ARGV[7], 'nonce', ARGV[3], 'tick', t)
+end
 return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3])
 ";
 
@@ -404,8 +414,10 @@ impl Fleet {
         self.write_and_apply(call, &nonce).await
     }
 
-    /// Stores an API impact of `scene` (its list and the feed entry that announces it) and
-    /// waits until this replica has applied it, so the answer's replica ripples with it.
+    /// Stores an API impact of `scene` (its list and the feed entry that announces it, and the
+    /// command that makes the scene's bodies feel it from scene tick `wanted` or the first one
+    /// not yet sequenced) and waits until this replica has applied it, so the answer's replica
+    /// ripples with it.
     ///
     /// # Errors
     /// 409 `too_many_impacts` when the scene's list holds `max` impacts; otherwise as
@@ -415,6 +427,7 @@ impl Fleet {
         scene: &str,
         impact: swell_waves::particles::Impact,
         max: usize,
+        wanted: i64,
     ) -> Result<(), ApiError> {
         let impact_json = serde_json::to_string(&impact).map_err(ApiError::internal)?;
         let op_json = serde_json::to_string(&Op::Impact {
@@ -422,16 +435,22 @@ impl Fleet {
             impact,
         })
         .map_err(ApiError::internal)?;
+        let cmd_json = serde_json::to_string(&crate::store::bodies::BodyCmd::Impact(impact))
+            .map_err(ApiError::internal)?;
         let nonce = self.next_nonce();
         let mut call = self.0.impact_script.key(impact_list_key(scene));
         call.key(IMPACT_SCENES_KEY)
             .key(&self.0.feed_key)
+            .key(crate::store::bodies::key(scene, "log"))
+            .key(crate::store::bodies::key(scene, "wm"))
             .arg(&impact_json)
             .arg(&op_json)
             .arg(&nonce)
             .arg(scene)
             .arg(max)
-            .arg(FEED_MAXLEN);
+            .arg(FEED_MAXLEN)
+            .arg(&cmd_json)
+            .arg(wanted);
         self.write_and_apply(call, &nonce).await
     }
 

@@ -182,6 +182,7 @@ pub fn replay(entries: &[Entry], spec: &Value) -> BTreeMap<i64, Vec<BodyState>> 
                         // An input for a body removed meanwhile is refused everywhere alike.
                         let _ = b.input(id, &input);
                     }
+                    BodyCmd::Impact(impact) => b.feel(impact),
                 }
             }
             if let Some(b) = world.as_mut() {
