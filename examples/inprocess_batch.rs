@@ -14,12 +14,12 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use swell::api::types::SampleRequest;
 use swell::frames::FrameCache;
 use swell::scene::Scene;
+use swell::service::types::SampleRequest;
 
 /// The batches' time: fixed, as in the HTTP runs this is compared with (`--t 60`).
-const AT: swell::api::query::At = swell::api::query::At { t: 60.0, now: 60.0 };
+const AT: swell::service::query::At = swell::service::query::At { t: 60.0, now: 60.0 };
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -51,7 +51,7 @@ fn main() {
         ..Default::default()
     });
     // Warm-up: the first call computes the scene's frame at t = 60 (FFT scenes).
-    swell::api::query::run_sample(&frames, &limits, &scene, AT, &req).expect("a valid request");
+    swell::service::query::run_sample(&frames, &limits, &scene, AT, &req).expect("a valid request");
     let done = Arc::new(AtomicU64::new(0));
     let end = Instant::now() + Duration::from_secs_f64(seconds);
     let start = Instant::now();
@@ -60,7 +60,7 @@ fn main() {
             let (frames, limits, scene, req, done) = (&frames, &limits, &scene, &req, &done);
             s.spawn(move || {
                 while Instant::now() < end {
-                    let r = swell::api::query::run_sample(frames, limits, scene, AT, req)
+                    let r = swell::service::query::run_sample(frames, limits, scene, AT, req)
                         .expect("a valid request");
                     assert_eq!(r.height.map(|h| h.len()), Some(points));
                     done.fetch_add(1, Ordering::Relaxed);

@@ -24,7 +24,7 @@
 //! # Computing ahead
 //! While a scene is queried ([`FrameCache::active_scenes`]), [`run_ahead`] computes the grid
 //! frames the clock is about to reach, so a query at now finds its frames ready and answers
-//! without waiting for an FFT (on the reactor, see `api::query`).
+//! without waiting for an FFT (on the reactor, see `service::query`).
 //!
 //! Computing happens in the caller's thread, which must be a blocking one (`spawn_blocking`):
 //! `OnceLock::get_or_init` blocks the waiters.

@@ -373,7 +373,7 @@ mod tests {
     use axum::extract::ws::Message;
 
     use super::*;
-    use crate::api::types::Tick;
+    use crate::service::types::Tick;
     use crate::stream::frame::{Interest, SharedTick};
     use crate::stream::messages::{self, Codec, Event, Outgoing};
 

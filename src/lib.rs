@@ -4,7 +4,7 @@
 //! clock and floating bodies), HTTP endpoints that answer height, normal, displacement and
 //! body-orientation queries, bit-identical for the same scene, time and point on every replica,
 //! and a WebSocket stream of the same queries and of tick frames. No answer carries a NaN or an
-//! infinity ([`api::finite`]).
+//! infinity ([`service::finite`]).
 //!
 //! ```no_run
 //! # async fn run() -> Result<(), Box<dyn std::error::Error>> {
@@ -25,7 +25,10 @@
 //! - [`frames`] — the shared, bounded FFT frame cache.
 //! - [`bodies`] — server-authoritative floating bodies: a body world per scene, stepped at the
 //!   scene's tick rate by its own loop ([`bodies::runner`]).
-//! - [`api`] — routes, middleware, request/response types, handlers, JSON/protobuf negotiation.
+//! - [`service`] — the transport-free query service: request/response types, time resolution,
+//!   the `run_*` queries, JSON decoding, the no-NaN check. HTTP and WebSocket both call it; the
+//!   domain modules depend on it, never on [`api`].
+//! - [`api`] — HTTP: routes, middleware, handlers, JSON/protobuf negotiation.
 //! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
 //! - [`wire`] — protobuf types generated from `proto/` and their conversions.
 //! - [`healthcheck`] — `swell healthcheck`: a tiny HTTP probe for container health checks.
@@ -47,6 +50,7 @@ pub mod healthcheck;
 pub mod impacts;
 pub mod journal;
 pub mod scene;
+pub mod service;
 pub mod state;
 pub mod store;
 pub mod stream;

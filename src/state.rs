@@ -15,7 +15,6 @@ use serde_json::Value;
 use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
-use crate::api::types::ClockUpdate;
 use crate::config::Limits;
 use crate::error::ApiError;
 use crate::frames::FrameCache;
@@ -23,6 +22,7 @@ use crate::journal::{Journal, Op, Recovered};
 use crate::scene::clock::{BUILTIN_EPOCH, ClockReading, WallClock};
 use crate::scene::store::{ClockRecord, SceneRecord, Store};
 use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
+use crate::service::types::ClockUpdate;
 use crate::stream::ticks::Tickers;
 
 /// Cheap to clone: one `Arc`.

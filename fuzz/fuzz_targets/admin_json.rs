@@ -11,10 +11,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use swell::api::types::ClockUpdate;
 use swell::bodies::{InputRequest, SceneBodies, SpawnRequest};
 use swell::scene::Scene;
 use swell::scene::clock::Clock;
+use swell::service::types::ClockUpdate;
 use swell_fuzz::{assert_client_error, assert_finite, fixture};
 
 /// Wall time the clocks start at (the built-ins' epoch plus a month), s.
@@ -32,7 +32,7 @@ fuzz_target!(|data: &[u8]| {
 });
 
 fn clock(body: &[u8]) {
-    let Ok(update) = swell::api::json::from_slice::<ClockUpdate>(body) else {
+    let Ok(update) = swell::service::json::from_slice::<ClockUpdate>(body) else {
         return;
     };
     if let Err(e) = update.validate(&fixture().limits) {
@@ -82,7 +82,7 @@ fn step(b: &mut SceneBodies, scene: &Scene, what: &dyn std::fmt::Debug) {
 }
 
 fn spawn(body: &[u8]) {
-    let Ok(req) = swell::api::json::from_slice::<SpawnRequest>(body) else {
+    let Ok(req) = swell::service::json::from_slice::<SpawnRequest>(body) else {
         return;
     };
     for id in ["calm", "lake"] {
@@ -96,7 +96,7 @@ fn spawn(body: &[u8]) {
 }
 
 fn input(body: &[u8]) {
-    let Ok(req) = swell::api::json::from_slice::<InputRequest>(body) else {
+    let Ok(req) = swell::service::json::from_slice::<InputRequest>(body) else {
         return;
     };
     let scene = scene("lake");

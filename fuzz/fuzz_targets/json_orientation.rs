@@ -4,10 +4,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use swell::api::types::OrientationRequest;
+use swell::service::types::OrientationRequest;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(req) = swell::api::json::from_slice::<OrientationRequest>(data) {
+    if let Ok(req) = swell::service::json::from_slice::<OrientationRequest>(data) {
         swell_fuzz::check_orientation(&req);
     }
 });

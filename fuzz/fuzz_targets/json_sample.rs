@@ -3,10 +3,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use swell::api::types::SampleRequest;
+use swell::service::types::SampleRequest;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(req) = swell::api::json::from_slice::<SampleRequest>(data) {
+    if let Ok(req) = swell::service::json::from_slice::<SampleRequest>(data) {
         swell_fuzz::check_sample(&req);
     }
 });

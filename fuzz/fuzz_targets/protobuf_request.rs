@@ -6,8 +6,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use swell::api::types::{OrientationRequest, SampleRequest};
 use swell::api::wire::decode_proto;
+use swell::service::types::{OrientationRequest, SampleRequest};
 
 fuzz_target!(|data: &[u8]| {
     match decode_proto::<SampleRequest>(data) {

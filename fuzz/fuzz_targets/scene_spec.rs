@@ -8,7 +8,7 @@ use libfuzzer_sys::fuzz_target;
 use swell::scene::SceneSpec;
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(value) = swell::api::json::from_slice::<serde_json::Value>(data) else {
+    let Ok(value) = swell::service::json::from_slice::<serde_json::Value>(data) else {
         return;
     };
     match SceneSpec::from_value(value) {

@@ -2,24 +2,26 @@
 //! the checks every accepted input must pass.
 //!
 //! A target decodes its input with the server's own parser, then runs the request the way the
-//! HTTP handler or WebSocket session would ([`swell::api::query`]'s `run_*` functions, after the
+//! HTTP handler or WebSocket session would ([`swell::service::query`]'s `run_*` functions, after the
 //! same time check the handler does). The properties:
 //!
 //! - nothing panics (libFuzzer reports a panic as a crash);
 //! - a rejected request is a client error (4xx): a 5xx means the server failed on its own;
 //! - an accepted request's answer has only finite numbers, checked twice: by an independent walk
 //!   of its JSON form (serde_json writes NaN and ±inf as `null`, and no answer field is
-//!   legitimately null) and by the server's own [`swell::api::finite::ensure_finite`].
+//!   legitimately null) and by the server's own [`swell::service::finite::ensure_finite`].
 
 use std::sync::OnceLock;
 
 use serde_json::Value;
 use swell::Limits;
-use swell::api::query::{At, check_time, run_orientation, run_sample};
-use swell::api::types::{OrientationRequest, OrientationResponse, SampleRequest, SampleResponse};
 use swell::error::ApiError;
 use swell::frames::FrameCache;
 use swell::scene::Scene;
+use swell::service::query::{At, check_time, run_orientation, run_sample};
+use swell::service::types::{
+    OrientationRequest, OrientationResponse, SampleRequest, SampleResponse,
+};
 
 /// The scene clock's now, fixed: a request without `t` runs at it, as the server's would at the
 /// clock's reading. Every query gets this `now` (which frames the cache counts as near) whatever
@@ -155,7 +157,7 @@ pub fn assert_finite<T: serde::Serialize, R: std::fmt::Debug + ?Sized>(
     if let Some(path) = first_non_finite(&v, String::new()) {
         panic!("{scene}: non-finite answer at {path} for {req:?}");
     }
-    if let Err(nf) = swell::api::finite::ensure_finite(answer) {
+    if let Err(nf) = swell::service::finite::ensure_finite(answer) {
         panic!("{scene}: the server's check found {nf} for {req:?}");
     }
 }
@@ -200,7 +202,14 @@ pub fn check_spec(id: &str, spec: swell::scene::SceneSpec) {
     let limits = &fixture().limits;
     for t in [0.0, 12.345, -3.5e3, 1e6] {
         for (x, z) in [(0.0, 0.0), (17.25, -401.5), (-9.9e4, 3.3e5)] {
-            match swell::api::query::run_height(&frames, limits, &scene, At { t, now: 0.0 }, x, z) {
+            match swell::service::query::run_height(
+                &frames,
+                limits,
+                &scene,
+                At { t, now: 0.0 },
+                x,
+                z,
+            ) {
                 Ok(h) => assert_finite(&h, id, &(t, x, z, &scene.spec)),
                 Err(e) => assert_client_error(&e),
             }

@@ -7,11 +7,12 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
 use crate::api::admin::require_admin;
-use crate::api::json::{RawBody, from_slice};
-use crate::api::types::{BodyDescription, HullExtent};
+use crate::api::json::RawBody;
 use crate::bodies::runner::ensure_running;
 use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
 use crate::error::ApiError;
+use crate::service::json::from_slice;
+use crate::service::types::{BodyDescription, HullExtent};
 use crate::state::AppState;
 
 /// `GET /v1/scenes/{id}/bodies` answer.
@@ -221,7 +222,7 @@ pub async fn input(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::api::types::HullKind;
+    use crate::service::types::HullKind;
     use swell_waves::body::{CellSpec, HullSpec};
 
     /// A box hull is described by its own dimensions; a cells hull by the box around its

@@ -9,10 +9,11 @@ use serde::{Deserialize, Serialize};
 use swell_waves::particles::Impact;
 
 use crate::api::admin::require_admin;
-use crate::api::json::{RawBody, from_slice};
+use crate::api::json::RawBody;
 use crate::error::ApiError;
 use crate::impacts::{AddError, ImpactEvent, MAX_SCENE_IMPACTS, apply_tick};
 use crate::journal::Op;
+use crate::service::json::from_slice;
 use crate::state::AppState;
 
 /// `POST /v1/scenes/{id}/impacts` body.

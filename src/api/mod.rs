@@ -1,11 +1,9 @@
 //! The HTTP API: routes, middleware, and the handlers by concern.
 //!
-//! - [`types`] — request/response structs shared by every transport.
-//! - [`json`] — JSON body extraction with field paths in errors.
+//! - [`json`] — the size-limited JSON body extractor.
 //! - [`scenes`] — list, detail, put, delete, clock.
-//! - [`query`] — height, sample, orientation (`run_*` functions callable from any transport).
-//! - [`finite`] — the check every answer passes before it is encoded: no NaN or infinity on
-//!   the wire.
+//! - [`query`] — height, sample, orientation (the queries themselves are
+//!   [`crate::service::query`], shared with the WebSocket).
 //! - [`bodies`] — floating-body endpoints (spawn, list, read, delete, input).
 //! - [`admin`] — bearer-token check.
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
@@ -19,14 +17,12 @@
 
 pub mod admin;
 pub mod bodies;
-pub mod finite;
 pub mod impacts;
 pub mod json;
 pub mod ops;
 pub mod query;
 pub mod scenes;
 pub mod shader;
-pub mod types;
 pub mod viewer;
 pub mod wire;
 

@@ -5,11 +5,12 @@ use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 
 use crate::api::admin::require_admin;
-use crate::api::json::{RawBody, from_slice};
-use crate::api::types::{ClockUpdate, SceneDetail, SceneList, SceneSummary};
+use crate::api::json::RawBody;
 use crate::error::ApiError;
 use crate::scene::SceneEntry;
 use crate::scene::clock::ClockReading;
+use crate::service::json::from_slice;
+use crate::service::types::{ClockUpdate, SceneDetail, SceneList, SceneSummary};
 use crate::state::{AppState, PutOutcome};
 
 /// The detail view of a scene.

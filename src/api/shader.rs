@@ -24,9 +24,9 @@ use swell_shaders::{Entry, Lang, ShaderError};
 use swell_waves::LayerSpec;
 use swell_waves::surface::layer_seed;
 
-use crate::api::query::{check_time, resolve_time, run_query};
 use crate::error::ApiError;
 use crate::scene::{Scene, fnv1a64_hex};
+use crate::service::query::{check_time, resolve_time, run_query};
 use crate::state::AppState;
 
 /// Query of `/shader`. Every parameter is a string here and parsed by hand, so a bad value gets

@@ -18,12 +18,13 @@ use prost::Message;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use crate::api::finite::check_answer;
-use crate::api::json::{from_slice, read_bytes};
-use crate::api::types::{
+use crate::api::json::read_bytes;
+use crate::error::ApiError;
+use crate::service::finite::check_answer;
+use crate::service::json::from_slice;
+use crate::service::types::{
     HeightResponse, OrientationRequest, OrientationResponse, SampleRequest, SampleResponse,
 };
-use crate::error::ApiError;
 use crate::wire::v1;
 
 /// The protobuf media type, for `Content-Type` and `Accept`.

@@ -20,8 +20,8 @@ use swell_waves::body::{BodyInput, BodySpec, HullSpec, SEA_WATER_DENSITY, World,
 use swell_waves::particles::{Impact, Impacts};
 use swell_waves::{QueryOptions, Surface, SurfaceAt};
 
-pub use crate::api::types::BodyState;
 use crate::error::ApiError;
+pub use crate::service::types::BodyState;
 pub use event::{BodyEvent, WorldRecord};
 
 /// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
@@ -62,7 +62,8 @@ fn step_options() -> QueryOptions {
 
 /// Where a body step reads the sea. Both give the same bits (a cached grid frame is the frame
 /// the model computes for that grid time), so a live world and its replay agree. The ripples the
-/// bodies feel ([`SceneBodies::ripples`]) are added to either.
+/// bodies feel (API impacts felt through [`SceneBodies::feel`] and their own) are added to
+/// either.
 #[derive(Clone, Copy)]
 pub enum Sea<'a> {
     /// The scene's surface, every FFT frame computed for the step (journal replay, tests).

@@ -98,7 +98,7 @@ impl SceneSpec {
                 return Err(ApiError::bad_json("epoch must be a number").with_field("epoch"));
             }
         };
-        let surface: SurfaceSpec = crate::api::json::from_value(Value::Object(map))?;
+        let surface: SurfaceSpec = crate::service::json::from_value(Value::Object(map))?;
         let spec = SceneSpec {
             description,
             tick_hz,

@@ -3,7 +3,7 @@
 //! bounds are specified in `proto/swell/v1/stream.proto` (`CompactBodyState`); [`decode`] is the
 //! reference decoder clients can port.
 
-use crate::api::types::BodyState;
+use crate::service::types::BodyState;
 use crate::wire::v1;
 
 /// Bits per quantised quaternion component.

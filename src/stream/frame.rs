@@ -23,8 +23,8 @@ use bytes::{BufMut as _, Bytes, BytesMut};
 use prost::Message as _;
 use prost::encoding::{WireType, encode_key, encode_varint, encoded_len_varint};
 
-use crate::api::finite::ensure_finite;
-use crate::api::types::{BodyState, Tick};
+use crate::service::finite::ensure_finite;
+use crate::service::types::{BodyState, Tick};
 use crate::wire::v1;
 
 use super::messages::{self, Codec, Event, Outgoing, Region};

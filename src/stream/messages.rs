@@ -15,12 +15,12 @@ use prost::Message as _;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
-use crate::api::finite::check_answer;
-use crate::api::json;
-use crate::api::types::{
+use crate::error::ApiError;
+use crate::service::finite::check_answer;
+use crate::service::json;
+use crate::service::types::{
     OrientationRequest, OrientationResponse, SampleRequest, SampleResponse, Tick,
 };
-use crate::error::ApiError;
 use crate::wire::v1;
 use crate::wire::v1::{client_message, server_message};
 
@@ -145,7 +145,7 @@ pub struct Outgoing {
 
 impl Outgoing {
     /// This message, or, when its payload holds a NaN or an infinity, an error with the same id
-    /// in its place (500 `non_finite_result` naming the number, see [`crate::api::finite`]).
+    /// in its place (500 `non_finite_result` naming the number, see [`crate::service::finite`]).
     /// The session's send queue passes everything through here before encoding, so no
     /// non-finite number reaches a socket in either subprotocol.
     pub fn finite_or_error(self) -> Outgoing {

@@ -15,8 +15,8 @@
 //! the client is not reading fast enough and is disconnected, without delaying anyone else's
 //! ticks (the tick loop broadcasts and never waits either).
 //!
-//! Queries run as in HTTP ([`crate::api::query::run_sample`] etc.: inline when cheap, else on a
-//! blocking thread, see [`crate::api::query::runs_inline`]), a few at a time per socket, each answering into the queue when done (answers carry the request's
+//! Queries run as in HTTP ([`crate::service::query::run_sample`] etc.: inline when cheap, else on a
+//! blocking thread, see [`crate::service::query::runs_inline`]), a few at a time per socket, each answering into the queue when done (answers carry the request's
 //! `id`, and may come back in a different order than asked). Every message is checked for
 //! non-finite numbers on its way into the queue ([`messages::Outgoing::finite_or_error`]).
 //!
@@ -47,10 +47,10 @@ use futures_util::{Sink, SinkExt, Stream, StreamExt};
 use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
-use crate::api::query::{
+use crate::error::ApiError;
+use crate::service::query::{
     At, orientation_probes, resolve_time, run_orientation, run_sample, runs_inline,
 };
-use crate::error::ApiError;
 use crate::state::AppState;
 use frame::{Interest, SharedTick};
 use messages::{
@@ -419,8 +419,8 @@ fn handle(
             Asked { id, t: req.t },
             {
                 let points = req.points.len();
-                let fields = crate::api::query::parse_fields(req.fields.as_deref());
-                let options = crate::api::query::query_options(req.accuracy.as_ref());
+                let fields = crate::service::query::parse_fields(req.fields.as_deref());
+                let options = crate::service::query::query_options(req.accuracy.as_ref());
                 move |st, scene, at| match (fields, options) {
                     (Ok(f), Ok(o)) => runs_inline(&st.frames, scene, at, points, f, &o),
                     _ => true,

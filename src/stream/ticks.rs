@@ -34,8 +34,8 @@ use std::time::Duration;
 
 use tokio::sync::broadcast;
 
-use crate::api::types::{BodyState, Tick};
 use crate::scene::clock::{ClockReading, tick_of};
+use crate::service::types::{BodyState, Tick};
 use crate::state::AppState;
 use crate::stream::frame::SharedTick;
 

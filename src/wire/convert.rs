@@ -1,7 +1,7 @@
 //! Protobuf ↔ API structs, in one place.
 //!
 //! Requests decode from protobuf into the very structs JSON decodes into
-//! ([`crate::api::types`]), so both transports run the same query code and give the same bits.
+//! ([`crate::service::types`]), so both transports run the same query code and give the same bits.
 //! Responses are built once (as the API structs) and converted for the protobuf wire; f64 values
 //! are moved, never recomputed or rounded.
 //!
@@ -11,11 +11,11 @@
 
 use swell_waves::InversionMethod;
 
-use crate::api::types::{
+use crate::error::ApiError;
+use crate::service::types::{
     Accuracy, Body, BodyOrientation, BodyState, Filter, HeightResponse, OrientationRequest,
     OrientationResponse, Precision, SampleRequest, SampleResponse, Tick,
 };
-use crate::error::ApiError;
 use crate::wire::v1;
 
 fn xz(p: &v1::Point2) -> [f64; 2] {

@@ -6,7 +6,7 @@
 //! generated code; change the `.proto` files.
 //!
 //! - [`convert`] — conversions between these types and the API's own request/response structs
-//!   ([`crate::api::types`]), so JSON and protobuf decode to the same internal request.
+//!   ([`crate::service::types`]), so JSON and protobuf decode to the same internal request.
 
 pub mod convert;
 

@@ -66,13 +66,13 @@ pub struct ClockUpdate {
 
 impl ClockUpdate {
     /// Checks the numbers before anything changes: `t` as a query time
-    /// ([`crate::api::query::check_time`]), `|rate| <=` [`crate::state::MAX_RATE`].
+    /// ([`crate::service::query::check_time`]), `|rate| <=` [`crate::state::MAX_RATE`].
     ///
     /// # Errors
     /// 400 naming `t` or `rate`.
     pub fn validate(&self, limits: &crate::Limits) -> Result<(), crate::error::ApiError> {
         if let Some(t) = self.t {
-            crate::api::query::check_time(limits, t, "t")?;
+            crate::service::query::check_time(limits, t, "t")?;
         }
         let max = crate::state::MAX_RATE;
         if let Some(r) = self.rate

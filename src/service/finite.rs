@@ -406,7 +406,9 @@ impl ser::SerializeMap for Map {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::api::types::{BodyOrientation, HeightResponse, OrientationResponse, SampleResponse};
+    use crate::service::types::{
+        BodyOrientation, HeightResponse, OrientationResponse, SampleResponse,
+    };
 
     fn orientation(heave: f64) -> OrientationResponse {
         let level = BodyOrientation {

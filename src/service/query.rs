@@ -1,0 +1,424 @@
+//! Queries: height, sample, orientation, with no transport in sight.
+//!
+//! The `run_*` functions are plain, blocking and transport-free: they take a scene, a resolved
+//! time and a decoded request and return the response type, so the HTTP handlers
+//! ([`crate::api::query`]) and the WebSocket session ([`crate::stream`]) share them. A caller
+//! resolves the scene and its time ([`resolve_time`]), then runs the query through
+//! [`run_query`]: inline on the reactor when it is cheap (a few points whose FFT frames, if any,
+//! are already cached, [`runs_inline`]), else in `spawn_blocking` (a frame to compute and big
+//! batches are CPU work). Answers are checked for non-finite numbers where they are encoded
+//! ([`crate::service::finite`]), not here.
+
+use glam::DVec2;
+use swell_waves::body::MAX_YAW;
+use swell_waves::{Inversion, QueryFields, QueryOptions};
+
+use crate::config::Limits;
+use crate::error::ApiError;
+use crate::frames::FrameCache;
+use crate::scene::{Scene, SceneEntry};
+use crate::service::types::{
+    Accuracy, BodyOrientation, FIELD_NAMES, HeightResponse, OrientationRequest,
+    OrientationResponse, SampleRequest, SampleResponse,
+};
+use crate::state::AppState;
+
+/// Points per worker thread before a batch is split: below this, threads cost more than they
+/// save. Splitting never changes the bits (each point is computed alone).
+const POINTS_PER_THREAD: usize = 8192;
+
+/// Checks a time given by a client.
+///
+/// # Errors
+/// 400 naming `field` if `t` is not finite or beyond `limits.max_time`.
+pub fn check_time(limits: &Limits, t: f64, field: &str) -> Result<f64, ApiError> {
+    if t.is_finite() && t.abs() <= limits.max_time {
+        Ok(t)
+    } else {
+        Err(ApiError::invalid(
+            field,
+            format!(
+                "{field} = {t} is out of range: a finite time with |t| <= {}",
+                limits.max_time
+            ),
+        ))
+    }
+}
+
+fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f64, ApiError> {
+    if v.is_finite() && v.abs() <= limits.max_coordinate {
+        Ok(v)
+    } else {
+        let f = field();
+        Err(ApiError::invalid(
+            f.clone(),
+            format!(
+                "{f} = {v} is out of range: a finite coordinate with |x| <= {} m",
+                limits.max_coordinate
+            ),
+        ))
+    }
+}
+
+/// When a query runs: its time and the scene clock's now (which decides the frames the cache
+/// keeps near, see [`crate::frames`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct At {
+    /// The query's time, s: the client's `t`, or now.
+    pub t: f64,
+    /// The scene clock's time when the query arrived, s.
+    pub now: f64,
+}
+
+/// The time a query runs at: the client's `t` (checked) or the scene clock's now.
+///
+/// # Errors
+/// As [`check_time`].
+pub fn resolve_time(state: &AppState, entry: &SceneEntry, t: Option<f64>) -> Result<At, ApiError> {
+    let now = state.read_clock(entry).t;
+    match t {
+        Some(t) => Ok(At {
+            t: check_time(&state.limits, t, "t")?,
+            now,
+        }),
+        None => Ok(At { t: now, now }),
+    }
+}
+
+/// Parses `fields` names into [`QueryFields`] (default: height).
+///
+/// # Errors
+/// 400 `unknown_field` naming the first unknown name.
+pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, ApiError> {
+    let Some(names) = names else {
+        return Ok(QueryFields::HEIGHT);
+    };
+    let mut f = QueryFields::default();
+    for (i, n) in names.iter().enumerate() {
+        match n.as_str() {
+            "height" => f.height = true,
+            "normal" => f.normal = true,
+            "displacement" => f.displacement = true,
+            "jacobian" => f.jacobian = true,
+            "residual" => f.residual = true,
+            other => {
+                return Err(ApiError::new(
+                    axum::http::StatusCode::BAD_REQUEST,
+                    "unknown_field",
+                    format!(
+                        "fields[{i}] = {other:?} is not a field; expected one of {}",
+                        FIELD_NAMES.join(", ")
+                    ),
+                )
+                .with_field(format!("fields[{i}]")));
+            }
+        }
+    }
+    Ok(f)
+}
+
+/// Query options from the wire's accuracy settings (defaults for whatever is absent).
+///
+/// # Errors
+/// 400 naming `accuracy.iterations` or `accuracy.tolerance` (the model's check).
+pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
+    let mut o = QueryOptions::default();
+    if let Some(a) = acc {
+        let d = Inversion::default();
+        o.inversion = Inversion {
+            method: a.method.unwrap_or(d.method),
+            iterations: a.iterations.unwrap_or(d.iterations),
+            tolerance: a.tolerance.unwrap_or(d.tolerance),
+        };
+        if let Some(f) = a.filter {
+            o.filter = f.into();
+        }
+        if let Some(p) = a.precision {
+            o.precision = p.into();
+        }
+        if let Some(t) = a.time {
+            o.time = t;
+        }
+    }
+    o.validate().map_err(|e| ApiError::invalid_query(&e))?;
+    Ok(o)
+}
+
+/// Answers a sample request at `at` (already resolved and checked). Blocking unless
+/// [`runs_inline`] said otherwise.
+///
+/// World point = `origin + point`, added in f64 (and not at all when there is no origin).
+///
+/// # Errors
+/// 413 too many points; 400 for an unknown field name, bad accuracy, or a non-finite or
+/// out-of-range coordinate.
+pub fn run_sample(
+    frames: &FrameCache,
+    limits: &Limits,
+    scene: &Scene,
+    At { t, now }: At,
+    req: &SampleRequest,
+) -> Result<SampleResponse, ApiError> {
+    if req.points.len() > limits.max_points {
+        return Err(ApiError::too_many_points(
+            "points",
+            req.points.len(),
+            limits.max_points,
+        ));
+    }
+    let fields = parse_fields(req.fields.as_deref())?;
+    let options = query_options(req.accuracy.as_ref())?;
+    let origin = match req.origin {
+        Some([x, z]) => Some(DVec2::new(
+            check_coord(limits, x, || "origin[0]".into())?,
+            check_coord(limits, z, || "origin[1]".into())?,
+        )),
+        None => None,
+    };
+    let mut world = Vec::with_capacity(req.points.len());
+    for (i, &[x, z]) in req.points.iter().enumerate() {
+        let p = DVec2::new(
+            check_coord(limits, x, || format!("points[{i}][0]"))?,
+            check_coord(limits, z, || format!("points[{i}][1]"))?,
+        );
+        let w = match origin {
+            Some(o) => DVec2::new(o.x + p.x, o.y + p.y),
+            None => p,
+        };
+        // The sum of two in-range values can still leave the range.
+        check_coord(limits, w.x, || format!("origin[0] + points[{i}][0]"))?;
+        check_coord(limits, w.y, || format!("origin[1] + points[{i}][1]"))?;
+        world.push(w);
+    }
+    // An empty batch has an empty answer: no FFT frame is worth computing for it.
+    let sea = if world.is_empty() {
+        None
+    } else {
+        Some(
+            frames
+                .surface_at(scene, t, now, fields, &options)
+                .map_err(|e| ApiError::invalid_query(&e))?,
+        )
+    };
+    let threads = (world.len() / POINTS_PER_THREAD).clamp(
+        1,
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+    );
+    let results = sea.map_or_else(Vec::new, |sea| {
+        sea.query_batch_parallel(&world, fields, threads)
+    });
+    metrics::counter!("swell_points_sampled_total").increment(world.len() as u64);
+    let mut out = SampleResponse {
+        t,
+        ..Default::default()
+    };
+    if fields.height {
+        out.height = Some(results.iter().map(|r| r.height).collect());
+    }
+    if fields.normal {
+        out.normal = Some(results.iter().map(|r| r.normal.to_array()).collect());
+    }
+    if fields.displacement {
+        out.displacement = Some(results.iter().map(|r| r.displacement.to_array()).collect());
+    }
+    if fields.jacobian {
+        out.jacobian = Some(results.iter().map(|r| r.jacobian).collect());
+        out.folded = Some(results.iter().map(|r| r.folded).collect());
+    }
+    if fields.residual {
+        out.residual = Some(results.iter().map(|r| r.residual).collect());
+    }
+    Ok(out)
+}
+
+/// Height at one world point, with the default accuracy. Blocking unless [`runs_inline`] said
+/// otherwise. Bit-identical to the same point in [`run_sample`] with default accuracy.
+///
+/// # Errors
+/// 400 for a non-finite or out-of-range coordinate.
+pub fn run_height(
+    frames: &FrameCache,
+    limits: &Limits,
+    scene: &Scene,
+    At { t, now }: At,
+    x: f64,
+    z: f64,
+) -> Result<HeightResponse, ApiError> {
+    let x = check_coord(limits, x, || "x".into())?;
+    let z = check_coord(limits, z, || "z".into())?;
+    let sea = frames
+        .surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())
+        .map_err(|e| ApiError::invalid_query(&e))?;
+    let r = sea.query(DVec2::new(x, z), QueryFields::HEIGHT);
+    metrics::counter!("swell_points_sampled_total").increment(1);
+    Ok(HeightResponse {
+        t,
+        height: r.height,
+    })
+}
+
+/// Orientation of every body at `at`. Blocking unless [`runs_inline`] said otherwise.
+///
+/// # Errors
+/// 413 too many bodies or probes in total; 400 naming `bodies[i].…` for a bad body.
+pub fn run_orientation(
+    frames: &FrameCache,
+    limits: &Limits,
+    scene: &Scene,
+    At { t, now }: At,
+    req: &OrientationRequest,
+) -> Result<OrientationResponse, ApiError> {
+    if req.bodies.len() > limits.max_bodies {
+        return Err(ApiError::new(
+            axum::http::StatusCode::PAYLOAD_TOO_LARGE,
+            "too_many_bodies",
+            format!(
+                "bodies has {} entries; at most {} per request",
+                req.bodies.len(),
+                limits.max_bodies
+            ),
+        )
+        .with_field("bodies"));
+    }
+    // The default footprint has 9 probes.
+    let probes: usize = req
+        .bodies
+        .iter()
+        .map(|b| b.probes.as_ref().map_or(9, Vec::len))
+        .sum();
+    if probes > limits.max_points {
+        return Err(ApiError::too_many_points(
+            "bodies",
+            probes,
+            limits.max_points,
+        ));
+    }
+    let mut bodies = Vec::with_capacity(req.bodies.len());
+    for (i, b) in req.bodies.iter().enumerate() {
+        check_coord(limits, b.position[0], || format!("bodies[{i}].position[0]"))?;
+        check_coord(limits, b.position[1], || format!("bodies[{i}].position[1]"))?;
+        if !(b.yaw.is_finite() && b.yaw.abs() <= MAX_YAW) {
+            return Err(ApiError::invalid(
+                format!("bodies[{i}].yaw"),
+                format!(
+                    "bodies[{i}].yaw = {} is out of range: a finite angle with |yaw| <= {MAX_YAW} rad",
+                    b.yaw
+                ),
+            ));
+        }
+        let fp: swell_waves::body::BodyFootprint = b.clone().into();
+        // Validate the footprint now, so no sea is computed for a bad request.
+        fp.probes(&format!("bodies[{i}]"))
+            .map_err(|e| ApiError::invalid_query(&e))?;
+        bodies.push(fp);
+    }
+    let sea = frames
+        .surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())
+        .map_err(|e| ApiError::invalid_query(&e))?;
+    let mut out = Vec::with_capacity(bodies.len());
+    for (i, fp) in bodies.iter().enumerate() {
+        let o = fp
+            .orientation(&sea, &format!("bodies[{i}]"))
+            .map_err(|e| ApiError::invalid_query(&e))?;
+        out.push(BodyOrientation {
+            heave: o.heave,
+            rotation: o.rotation.to_array(),
+            normal: o.normal.to_array(),
+            pitch: o.pitch,
+            roll: o.roll,
+        });
+    }
+    metrics::counter!("swell_points_sampled_total").increment(probes as u64);
+    Ok(OrientationResponse { t, bodies: out })
+}
+
+/// Points (sample points, or orientation probes) a query may have and still run on the reactor
+/// thread. 64 Gerstner points with height inversion take ~35 µs here (0.56 µs a point on
+/// `lake`), about what the hop to the blocking pool and back costs in latency and context
+/// switches on a loaded 2-core machine; past that, a query could hold a reactor thread long
+/// enough to delay other connections, so it moves to the pool.
+pub const INLINE_POINTS: usize = 64;
+
+/// Whether a query of `points` points asking `fields` with `options` at `at.t` is cheap enough
+/// to answer on the reactor: few points, and every FFT frame it reads already in the cache (a
+/// frame to compute takes milliseconds; at the scene's now the frame-ahead loop has them ready).
+/// A frame could in principle be evicted between this check and its use (far frames only);
+/// then that one query computes it where it runs.
+pub fn runs_inline(
+    frames: &FrameCache,
+    scene: &Scene,
+    at: At,
+    points: usize,
+    fields: QueryFields,
+    options: &QueryOptions,
+) -> bool {
+    points <= INLINE_POINTS && frames.has_frames(scene, at.t, fields, options)
+}
+
+/// [`runs_inline`] for a sample request: its fields and accuracy (a request whose fields or
+/// accuracy do not parse runs inline: it answers with an error at once).
+pub fn sample_runs_inline(frames: &FrameCache, scene: &Scene, at: At, req: &SampleRequest) -> bool {
+    match (
+        parse_fields(req.fields.as_deref()),
+        query_options(req.accuracy.as_ref()),
+    ) {
+        (Ok(fields), Ok(options)) => {
+            runs_inline(frames, scene, at, req.points.len(), fields, &options)
+        }
+        _ => true,
+    }
+}
+
+/// Runs query work: at once when it is cheap (`inline`), else on the blocking pool, off the
+/// reactor.
+pub async fn run_query<T: Send + 'static>(
+    inline: bool,
+    f: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
+) -> Result<T, ApiError> {
+    if inline {
+        return f();
+    }
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(ApiError::internal)?
+}
+
+/// Probes an orientation request samples: each body's explicit probes, or the default 3×3.
+pub fn orientation_probes(req: &OrientationRequest) -> usize {
+    req.bodies
+        .iter()
+        .map(|b| b.probes.as_ref().map_or(9, Vec::len))
+        .fold(0usize, usize::saturating_add)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::scene::builtin::built as builtin;
+
+    #[test]
+    fn small_queries_run_inline_unless_they_need_a_frame_computed() {
+        let (lake, calm, storm) = (builtin("lake"), builtin("calm"), builtin("storm"));
+        let frames = FrameCache::new(4);
+        let at = At { t: 12.3, now: 12.3 };
+        let (h, o) = (QueryFields::HEIGHT, QueryOptions::default());
+        assert!(runs_inline(&frames, &lake, at, 1, h, &o));
+        assert!(runs_inline(&frames, &calm, at, INLINE_POINTS, h, &o));
+        assert!(!runs_inline(&frames, &calm, at, INLINE_POINTS + 1, h, &o));
+        // An FFT scene whose frames are not computed yet: the blocking pool.
+        assert!(!runs_inline(&frames, &storm, at, 1, h, &o));
+        // Once they are (the frame-ahead loop's job at now), on the reactor.
+        frames.surface_at(&storm, at.t, at.now, h, &o).unwrap();
+        assert!(runs_inline(&frames, &storm, at, 1, h, &o));
+        // Normals need slopes the cached frames lack.
+        let n = QueryFields { normal: true, ..h };
+        assert!(!runs_inline(&frames, &storm, at, 1, n, &o));
+        let req: OrientationRequest = serde_json::from_value(serde_json::json!({
+            "bodies": [{"position": [0, 0], "length": 5, "beam": 2},
+                       {"position": [0, 0], "length": 5, "beam": 2, "probes": [[0, 0], [1, 0]]}]
+        }))
+        .unwrap();
+        assert_eq!(orientation_probes(&req), 11);
+    }
+}
