@@ -230,6 +230,23 @@ pub struct Nginx {
     _dir: tempfile::TempDir,
 }
 
+impl Drop for Nginx {
+    /// A fast shutdown (SIGTERM) so the master stops its workers: a `kill -9` of the master
+    /// (what dropping the [`Proc`] does) leaves them running, orphaned, after the test.
+    fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self._proc.pid().to_string()])
+            .status();
+        let until = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < until {
+            if matches!(self._proc.child.try_wait(), Ok(Some(_))) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
 impl Nginx {
     pub async fn start(upstreams: &[u16], client: &reqwest::Client) -> Nginx {
         let conf =

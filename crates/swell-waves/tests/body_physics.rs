@@ -632,3 +632,55 @@ fn body_spec_errors_name_the_field() {
     .unwrap_err();
     assert_eq!(e.field(), "tick_hz");
 }
+
+/// Issue 10 (bodies on FFT scenes): the velocity grids of FFT layers are computed once per
+/// tick, at the tick's time, and every substep of the tick reads them. Pinned against a step
+/// that attaches the tick-time grids by hand (the same bits), and against one that computes
+/// grids at every substep time (different bits: the substeps do read velocity).
+#[test]
+fn fft_velocity_grids_are_the_ticks_for_every_substep() {
+    let sea = storm_sea();
+    let o = QueryOptions::default();
+    // A light, stiff body takes several substeps a tick at 10 Hz; drag reads the velocity.
+    let make = || {
+        let mut w = world(10.0);
+        let spec = BodySpec {
+            linear_drag: 2000.0,
+            ..BodySpec::boxed(300.0, 2.0, 1.0, 0.5)
+        };
+        let id = w
+            .add(&spec, BodyState::at_rest(DVec3::new(3.0, 0.2, -2.0), 0.4))
+            .unwrap();
+        (w, id)
+    };
+    let (mut a, id) = make();
+    let (mut b, _) = make();
+    let (mut c, _) = make();
+    let grids_at = |t: f64| -> Vec<Option<std::sync::Arc<swell_waves::fft::FftVelocityFrame>>> {
+        sea.layers()
+            .iter()
+            .map(|l| match l {
+                swell_waves::Layer::Fft(f) => Some(std::sync::Arc::new(f.velocity_frame(t))),
+                _ => None,
+            })
+            .collect()
+    };
+    for _ in 0..20 {
+        a.step_surface(&sea, &o).unwrap();
+        let tick_grids = grids_at(b.time());
+        b.step(|t| {
+            sea.at(t, QueryFields::HEIGHT, &o)
+                .unwrap()
+                .with_velocity_frames(tick_grids.clone())
+                .unwrap()
+        });
+        c.step(|t| sea.at(t, QueryFields::HEIGHT, &o).unwrap().with_velocity());
+    }
+    assert!(a.body(id).unwrap().status().substeps > 1);
+    let bits = |w: &World| {
+        let s = w.body(id).unwrap().state();
+        [s.position, s.velocity].map(|v| v.to_array().map(f64::to_bits))
+    };
+    assert_eq!(bits(&a), bits(&b));
+    assert_ne!(bits(&a), bits(&c));
+}

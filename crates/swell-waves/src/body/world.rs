@@ -19,6 +19,7 @@ use super::buoyancy::loads;
 use super::spec::{BodyModel, BodySpec};
 use super::state::{BodyState, BodyStatus, quat_from_rotation_vector};
 use crate::error::{SpecError, finite, positive};
+use crate::fft::FftVelocityFrame;
 use crate::query::{QueryFields, QueryOptions};
 use crate::surface::{Surface, SurfaceAt};
 #[cfg(feature = "serde")]
@@ -497,9 +498,14 @@ impl World {
     /// [`World::step_surface`] with the height snapshots supplied by `at` (a server's shared
     /// frame cache, say): `at(t)` must return `surface` at exactly t, ready for
     /// [`QueryFields::HEIGHT`] queries with `options`, as `surface.at(t, HEIGHT, options)` would;
-    /// velocity grids are added here ([`SurfaceAt::with_velocity`]). A snapshot built from the
-    /// same frames as `surface.at` gives the same bits, so the trajectory does not depend on
-    /// where the frames came from.
+    /// velocity grids are added here. A snapshot built from the same frames as `surface.at`
+    /// gives the same bits, so the trajectory does not depend on where the frames came from.
+    ///
+    /// Velocity grids of FFT layers are computed once per tick, at the tick's time
+    /// ([`SurfaceAt::with_velocity`] on the first snapshot), and every later substep of the tick
+    /// reads those ([`SurfaceAt::with_velocity_frames`]): the water velocity only enters the
+    /// drag, a tick (1/30 s) moves the fastest modes' velocity phase by ω·Δt, and a velocity grid
+    /// costs three 256² transforms — per substep it was most of an FFT scene's body cost.
     ///
     /// # Errors
     /// Invalid `options` (nothing is stepped then). An error from `at` (which a finite substep
@@ -511,8 +517,24 @@ impl World {
         mut at: impl FnMut(f64) -> Result<SurfaceAt<'s>, SpecError>,
     ) -> Result<(), SpecError> {
         options.validate()?;
+        // The tick's velocity grids: computed with the first snapshot (the tick time's), shared
+        // by the later substeps.
+        let mut tick_velocities: Option<Vec<Option<Arc<FftVelocityFrame>>>> = None;
         self.step(|t| match at(t) {
-            Ok(s) => s.with_velocity(),
+            Ok(s) => match &tick_velocities {
+                None => {
+                    let s = s.with_velocity();
+                    tick_velocities = Some(s.velocities.clone());
+                    s
+                }
+                Some(v) => {
+                    // The same surface and options: exactly what `with_velocity` left on the
+                    // first snapshot (nothing for analytic layers or in reference mode).
+                    let mut s = s;
+                    s.velocities = v.clone();
+                    s
+                }
+            },
             Err(_) => unreachable_sea(surface, options),
         });
         Ok(())
