@@ -1,0 +1,67 @@
+//! The in-process yardstick of P8 (`docs/performance.md`): how long one tick of N floating
+//! bodies takes on a built-in scene, through the same `SceneBodies::advance_to` the server's
+//! body loop calls, reading FFT frames from a frame cache as the loop does
+//! (`Sea::Shared`), with no HTTP, no stream and no other load.
+//!
+//! ```sh
+//! cargo run --release --example body_step -- [scene] [bodies] [ticks]
+//! ```
+//! Defaults: `lake 1000 150`. The boats are `swell-load`'s (8 m × 3 m × 1.5 m, 3 t, on a 20 m
+//! grid), spawned floating at their draft and stepped for 30 ticks before the measured ones.
+//! The share of one core at 30 Hz is `30 × time per tick`. Unlike the live server, nothing else
+//! computes the FFT grid frames here, so on FFT scenes every tick also pays for its own two
+//! grid frames (the server's frame-ahead loop computes those for queries at now anyway).
+
+use std::time::Instant;
+
+use swell::bodies::{SceneBodies, Sea, SpawnRequest};
+use swell::frames::FrameCache;
+use swell::scene::Scene;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let scene_id = args.first().map_or("lake", String::as_str).to_owned();
+    let bodies: usize = args.get(1).map_or(1000, |s| s.parse().expect("bodies"));
+    let ticks: i64 = args.get(2).map_or(150, |s| s.parse().expect("ticks"));
+    let (_, spec) = swell::scene::builtin::specs()
+        .into_iter()
+        .find(|(id, _)| *id == scene_id)
+        .unwrap_or_else(|| panic!("{scene_id} is not a built-in scene"));
+    let scene = Scene::build(&scene_id, spec).expect("built-in scenes build");
+    let (hz, g) = (scene.spec.tick_hz, scene.spec.surface.gravity);
+    let cache = FrameCache::new(64);
+    let start = 1_000_000_i64;
+    let mut world = SceneBodies::new(start, hz, g).expect("the scene's settings");
+    for i in 0..bodies {
+        let req: SpawnRequest = serde_json::from_value(serde_json::json!({
+            "mass": 3000.0,
+            "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+            "position": [(i % 32) as f64 * 20.0, 0.63, (i / 32) as f64 * 20.0]
+        }))
+        .expect("a valid spawn");
+        world.spawn(&req).expect("the boat spawns");
+    }
+    let step = |world: &mut SceneBodies, tick: i64| {
+        let sea = Sea::Shared {
+            cache: &cache,
+            scene: &scene,
+            now: tick as f64 / hz,
+        };
+        world.advance_to(tick, sea, hz, g);
+    };
+    for k in 1..=30 {
+        step(&mut world, start + k);
+    }
+    let t0 = Instant::now();
+    for k in 31..=30 + ticks {
+        step(&mut world, start + k);
+    }
+    let per_tick = t0.elapsed().as_secs_f64() / ticks as f64;
+    println!(
+        "{scene_id}: {bodies} bodies, {ticks} ticks: {:.2} ms per tick, {:.1} µs per body; \
+         {:.0}% of one core at {hz} Hz",
+        per_tick * 1e3,
+        per_tick * 1e6 / bodies.max(1) as f64,
+        per_tick * hz * 100.0
+    );
+}
