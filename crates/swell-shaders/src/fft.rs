@@ -579,4 +579,4 @@ pub fn cycles(surface: &Surface, t: f64) -> Vec<(usize, [f32; 4])> {
 pub(crate) mod twin;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
