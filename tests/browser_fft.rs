@@ -441,11 +441,14 @@ fn errors(run: &Value, v: &Value, n: usize) -> (f64, f64, f64) {
     worst
 }
 
+/// A scene's `(t, origin)` per run, in page order.
+type Runs = Vec<(f64, [f64; 2])>;
+
 /// Compares one path's read-backs with `/sample` (`expected[scene][run] = [grid, exact]`),
 /// prints per run and per scene maxima, and asserts the bounds.
 fn compare(
     path: &str,
-    runs_of: &[(&str, Vec<(f64, [f64; 2])>)],
+    runs_of: &[(&str, Runs)],
     expected: &[Vec<Vec<Value>>],
     result: &Value,
     n: usize,
