@@ -56,14 +56,11 @@ fn main() -> anyhow::Result<()> {
                 }
             }
         }
-        // The engine includes carry no FFT layer yet (the export refuses them).
+        // The engine includes, FFT scenes' too (they declare the result textures).
         for (lang, ext) in [
             (Lang::HlslInclude, "hlsl_include.hlsl"),
             (Lang::Gdshaderinc, "gdshaderinc"),
-        ]
-        .into_iter()
-        .filter(|_| !scene.surface.has_fft())
-        {
+        ] {
             let text = swell_shaders::export(&scene.surface, lang, None)?;
             let path = format!("{dir}/{id}.{ext}");
             std::fs::write(&path, text).with_context(|| path.clone())?;

@@ -24,8 +24,6 @@
 
 mod common;
 
-use std::process::Command;
-
 use common::{TestServer, config};
 use serde_json::{Value, json};
 
@@ -307,95 +305,6 @@ fn compare(half: &str, cases: &[Case], result: &Value, probes: usize) -> Worst {
     overall
 }
 
-/// Serves `page` at `http://127.0.0.1:PORT/` (WebGPU needs a secure origin: a file is not
-/// one, loopback HTTP is) and hands the body POSTed to `/result` to the receiver.
-async fn serve_page(
-    page: String,
-) -> (
-    std::net::SocketAddr,
-    tokio::sync::mpsc::Receiver<String>,
-    tokio::task::JoinHandle<()>,
-) {
-    use axum::routing::{get, post};
-    let (tx, rx) = tokio::sync::mpsc::channel::<String>(1);
-    let app = axum::Router::new()
-        .route(
-            "/",
-            get(move || {
-                let page = page.clone();
-                async move { axum::response::Html(page) }
-            }),
-        )
-        .route(
-            "/result",
-            post(move |body: String| {
-                let tx = tx.clone();
-                async move {
-                    let _ = tx.send(body).await;
-                    axum::http::StatusCode::NO_CONTENT
-                }
-            }),
-        );
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let addr = listener.local_addr().unwrap();
-    let task = tokio::spawn(async move {
-        let _ = axum::serve(listener, app).await;
-    });
-    (addr, rx, task)
-}
-
-/// The WebGPU half: the page on loopback HTTP, Chromium with SwiftShader's WebGPU adapter, the
-/// result posted back; `Err` with the reason when this Chromium offers no WebGPU adapter.
-async fn run_webgpu_page(dir: &std::path::Path, page_cases: &Value) -> Result<Value, String> {
-    let page = format!(
-        "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\nconst CASES = {page_cases};\n{GPU_PAGE_JS}</script></body></html>"
-    );
-    let (addr, mut rx, server) = serve_page(page).await;
-    let log = dir.join("chromium-webgpu.log");
-    let mut child = Command::new(common::browser::chromium())
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-dev-shm-usage",
-            "--enable-unsafe-webgpu",
-            "--use-webgpu-adapter=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--ignore-gpu-blocklist",
-            "--no-first-run",
-            "--no-default-browser-check",
-            "--disable-background-networking",
-            "--disable-extensions",
-        ])
-        .arg(format!(
-            "--user-data-dir={}",
-            dir.join("profile-webgpu").display()
-        ))
-        .arg(format!("http://{addr}/"))
-        .stdout(std::process::Stdio::null())
-        .stderr(std::fs::File::create(&log).unwrap())
-        .spawn()
-        .expect("chromium runs (set CHROMIUM to its path)");
-    let got = tokio::time::timeout(std::time::Duration::from_secs(180), rx.recv()).await;
-    // Chromium does not exit by itself with a page open: stop it either way.
-    let _ = child.kill();
-    let _ = child.wait();
-    server.abort();
-    let stderr = || std::fs::read_to_string(&log).unwrap_or_default();
-    let body = match got {
-        Ok(Some(b)) => b,
-        _ => panic!(
-            "webgpu: no result from the page in 180 s; chromium stderr:\n{}",
-            stderr()
-        ),
-    };
-    let v: Value = serde_json::from_str(&body)
-        .unwrap_or_else(|e| panic!("webgpu page result is not JSON ({e}): {body}"));
-    match v["unavailable"].as_str() {
-        Some(why) => Err(why.to_owned()),
-        None => Ok(v),
-    }
-}
-
 #[tokio::test(flavor = "multi_thread")]
 #[ignore = "needs chromium: run by .ci/browser-parity"]
 async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
@@ -536,7 +445,8 @@ async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
     // WebGPU: the same cases through the WGSL, on loopback HTTP.
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir().unwrap();
-    match run_webgpu_page(dir.path(), &page_cases).await {
+    let script = format!("const CASES = {page_cases};\n{GPU_PAGE_JS}");
+    match common::browser::run_webgpu_page(dir.path(), &script, 180).await {
         Ok(result) => {
             assert_eq!(result["ok"], json!(true), "webgpu page failed: {result}");
             eprintln!(

@@ -31,20 +31,7 @@ async fn shader_in_every_language_for_every_builtin_scene_with_version_headers_a
         let hash = detail["spec_hash"].as_str().unwrap().to_owned();
         for lang in LANGS {
             let path = format!("/v1/scenes/{id}/shader?lang={lang}");
-            if ["hlsl_include", "gdshaderinc"].contains(&lang)
-                && ["open-sea", "storm"].contains(&id)
-            {
-                // The engine includes carry no FFT layer yet: 422 naming why, not a shader
-                // without its FFT layer.
-                let (st, v) = s.get_json(&path).await;
-                assert_eq!(st, 422, "{path}: {v}");
-                assert_eq!(v["error"]["code"], "shader_unavailable", "{v}");
-                assert!(
-                    v["error"]["message"].as_str().unwrap().contains("FFT"),
-                    "{v}"
-                );
-                continue;
-            }
+            let fft = ["open-sea", "storm"].contains(&id);
             let r = s.get(&path).await;
             assert_eq!(r.status(), 200, "{path}");
             assert!(header(&r, "content-type").starts_with("text/plain"));
@@ -64,10 +51,26 @@ async fn shader_in_every_language_for_every_builtin_scene_with_version_headers_a
                     assert!(text.contains("cbuffer SwellUniforms {"));
                     assert!(text.contains("float3 swell_to_unity(float3 v)"));
                     assert!(!text.contains("swell_vs") && !text.contains("register("));
+                    // An FFT scene's include (200 since the includes carry FFT layers) reads
+                    // the FFT layer's result textures and says how the passes fill them.
+                    assert_eq!(
+                        text.contains(
+                            "Texture2D<float4> swell_fft0_a;\nTexture2D<float4> swell_fft0_b;\n"
+                        ),
+                        fft,
+                        "{path}"
+                    );
+                    assert_eq!(text.contains("entry=swell_fft_evolve_cs"), fft, "{path}");
                 }
                 "gdshaderinc" => {
                     assert!(text.contains("uniform vec4 swell_u_phases["));
                     assert!(!text.contains("#version") && !text.contains("void main()"));
+                    assert_eq!(
+                        text.contains("uniform sampler2D swell_fft0_a : hint_default_black, filter_nearest, repeat_enable;"),
+                        fft,
+                        "{path}"
+                    );
+                    assert_eq!(text.contains("texelFetch(swell_fft0_b, "), fft, "{path}");
                 }
                 _ => assert!(text.contains("metal_stdlib")),
             }

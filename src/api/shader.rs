@@ -3,7 +3,8 @@
 //!
 //! - `GET /v1/scenes/{id}/shader?lang=wgsl|glsl|glsl_es|hlsl|msl[&entry=]` — source text;
 //!   `lang=hlsl_include|gdshaderinc` — the engine includes (Unity/Unreal HLSL, Godot), which
-//!   hold no entry point and take no `entry`;
+//!   hold no entry point and take no `entry` (an FFT scene's include reads the layers' result
+//!   textures, which the pass modules below fill);
 //!   `&entry=swell_fft_vs|swell_fft_evolve|swell_fft_butterfly&layer=N` — FFT layer N's pass
 //!   module (see [`swell_shaders::fft`]).
 //! - `GET /v1/scenes/{id}/uniforms?[t=][&origin=x,z]` — the frame's phase offsets (f64 maths).
@@ -133,8 +134,7 @@ fn shader_error(e: ShaderError) -> ApiError {
     match e {
         ShaderError::TooManyWaves { .. }
         | ShaderError::NotRepresentable { .. }
-        | ShaderError::TooManyParticles { .. }
-        | ShaderError::IncludeWithFft { .. } => ApiError::new(
+        | ShaderError::TooManyParticles { .. } => ApiError::new(
             StatusCode::UNPROCESSABLE_ENTITY,
             "shader_unavailable",
             e.to_string(),
@@ -142,7 +142,9 @@ fn shader_error(e: ShaderError) -> ApiError {
         ShaderError::BadLayer { .. } | ShaderError::NeedsLayer { .. } => {
             ApiError::invalid("layer", e.to_string())
         }
-        ShaderError::Unsupported { .. } => ApiError::invalid("lang", e.to_string()),
+        ShaderError::Unsupported { .. } | ShaderError::PassesNotInInclude { .. } => {
+            ApiError::invalid("lang", e.to_string())
+        }
         ShaderError::Naga { .. } => ApiError::internal(e),
     }
 }
@@ -391,14 +393,6 @@ mod tests {
             for lang in Lang::ALL {
                 for entry in [None, Some(Entry::Vertex), Some(Entry::ProbeFragment)] {
                     let out = swell_shaders::export(&scene.surface, lang, entry);
-                    if lang.is_include() && scene.surface.has_fft() {
-                        // The engine includes carry no FFT layer yet, and say so.
-                        assert!(
-                            matches!(out, Err(ShaderError::IncludeWithFft { .. })),
-                            "{id} {lang:?}"
-                        );
-                        continue;
-                    }
                     let text = out.unwrap_or_else(|e| panic!("{id} {lang:?} {entry:?}: {e}"));
                     assert!(text.contains("swell_sample"), "{id} {lang:?}");
                 }
@@ -406,8 +400,9 @@ mod tests {
                     for entry in Entry::FFT {
                         let out = swell_shaders::export_fft(&scene.surface, li, lang, Some(entry));
                         if lang.is_include() {
+                            // The passes are plain shaders; the includes read their results.
                             assert!(
-                                matches!(out, Err(ShaderError::IncludeWithFft { .. })),
+                                matches!(out, Err(ShaderError::PassesNotInInclude { .. })),
                                 "{id} {lang:?}"
                             );
                             continue;

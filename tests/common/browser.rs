@@ -1,6 +1,9 @@
-//! Headless Chromium for the browser tests (Debian's `chromium`, or `$CHROMIUM`): a page written
-//! to a file runs on SwiftShader's WebGL2 and leaves its result as JSON in `<pre id="out">`,
-//! which `--dump-dom` prints.
+//! Headless Chromium for the browser tests (Debian's `chromium`, or `$CHROMIUM`), two ways:
+//!
+//! - WebGL2 ([`run_webgl_page`]): a page written to a file runs on SwiftShader's WebGL2 and
+//!   leaves its result as JSON in `<pre id="out">`, which `--dump-dom` prints.
+//! - WebGPU ([`run_webgpu_page`]): WebGPU needs a secure origin and is asynchronous, so the page
+//!   is served from `http://127.0.0.1` by the test and POSTs its result back to it.
 
 use std::process::Command;
 
@@ -69,4 +72,106 @@ pub fn run_webgl_page(name: &str, script: &str, timeout_s: u32, budget_ms: u32) 
         .unwrap_or_else(|e| panic!("page result is not JSON ({e}): {body}"));
     assert_eq!(result["ok"], json!(true), "page failed: {result}");
     result
+}
+
+/// Serves `page` at `http://127.0.0.1:PORT/` (WebGPU needs a secure origin: a file is not
+/// one, loopback HTTP is) and hands the body POSTed to `/result` to the receiver.
+async fn serve_page(
+    page: String,
+) -> (
+    std::net::SocketAddr,
+    tokio::sync::mpsc::Receiver<String>,
+    tokio::task::JoinHandle<()>,
+) {
+    use axum::routing::{get, post};
+    let (tx, rx) = tokio::sync::mpsc::channel::<String>(1);
+    let app = axum::Router::new()
+        .route(
+            "/",
+            get(move || {
+                let page = page.clone();
+                async move { axum::response::Html(page) }
+            }),
+        )
+        .route(
+            "/result",
+            post(move |body: String| {
+                let tx = tx.clone();
+                async move {
+                    let _ = tx.send(body).await;
+                    axum::http::StatusCode::NO_CONTENT
+                }
+            }),
+        );
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let task = tokio::spawn(async move {
+        let _ = axum::serve(listener, app).await;
+    });
+    (addr, rx, task)
+}
+
+/// Runs `script` (which must POST its JSON result to `/result`, `{"unavailable": why}` where
+/// the page finds no WebGPU adapter) in a page on loopback HTTP, in headless Chromium with
+/// SwiftShader's WebGPU adapter, profile and log under `dir`; panics when no result arrives in
+/// `timeout_s` seconds. `Err` with the reason when this Chromium offers no WebGPU adapter.
+///
+/// The flags: `--enable-unsafe-webgpu --use-webgpu-adapter=swiftshader` give headless Chromium
+/// an adapter here; `--enable-features=Vulkan --use-vulkan=swiftshader` put the rest of the GPU
+/// process on the same SwiftShader Vulkan (without them a presented canvas loses the device,
+/// see docs/clients.md; compute-only pages ran either way).
+pub async fn run_webgpu_page(
+    dir: &std::path::Path,
+    script: &str,
+    timeout_s: u64,
+) -> Result<Value, String> {
+    let page = format!(
+        "<!doctype html><html><body><pre id=\"out\">pending</pre><script>\n{script}</script></body></html>"
+    );
+    let (addr, mut rx, server) = serve_page(page).await;
+    let log = dir.join("chromium-webgpu.log");
+    let mut child = Command::new(chromium())
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-dev-shm-usage",
+            "--enable-unsafe-webgpu",
+            "--use-webgpu-adapter=swiftshader",
+            "--enable-features=Vulkan",
+            "--use-vulkan=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--ignore-gpu-blocklist",
+            "--no-first-run",
+            "--no-default-browser-check",
+            "--disable-background-networking",
+            "--disable-extensions",
+        ])
+        .arg(format!(
+            "--user-data-dir={}",
+            dir.join("profile-webgpu").display()
+        ))
+        .arg(format!("http://{addr}/"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("chromium runs (set CHROMIUM to its path)");
+    let got = tokio::time::timeout(std::time::Duration::from_secs(timeout_s), rx.recv()).await;
+    // Chromium does not exit by itself with a page open: stop it either way.
+    let _ = child.kill();
+    let _ = child.wait();
+    server.abort();
+    let stderr = || std::fs::read_to_string(&log).unwrap_or_default();
+    let body = match got {
+        Ok(Some(b)) => b,
+        _ => panic!(
+            "webgpu: no result from the page in {timeout_s} s; chromium stderr:\n{}",
+            stderr()
+        ),
+    };
+    let v: Value = serde_json::from_str(&body)
+        .unwrap_or_else(|e| panic!("webgpu page result is not JSON ({e}): {body}"));
+    match v["unavailable"].as_str() {
+        Some(why) => Err(why.to_owned()),
+        None => Ok(v),
+    }
 }

@@ -54,17 +54,17 @@ pub enum ShaderError {
         /// The entry point's name.
         entry: &'static str,
     },
-    /// An engine include asked for a surface with FFT layers: the includes carry the sine,
-    /// Gerstner and particle layers (uniforms only); an FFT layer needs its textures and pass
-    /// shaders, which they do not declare yet.
+    /// An FFT layer's pass shaders asked for in an engine include language: an include holds
+    /// the surface's functions (FFT layers included, reading the passes' result textures); the
+    /// passes themselves are plain shaders the engine runs, in `hlsl`, `glsl`, `msl` or `wgsl`.
     #[error(
-        "lang {lang} (an engine include) cannot carry this surface's {layers} FFT layer(s) yet: use lang=hlsl or glsl_es with the FFT pass shaders (entry=swell_fft_*, docs/clients.md)"
+        "lang {lang} is an engine include of the surface functions; FFT layer {layer}'s passes are plain shaders: use lang=hlsl, glsl, msl or wgsl with entry=swell_fft_* (docs/clients.md)"
     )]
-    IncludeWithFft {
+    PassesNotInInclude {
         /// The include's language name.
         lang: &'static str,
-        /// FFT layers in the surface.
-        layers: usize,
+        /// The FFT layer asked for.
+        layer: usize,
     },
     /// An entry point the language cannot hold (a compute shader in GLSL ES 3.00).
     #[error(

@@ -173,7 +173,8 @@ pub fn emit_passes(surface: &Surface, layer: usize) -> Result<String, ShaderErro
 /// `swell_fft_butterfly_cs` (workgroups of 8×8, one invocation per texel), the same uniforms
 /// and inputs, outputs to RGBA32F storage textures at `@binding(3)` and `@binding(4)`. The same
 /// arithmetic as the fragment passes per texel (not a workgroup-shared Stockham: each stage is
-/// one dispatch, 2·log₂N of them). Validated by naga; not yet run in a browser.
+/// one dispatch, 2·log₂N of them). Validated by naga; run by headless Chromium's WebGPU
+/// (`tests/browser_fft.rs`), where it reads back the fragment passes' values to the bit.
 ///
 /// # Errors
 /// As [`emit_passes`].
@@ -579,4 +580,4 @@ pub fn cycles(surface: &Surface, t: f64) -> Vec<(usize, [f32; 4])> {
 pub(crate) mod twin;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -8,7 +8,8 @@
 //! - [`naga`] (pinned to exactly [`NAGA_VERSION`]) validates that module and translates it to
 //!   **GLSL 4.50**, **GLSL ES 3.00** (WebGL2), **HLSL** (shader model 5.1) and **MSL** (2.1)
 //!   ([`translate`]); and packages the functions as engine includes: an HLSL include for Unity
-//!   and Unreal and a Godot `.gdshaderinc` ([`engines`]).
+//!   and Unreal and a Godot `.gdshaderinc` ([`engines`]), FFT layers' result textures declared
+//!   the engine's way.
 //! - The host computes each wave's phase offset for the frame in f64 ([`uniforms`]); the shader
 //!   adds only a small local term (see *Precision* below).
 //! - A particle layer is evaluated in the shader with the model's kernel: its ambient particles'
@@ -112,18 +113,11 @@ pub const NAGA_VERSION: &str = "30.0.1";
 /// [`ShaderError::TooManyWaves`] or [`ShaderError::NotRepresentable`] when the surface cannot be
 /// emitted; [`ShaderError::Naga`] if naga rejects the module or fails to write it (a bug in the
 /// emitter, caught by the tests for every built-in scene); [`ShaderError::NeedsLayer`] for an
-/// FFT pass entry point (use [`export_fft`]); [`ShaderError::IncludeWithFft`] for an engine
-/// include of a surface with FFT layers.
+/// FFT pass entry point (use [`export_fft`]). An engine include of a surface with FFT layers
+/// reads the layers' result textures, which the passes of [`export_fft`] fill.
 pub fn export(surface: &Surface, lang: Lang, entry: Option<Entry>) -> Result<String, ShaderError> {
     if let Some(e) = entry.filter(|e| e.is_fft()) {
         return Err(ShaderError::NeedsLayer { entry: e.name() });
-    }
-    let ffts = fft::layers(surface).len();
-    if lang.is_include() && ffts > 0 {
-        return Err(ShaderError::IncludeWithFft {
-            lang: lang.name(),
-            layers: ffts,
-        });
     }
     let source = wgsl::emit(surface)?;
     finish(source, lang, entry)
@@ -140,7 +134,7 @@ pub fn export(surface: &Surface, lang: Lang, entry: Option<Entry>) -> Result<Str
 /// [`ShaderError::BadLayer`] when `layer` is not an FFT layer or its frequencies are too high
 /// for the f32 phase ([`fft::cycle_bits`]); [`ShaderError::Naga`] as [`export`]. A surface
 /// entry point here is [`ShaderError::BadLayer`] too (it is not in a pass module); an engine
-/// include language is [`ShaderError::IncludeWithFft`] (the passes are plain shaders).
+/// include language is [`ShaderError::PassesNotInInclude`] (the passes are plain shaders).
 pub fn export_fft(
     surface: &Surface,
     layer: usize,
@@ -148,9 +142,9 @@ pub fn export_fft(
     entry: Option<Entry>,
 ) -> Result<String, ShaderError> {
     if lang.is_include() {
-        return Err(ShaderError::IncludeWithFft {
+        return Err(ShaderError::PassesNotInInclude {
             lang: lang.name(),
-            layers: fft::layers(surface).len(),
+            layer,
         });
     }
     if let Some(e) = entry.filter(|e| !e.is_fft()) {

@@ -150,12 +150,14 @@ pub fn emit(surface: &Surface) -> Result<String, ShaderError> {
         let (kind, n) = match layer {
             Layer::Sine(_) => ("sine", layer.waves().len()),
             Layer::Gerstner(_) => ("gerstner", layer.waves().len()),
-            Layer::Fft(_) => {
+            Layer::Fft(f) => {
                 let _ = writeln!(
                     w,
-                    "// layer {li}: fft, sampled from its pass module's result textures \
-                     swell_fft{li}_a/_b (passes: GET /v1/scenes/{{id}}/shader?entry=swell_fft_evolve\
-                     &layer={li}; spectrum: GET /v1/scenes/{{id}}/spectrum?layer={li})"
+                    "// layer {li}: fft, N = {n}, tile {l} m, sampled from its pass module's result \
+                     textures swell_fft{li}_a/_b (passes: GET /v1/scenes/{{id}}/shader?entry=swell_fft_evolve\
+                     &layer={li}; spectrum: GET /v1/scenes/{{id}}/spectrum?layer={li})",
+                    n = f.resolution(),
+                    l = f.tile_size(),
                 );
                 continue;
             }

@@ -104,6 +104,98 @@ pub(crate) fn uniform_members(
         .collect()
 }
 
+/// One of an FFT layer's two result textures as the surface module binds it: `swell_fft{L}_a`
+/// or `swell_fft{L}_b` (L the layer index) at `@group(1) @binding(b)`, a `texture_2d<f32>` that
+/// `swell_sample` reads with `textureLoad` (its own Catmull–Rom filter and tile wrap: no
+/// sampler). The includes declare it under the same name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FftTexture {
+    /// The WGSL name, kept by both includes (`swell_fft0_a`).
+    pub name: String,
+    /// Its binding in `@group(1)`: 2f for `_a`, 2f + 1 for `_b` (f counts FFT layers).
+    pub binding: u32,
+}
+
+/// The FFT result textures the surface module binds at `@group(1)`, in binding order; empty
+/// for a surface without FFT layers.
+///
+/// # Errors
+/// [`ShaderError::Naga`] (stage `stage`) when a `@group(1)` resource is unnamed or not a
+/// `texture_2d<f32>` named `swell_fft…`, or their number is not twice the length of the uniform member `fft`
+/// (the one grid offset per FFT layer), or the bindings are not 0, 1, 2, ….
+pub(crate) fn fft_textures(
+    module: &Module,
+    members: &[UniformMember],
+    stage: &'static str,
+) -> Result<Vec<FftTexture>, ShaderError> {
+    let mut out = Vec::new();
+    for (_, v) in module.global_variables.iter() {
+        let Some(b) = v.binding.as_ref().filter(|b| b.group == 1) else {
+            continue;
+        };
+        let name = v
+            .name
+            .clone()
+            .ok_or_else(|| err(stage, "unnamed @group(1) resource"))?;
+        let is_texture = matches!(
+            module.types[v.ty].inner,
+            TypeInner::Image {
+                dim: naga::ImageDimension::D2,
+                arrayed: false,
+                class: naga::ImageClass::Sampled {
+                    kind: naga::ScalarKind::Float,
+                    multi: false
+                },
+            }
+        );
+        if !is_texture || !name.starts_with("swell_fft") {
+            return Err(err(
+                stage,
+                format!("@group(1) resource {name} is not an FFT result texture_2d<f32>"),
+            ));
+        }
+        out.push(FftTexture {
+            name,
+            binding: b.binding,
+        });
+    }
+    out.sort_by_key(|t| t.binding);
+    let layers = members
+        .iter()
+        .find(|m| m.name == "fft")
+        .map_or(0, |m| m.len.unwrap_or(1));
+    let bindings: Vec<u32> = out.iter().map(|t| t.binding).collect();
+    if out.len() != 2 * layers as usize || bindings.iter().copied().ne(0..bindings.len() as u32) {
+        return Err(err(
+            stage,
+            format!(
+                "expected 2 textures per FFT layer ({layers} layer(s)) at @group(1) bindings 0, 1, ...; found {bindings:?}"
+            ),
+        ));
+    }
+    Ok(out)
+}
+
+/// Replaces every whole-identifier `from` in `text` with `to`; returns the text and the count.
+pub(crate) fn replace_word(text: &str, from: &str, to: &str) -> (String, usize) {
+    let mut out = String::with_capacity(text.len());
+    let mut last = 0;
+    let mut n = 0;
+    for (i, _) in text.match_indices(from) {
+        let before = text[..i].chars().next_back();
+        let after = text[i + from.len()..].chars().next();
+        if before.is_some_and(is_ident) || after.is_some_and(is_ident) {
+            continue;
+        }
+        out.push_str(&text[last..i]);
+        out.push_str(to);
+        last = i + from.len();
+        n += 1;
+    }
+    out.push_str(&text[last..]);
+    (out, n)
+}
+
 /// One top-level item of naga's text output: a preprocessor or precision line, a struct, a
 /// constant, a uniform block, an interface variable or a whole function, as written.
 #[derive(Debug, Clone)]
@@ -239,14 +331,19 @@ pub(crate) fn drop_unreferenced_structs(items: Vec<Item>) -> Vec<Item> {
         .collect()
 }
 
-/// Checks that no uniform name of `members` is also the name of a function among `items`.
+/// Checks that no uniform name of `members` and no texture of `textures` is also the name of a
+/// function among `items`.
 pub(crate) fn check_no_collision(
     stage: &'static str,
     members: &[UniformMember],
+    textures: &[FftTexture],
     items: &[Item],
 ) -> Result<(), ShaderError> {
-    for m in members {
-        let name = format!("{UNIFORM_PREFIX}{}", m.name);
+    let names = members
+        .iter()
+        .map(|m| format!("{UNIFORM_PREFIX}{}", m.name))
+        .chain(textures.iter().map(|t| t.name.clone()));
+    for name in names {
         if items
             .iter()
             .any(|i| i.function_name() == Some(name.as_str()))

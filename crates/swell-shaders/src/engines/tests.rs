@@ -47,9 +47,10 @@ fn unreferenced_structs_are_dropped_transitively() {
     assert_eq!(names, ["C"]);
 }
 
-/// The functions naga writes for `lang` with every entry point, reads of the block renamed as
-/// the include renames them: the include must hold each of them verbatim.
-fn naga_functions(text: &str, block: &str) -> Vec<String> {
+/// The functions naga writes for `lang` with every entry point, reads of the block (and, with
+/// `textures`, naga's GLSL names of the FFT textures) renamed as the include renames them: the
+/// include must hold each of them verbatim.
+fn naga_functions(text: &str, block: &str, textures: &[(String, String)]) -> Vec<String> {
     items(text)
         .into_iter()
         .filter(|i| i.function_name().is_some_and(|n| n.starts_with("swell_")))
@@ -58,22 +59,50 @@ fn naga_functions(text: &str, block: &str) -> Vec<String> {
                 .iter()
                 .any(|e| i.function_name() == Some(e.name()))
         })
-        .map(|i| replace_prefix(&i.text, block, UNIFORM_PREFIX).0)
+        .map(|i| {
+            let mut t = replace_prefix(&i.text, block, UNIFORM_PREFIX).0;
+            for (from, to) in textures {
+                t = replace_word(&t, from, to).0;
+            }
+            t
+        })
+        .collect()
+}
+
+/// Two FFT layers (layer indices 0 and 2, so FFT position f and layer index differ for the
+/// second: bindings 2 and 3 hold `swell_fft2_a/_b`) around a Gerstner layer.
+const TWO_FFT: &str = r#"{"seed": 4, "layers": [
+  {"kind": "fft", "resolution": 16, "tile_size": 48, "choppiness": 0.8, "repeat_period": 120,
+   "wind_direction": [1, 0.2], "spectrum": {"kind": "jonswap", "wind_speed": 9, "fetch": 60000}},
+  {"kind": "gerstner", "waves": [{"amplitude": 0.3, "wavelength": 60, "direction": [0.3, 1], "steepness": 0.4}]},
+  {"kind": "fft", "resolution": 32, "tile_size": 20, "choppiness": 0.0, "repeat_period": 80,
+   "wind_direction": [-0.5, 1], "spectrum": {"kind": "jonswap", "wind_speed": 5, "fetch": 20000}}]}"#;
+
+/// The crate's test surfaces, the built-in `open-sea` and `storm` FFT scenes, and [`TWO_FFT`].
+fn engine_surfaces() -> Vec<(&'static str, swell_waves::Surface)> {
+    let build = |json: &str| {
+        let spec: swell_waves::SurfaceSpec = serde_json::from_str(json).unwrap();
+        swell_waves::Surface::new(&spec).unwrap()
+    };
+    let mut v = all_surfaces();
+    v.push(("open-sea", build(crate::fft::tests::OPEN_SEA)));
+    v.push(("storm", build(crate::fft::tests::STORM)));
+    v.push(("two-fft", build(TWO_FFT)));
+    v
+}
+
+/// `(FFT position f, layer index L)` of every FFT layer of `s`.
+fn fft_slots(s: &swell_waves::Surface) -> Vec<(usize, usize)> {
+    crate::fft::layers(s)
+        .iter()
+        .enumerate()
+        .map(|(f, (li, _))| (f, *li))
         .collect()
 }
 
 #[test]
 fn hlsl_include_is_nagas_functions_over_a_registerless_cbuffer() {
-    for (name, s) in all_surfaces() {
-        if s.has_fft() {
-            // The includes carry no FFT layer yet: refused, with the reason.
-            let e = export(&s, Lang::HlslInclude, None).unwrap_err();
-            assert!(
-                matches!(e, ShaderError::IncludeWithFft { .. }),
-                "{name}: {e}"
-            );
-            continue;
-        }
+    for (name, s) in engine_surfaces() {
         let inc = export(&s, Lang::HlslInclude, None).unwrap();
         let waves = wave_constants(&s).unwrap().len();
         // Guarded, no entry point, no explicit register, no naga cbuffer.
@@ -116,7 +145,7 @@ fn hlsl_include_is_nagas_functions_over_a_registerless_cbuffer() {
         // Every function naga writes for the HLSL output is in the include, verbatim but for
         // the block reads.
         let hlsl = export(&s, Lang::Hlsl, None).unwrap();
-        let funcs = naga_functions(&hlsl, "swell.");
+        let funcs = naga_functions(&hlsl, "swell.", &[]);
         assert!(funcs.len() >= 8, "{name}: {}", funcs.len());
         for f in &funcs {
             assert!(inc.contains(f.as_str()), "{name}: missing\n{f}");
@@ -182,16 +211,7 @@ fn particle_members_are_declared_in_block_order() {
 
 #[test]
 fn gdshaderinc_is_nagas_glsl_es_functions_without_the_outer_layer() {
-    for (name, s) in all_surfaces() {
-        if s.has_fft() {
-            // The includes carry no FFT layer yet: refused, with the reason.
-            let e = export(&s, Lang::Gdshaderinc, None).unwrap_err();
-            assert!(
-                matches!(e, ShaderError::IncludeWithFft { .. }),
-                "{name}: {e}"
-            );
-            continue;
-        }
+    for (name, s) in engine_surfaces() {
         let inc = export(&s, Lang::Gdshaderinc, None).unwrap();
         let waves = wave_constants(&s).unwrap().len();
         assert!(inc.contains("#ifndef SWELL_GDSHADERINC\n#define SWELL_GDSHADERINC\n"));
@@ -220,7 +240,22 @@ fn gdshaderinc_is_nagas_glsl_es_functions_without_the_outer_layer() {
         )));
         assert_eq!(inc.matches("swell_wave(").count() - 1, waves, "{name}");
         let glsl = export(&s, Lang::GlslEs, Some(Entry::ProbeVertex)).unwrap();
-        let funcs = naga_functions(&glsl, "_group_0_binding_0_vs.");
+        let renames: Vec<(String, String)> = fft_slots(&s)
+            .into_iter()
+            .flat_map(|(f, li)| {
+                [
+                    (
+                        format!("_group_1_binding_{}_vs", 2 * f),
+                        format!("swell_fft{li}_a"),
+                    ),
+                    (
+                        format!("_group_1_binding_{}_vs", 2 * f + 1),
+                        format!("swell_fft{li}_b"),
+                    ),
+                ]
+            })
+            .collect();
+        let funcs = naga_functions(&glsl, "_group_0_binding_0_vs.", &renames);
         assert!(funcs.len() >= 8, "{name}: {}", funcs.len());
         for f in &funcs {
             assert!(inc.contains(f.as_str()), "{name}: missing\n{f}");
@@ -263,5 +298,129 @@ fn uniform_names_never_collide_with_function_names() {
         len: Some(4),
     }];
     let clash = items("float swell_u_ambient(float2 p) {\n    return p.x;\n}\n");
-    assert!(check_no_collision("test", &bad, &clash).is_err());
+    assert!(check_no_collision("test", &bad, &[], &clash).is_err());
+}
+
+/// An FFT surface's includes declare each FFT layer's two result textures the engine's way,
+/// under the WGSL names, read them where naga read its bound textures, declare the grid offsets
+/// (`swell_u_fft`), and say in the header how the passes fill them; a surface without FFT
+/// layers declares no texture and carries no FFT note.
+#[test]
+fn fft_surfaces_includes_declare_the_result_textures() {
+    for (name, s) in engine_surfaces() {
+        let slots = fft_slots(&s);
+        let hlsl = export(&s, Lang::HlslInclude, None).unwrap();
+        let godot = export(&s, Lang::Gdshaderinc, None).unwrap();
+        if slots.is_empty() {
+            for inc in [&hlsl, &godot] {
+                assert!(!inc.contains("swell_fft"), "{name}");
+                assert!(!inc.contains("FFT layers:"), "{name}");
+            }
+            continue;
+        }
+        // HLSL: registerless Texture2D<float4> globals with the other declarations (so
+        // SWELL_UNIFORMS_DECLARED skips them too), read with Load.
+        let decls = hlsl
+            .split("#ifndef SWELL_UNIFORMS_DECLARED\n")
+            .nth(1)
+            .and_then(|r| r.split("#endif\n\n").next())
+            .unwrap_or_else(|| panic!("{name}: no declaration block\n{hlsl}"));
+        assert!(
+            decls.contains(&format!("float4 swell_u_fft[{}];", slots.len())),
+            "{name}: {decls}"
+        );
+        assert!(hlsl.contains("// FFT layers: swell_sample reads"), "{name}");
+        assert!(
+            hlsl.contains("lang=hlsl&layer=L&entry=swell_fft_evolve_cs"),
+            "{name}"
+        );
+        assert!(!hlsl.contains("register("), "{name}");
+        for (f, li) in &slots {
+            for ab in ["a", "b"] {
+                let tex = format!("swell_fft{li}_{ab}");
+                assert!(
+                    decls.contains(&format!("Texture2D<float4> {tex};\n")),
+                    "{name}: {tex} in {decls}"
+                );
+                assert!(hlsl.contains(&format!("{tex}.Load(int3(")), "{name}: {tex}");
+            }
+            assert!(hlsl.contains(&format!("swell_u_fft[{f}]")), "{name}: {f}");
+            assert!(
+                hlsl.contains(&format!("// layer {li}: fft, N = ")),
+                "{name}"
+            );
+        }
+        // Godot: one sampler2D uniform per texture, read with texelFetch; naga's names gone.
+        assert!(
+            godot.contains("// FFT layers: swell_sample reads"),
+            "{name}"
+        );
+        assert!(godot.contains(&format!("uniform vec4 swell_u_fft[{}];", slots.len())));
+        assert!(!godot.contains("_group_"), "{name}");
+        for (f, li) in &slots {
+            for ab in ["a", "b"] {
+                let tex = format!("swell_fft{li}_{ab}");
+                assert!(
+                    godot.contains(&format!(
+                        "uniform sampler2D {tex} : hint_default_black, filter_nearest, repeat_enable;\n"
+                    )),
+                    "{name}: {tex}"
+                );
+                assert!(
+                    godot.contains(&format!("texelFetch({tex}, ")),
+                    "{name}: {tex}"
+                );
+            }
+            assert!(godot.contains(&format!("swell_u_fft[{f}]")), "{name}: {f}");
+        }
+        // The passes that fill the textures are plain shaders, not includes.
+        for lang in [Lang::HlslInclude, Lang::Gdshaderinc] {
+            let e = crate::export_fft(&s, slots[0].1, lang, None).unwrap_err();
+            assert!(
+                matches!(e, ShaderError::PassesNotInInclude { layer, .. } if layer == slots[0].1),
+                "{name}: {e}"
+            );
+        }
+    }
+}
+
+/// The rewrite refuses a module whose textures are not the FFT layers' pairs (here one more
+/// texture at `@group(1)`): a changed emitter or naga fails here rather than shipping an
+/// include that reads an undeclared texture.
+#[test]
+fn a_texture_the_rewrite_does_not_expect_is_refused() {
+    let (_, s) = all_surfaces()
+        .into_iter()
+        .find(|(n, _)| *n == "fft")
+        .unwrap();
+    let wgsl = emit(&s).unwrap() + "@group(1) @binding(2) var swell_fft9_a: texture_2d<f32>;\n";
+    for e in [
+        hlsl::include(&wgsl).unwrap_err(),
+        godot::include(&wgsl).unwrap_err(),
+    ] {
+        assert!(
+            matches!(&e, ShaderError::Naga { message, .. } if message.contains("2 textures per FFT layer")),
+            "{e}"
+        );
+    }
+    let (module, _) = crate::translate::parse_and_validate(&emit(&s).unwrap()).unwrap();
+    let members = uniform_members(&module, "test").unwrap();
+    let tex = fft_textures(&module, &members, "test").unwrap();
+    assert_eq!(
+        tex,
+        [
+            FftTexture {
+                name: "swell_fft0_a".into(),
+                binding: 0
+            },
+            FftTexture {
+                name: "swell_fft0_b".into(),
+                binding: 1
+            }
+        ]
+    );
+    assert_eq!(
+        replace_word("a _g_1 _g_10 x_g_1", "_g_1", "t"),
+        ("a t _g_10 x_g_1".into(), 1)
+    );
 }
