@@ -7,6 +7,7 @@
 //! stepped there, so the restarted one continues the same trajectory.
 
 use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
@@ -117,7 +118,7 @@ pub fn restore(state: &AppState, rec: Recovered) {
         let target = state.read_clock(&entry).tick;
         let ahead = target - w.tick();
         if ahead > 0 && ahead <= MAX_REPLAY_STEPS {
-            w.step_to(target, &entry.scene.surface);
+            catch_up(&mut w, &id, target, &entry.scene.surface);
         }
         // (Further off or behind: the body loop re-anchors at its first step, and journals it.)
         if let Err(e) = append_body_events(journal, &id, &mut w) {
@@ -131,5 +132,76 @@ pub fn restore(state: &AppState, rec: Recovered) {
     }
     if replayed > 0 || !rec.problems.is_empty() {
         tracing::info!(replayed, problems = rec.problems.len(), "journal: restored");
+    }
+}
+
+/// Ticks stepped between two progress checks while a restored world catches up (a minute of
+/// scene time at 30 Hz).
+const CATCH_UP_CHUNK: i64 = 1800;
+/// How often a long catch-up logs its progress.
+const CATCH_UP_LOG_EVERY: Duration = Duration::from_secs(5);
+
+/// Steps a restored world to scene tick `target` (see the module docs), in chunks of
+/// [`CATCH_UP_CHUNK`] ticks so that a long downtime logs its progress: an hour of ticks of many
+/// bodies, or of one body on an FFT scene, takes minutes before the server is ready, and an
+/// operator must be able to tell that from a hang. Chunks are the same fixed steps as one call
+/// (stepping does not depend on how the ticks are grouped), so the trajectory is unchanged.
+fn catch_up(w: &mut SceneBodies, id: &str, target: i64, surface: &swell_waves::Surface) {
+    let (from, started) = (w.tick(), Instant::now());
+    let total = target - from;
+    let mut logged = started;
+    if total > CATCH_UP_CHUNK {
+        tracing::info!(scene = %id, ticks = total, bodies = w.len(),
+            "journal: stepping the bodies through the downtime before serving (progress every 5 s)");
+    }
+    while w.tick() < target {
+        let before = w.tick();
+        w.step_to((before + CATCH_UP_CHUNK).min(target), surface);
+        if w.tick() <= before {
+            break; // A step failed (the model rejected the sea): the body loop takes over.
+        }
+        if logged.elapsed() >= CATCH_UP_LOG_EVERY {
+            logged = Instant::now();
+            let done = w.tick() - from;
+            let rate = done as f64 / started.elapsed().as_secs_f64();
+            tracing::info!(
+                scene = %id,
+                done,
+                total,
+                eta_s = ((target - w.tick()) as f64 / rate).round(),
+                "journal: catching the bodies up"
+            );
+        }
+    }
+    if total > CATCH_UP_CHUNK {
+        tracing::info!(scene = %id, ticks = total, seconds = started.elapsed().as_secs_f64(),
+            "journal: bodies caught up");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The catch-up in chunks (with its progress log) steps the very ticks one `step_to` does:
+    /// a restarted server still continues the never-stopped trajectory to the bit.
+    #[test]
+    fn catching_up_in_chunks_is_one_step_to() {
+        let scene = crate::scene::builtin::built("lake");
+        let mut a = SceneBodies::new(100, 30.0, 9.81).unwrap();
+        let boat: crate::bodies::SpawnRequest = serde_json::from_value(serde_json::json!({
+            "mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+            "position": [0.0, 0.63, 0.0]}))
+        .unwrap();
+        a.spawn(&boat).unwrap();
+        let mut b = SceneBodies::from_world_record(&a.world_record()).unwrap();
+        let target = 100 + 2 * CATCH_UP_CHUNK + 7;
+        a.step_to(target, &scene.surface);
+        catch_up(&mut b, "lake", target, &scene.surface);
+        assert_eq!(b.tick(), target);
+        assert_eq!(
+            serde_json::to_string(&a.states(None)).unwrap(),
+            serde_json::to_string(&b.states(None)).unwrap()
+        );
     }
 }
