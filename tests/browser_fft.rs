@@ -83,9 +83,9 @@ fn base64(bytes: &[u8]) -> String {
     out
 }
 
-/// The page: per scene, the spectrum texture from the raw export, the pass programs and the
-/// probe program; per run, evolve + butterflies into a ping-pong pair, then the probes.
-const PAGE_JS: &str = r#"
+/// JS both pages use: `parseSpectrum(b64)` reads the raw `/spectrum` export (`swell-spectrum/1`)
+/// into the spectrum texture's texels.
+const SPECTRUM_JS: &str = r#"
 function parseSpectrum(b64) {
   const bin = atob(b64);
   const u8 = new Uint8Array(bin.length);
@@ -105,6 +105,11 @@ function parseSpectrum(b64) {
   }
   return { header, n, tex };
 }
+"#;
+
+/// The page: per scene, the spectrum texture from the raw export, the pass programs and the
+/// probe program; per run, evolve + butterflies into a ping-pong pair, then the probes.
+const PAGE_JS: &str = r#"
 function run() {
   const cv = document.createElement('canvas');
   const gl = cv.getContext('webgl2');
@@ -272,24 +277,6 @@ fn swell_probe_cs(@builtin(global_invocation_id) id: vec3<u32>) {
     swell_probe_out[2u * i + 1u] = vec4<f32>(swell_normal(above), above.displacement.y);
 }
 `;
-function parseSpectrum(b64) {
-  const bin = atob(b64);
-  const u8 = new Uint8Array(bin.length);
-  for (let i = 0; i < bin.length; i++) u8[i] = bin.charCodeAt(i);
-  const dv = new DataView(u8.buffer);
-  if (String.fromCharCode(u8[0], u8[1], u8[2], u8[3]) !== 'SWSP') throw new Error('not a spectrum');
-  const hlen = dv.getUint32(4, true);
-  const header = JSON.parse(new TextDecoder().decode(u8.subarray(8, 8 + hlen)));
-  const n = header.resolution, T = header.repeat_period;
-  const tex = new Float32Array(4 * n * n);
-  for (let r = 0; r < n * n; r++) {
-    const o = header.data_offset + 24 * r;
-    tex[4 * r] = dv.getFloat64(o, true);
-    tex[4 * r + 1] = dv.getFloat64(o + 8, true);
-    tex[4 * r + 2] = Math.round(dv.getFloat64(o + 16, true) * T / (2 * Math.PI));
-  }
-  return { header, n, tex };
-}
 async function run() {
   if (!navigator.gpu) return { ok: false, unavailable: 'navigator.gpu is undefined' };
   const adapter = await navigator.gpu.requestAdapter();
@@ -396,15 +383,7 @@ async function run() {
       const v = new Float32Array(read.getMappedRange().slice(0));
       read.unmap();
       read.destroy();
-      const a = [], b = [];
-      for (let i = 0; i < np; i++) {
-        for (let j = 0; j < 4; j++) {
-          const x = v[8 * i + j], y = v[8 * i + 4 + j];
-          a.push(Number.isFinite(x) ? x : null);
-          b.push(Number.isFinite(y) ? y : null);
-        }
-      }
-      runs.push({ a, b });
+      runs.push(probeValues(v, np));
       if (errors.length) throw new Error(c.scene + ': device errors: ' + errors.join('; '));
     }
     out.push({ scene: c.scene, n, ms_per_run: (performance.now() - t0) / c.runs.length, runs });
@@ -590,7 +569,7 @@ async fn fft_passes_in_headless_chromium_match_sample() {
     let started = std::time::Instant::now();
     let gl = common::browser::run_webgl_page(
         "fft",
-        &format!("const CASES = {page_cases};\n{PAGE_JS}"),
+        &format!("const CASES = {page_cases};\n{SPECTRUM_JS}{PAGE_JS}"),
         300,
         60_000,
     );
@@ -603,7 +582,10 @@ async fn fft_passes_in_headless_chromium_match_sample() {
     // WebGPU: the compute passes, on loopback HTTP.
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir().unwrap();
-    let script = format!("const CASES = {page_cases};\n{GPU_PAGE_JS}");
+    let script = format!(
+        "const CASES = {page_cases};\n{SPECTRUM_JS}{}{GPU_PAGE_JS}",
+        common::browser::PROBE_VALUES_JS
+    );
     match common::browser::run_webgpu_page(dir.path(), &script, 300).await {
         Ok(gpu) => {
             assert_eq!(gpu["ok"], json!(true), "webgpu FFT page failed: {gpu}");

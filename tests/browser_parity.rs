@@ -196,15 +196,7 @@ async function run() {
       const v = new Float32Array(read.getMappedRange().slice(0));
       read.unmap();
       read.destroy();
-      const a = [], b = [];
-      for (let i = 0; i < n; i++) {
-        for (let j = 0; j < 4; j++) {
-          const x = v[8 * i + j], y = v[8 * i + 4 + j];
-          a.push(Number.isFinite(x) ? x : null);
-          b.push(Number.isFinite(y) ? y : null);
-        }
-      }
-      runs.push({ a, b });
+      runs.push(probeValues(v, n));
     }
     out.push({ scene: c.scene, runs });
   }
@@ -445,7 +437,10 @@ async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
     // WebGPU: the same cases through the WGSL, on loopback HTTP.
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir().unwrap();
-    let script = format!("const CASES = {page_cases};\n{GPU_PAGE_JS}");
+    let script = format!(
+        "const CASES = {page_cases};\n{}{GPU_PAGE_JS}",
+        common::browser::PROBE_VALUES_JS
+    );
     match common::browser::run_webgpu_page(dir.path(), &script, 180).await {
         Ok(result) => {
             assert_eq!(result["ok"], json!(true), "webgpu page failed: {result}");

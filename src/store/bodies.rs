@@ -623,37 +623,37 @@ impl FleetBodies {
             let mut b = cell.lock();
             b.advance_to(tick, sea, hz, g);
             s.impacts.sync_bodies(&mut b, true);
-            let spawn = matches!(cmd, BodyCmd::Spawn(_));
-            let out = match cmd {
-                BodyCmd::Spawn(req) => {
-                    if b.len() >= state.limits.max_scene_bodies {
-                        Err(too_many(scene, state.limits.max_scene_bodies))
-                    } else {
-                        b.spawn(&req).and_then(|id| b.state(id))
-                    }
-                }
+            // Only a spawn's replica waits for its outcome (the state it answers with); removals,
+            // inputs and impacts were answered when they were logged.
+            let spawned = match cmd {
+                BodyCmd::Spawn(req) => Some(if b.len() >= state.limits.max_scene_bodies {
+                    Err(too_many(scene, state.limits.max_scene_bodies))
+                } else {
+                    b.spawn(&req).and_then(|id| b.state(id))
+                }),
                 BodyCmd::Remove { id } => {
                     b.remove(id);
-                    Err(crate::bodies::body_not_found(id))
+                    None
                 }
                 BodyCmd::Input { id, mut input } => {
                     // Asked to act from a tick now past: from the next tick instead.
                     if input.from_tick.is_some_and(|t| t <= tick) {
                         input.from_tick = None;
                     }
-                    b.input(id, &input).and_then(|()| b.state(id))
+                    // An input for a body removed meanwhile is refused on every replica alike.
+                    let _ = b.input(id, &input);
+                    None
                 }
                 BodyCmd::Impact(impact) => {
                     b.feel(impact);
-                    // Only spawns' outcomes are recorded (an impact's answer does not wait).
-                    Err(ApiError::internal("impacts have no outcome"))
+                    None
                 }
             };
             let _ = b.take_events();
             // Not published here: a tick's states are published once, at the watermark, when
             // every command of the tick is applied (a frame must not carry half a tick).
             drop(b);
-            if spawn {
+            if let Some(out) = spawned {
                 self.record(&nonce, out);
             }
         }

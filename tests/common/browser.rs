@@ -175,3 +175,20 @@ pub async fn run_webgpu_page(
         None => Ok(v),
     }
 }
+
+/// JS for the WebGPU pages: `probeValues(v, n)` splits a probe kernel's read-back (`n` probes,
+/// two vec4s each) into the two arrays the tests compare, with `null` for a non-finite value
+/// (JSON has no NaN).
+pub const PROBE_VALUES_JS: &str = r#"
+function probeValues(v, n) {
+  const a = [], b = [];
+  for (let i = 0; i < n; i++) {
+    for (let j = 0; j < 4; j++) {
+      const x = v[8 * i + j], y = v[8 * i + 4 + j];
+      a.push(Number.isFinite(x) ? x : null);
+      b.push(Number.isFinite(y) ? y : null);
+    }
+  }
+  return { a, b };
+}
+"#;

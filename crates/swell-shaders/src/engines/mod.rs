@@ -178,13 +178,26 @@ pub(crate) fn fft_textures(
 
 /// Replaces every whole-identifier `from` in `text` with `to`; returns the text and the count.
 pub(crate) fn replace_word(text: &str, from: &str, to: &str) -> (String, usize) {
+    replace_where(text, from, to, |before, after| {
+        !before.is_some_and(is_ident) && !after.is_some_and(is_ident)
+    })
+}
+
+/// Replaces each `from` in `text` for which `keep(char before, char after)` holds with `to`;
+/// returns the text and how many were replaced.
+fn replace_where(
+    text: &str,
+    from: &str,
+    to: &str,
+    keep: impl Fn(Option<char>, Option<char>) -> bool,
+) -> (String, usize) {
     let mut out = String::with_capacity(text.len());
     let mut last = 0;
     let mut n = 0;
     for (i, _) in text.match_indices(from) {
         let before = text[..i].chars().next_back();
         let after = text[i + from.len()..].chars().next();
-        if before.is_some_and(is_ident) || after.is_some_and(is_ident) {
+        if !keep(before, after) {
             continue;
         }
         out.push_str(&text[last..i]);
@@ -282,20 +295,7 @@ pub(crate) fn contains_word(text: &str, word: &str) -> bool {
 /// Replaces every `from` that does not follow an identifier character (so `swell.` but not
 /// `my_swell.`) with `to`; returns the text and how many were replaced.
 pub(crate) fn replace_prefix(text: &str, from: &str, to: &str) -> (String, usize) {
-    let mut out = String::with_capacity(text.len());
-    let mut last = 0;
-    let mut n = 0;
-    for (i, _) in text.match_indices(from) {
-        if text[..i].chars().next_back().is_some_and(is_ident) {
-            continue;
-        }
-        out.push_str(&text[last..i]);
-        out.push_str(to);
-        last = i + from.len();
-        n += 1;
-    }
-    out.push_str(&text[last..]);
-    (out, n)
+    replace_where(text, from, to, |before, _| !before.is_some_and(is_ident))
 }
 
 /// Drops the structs nothing kept refers to (the uniform and camera block types, the entry
