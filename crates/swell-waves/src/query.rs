@@ -8,7 +8,7 @@
 use glam::{DVec2, DVec3};
 
 use crate::error::{SpecError, finite};
-use crate::fft::SampleFilter;
+use crate::fft::{FftReads, SampleFilter};
 use crate::surface::SurfaceAt;
 use crate::wave::SurfaceSample;
 #[cfg(feature = "serde")]
@@ -231,7 +231,9 @@ impl SurfaceAt<'_> {
 
     /// Solves `p0 + D(p0) = target` with the snapshot's inversion settings. Returns the best
     /// iterate seen (lowest residual), so more iterations never make the answer worse.
-    /// `derivatives` asks for the derivatives at the returned point (for normals/Jacobians).
+    /// `derivatives` asks for the derivatives at the returned point (for normals/Jacobians);
+    /// without it the returned sample's derivatives are not meant to be read (Newton's
+    /// rounds compute the horizontal ones, and leave FFT layers' slopes out).
     ///
     /// This is [`SurfaceAt::invert_lanes`] with a block of one point.
     pub fn invert(&self, target: DVec2, derivatives: bool) -> Inverted {
@@ -248,9 +250,34 @@ impl SurfaceAt<'_> {
         targets: &[DVec2; B],
         derivatives: bool,
     ) -> [Inverted; B] {
+        self.invert_lanes_v::<B, false>(targets, derivatives, &mut [[0.0; B]; 3])
+    }
+
+    /// [`SurfaceAt::invert_lanes`]; with `V` it also leaves in `velocity` the analytic layers'
+    /// particle velocities at each lane's returned source point, taken from the `sin_cos` of
+    /// the round that found it ([`SurfaceAt::sample_lanes_f64`]). With `V` the f64 kernel runs
+    /// whatever the snapshot's precision (there is no f32 velocity kernel): callers ask for it
+    /// on [`crate::Precision::F64`] snapshots only.
+    #[inline(always)]
+    pub(crate) fn invert_lanes_v<const B: usize, const V: bool>(
+        &self,
+        targets: &[DVec2; B],
+        derivatives: bool,
+        velocity: &mut [[f64; B]; 3],
+    ) -> [Inverted; B] {
         let inv = self.options.inversion;
+        let newton = inv.method == InversionMethod::Newton;
+        // FFT grids read per round: slopes only for a caller that wants derivatives (normals),
+        // the horizontal Jacobian for Newton's step, the displacement always.
+        let reads = if derivatives {
+            FftReads::All
+        } else if newton {
+            FftReads::Jacobian
+        } else {
+            FftReads::Displacement
+        };
         if !self.surface.has_horizontal_motion() {
-            let s = self.sample_lanes(targets, derivatives);
+            let s = self.round_lanes::<B, V>(targets, FftReads::every(derivatives), velocity);
             return std::array::from_fn(|l| Inverted {
                 source: targets[l],
                 sample: s.get(l),
@@ -258,8 +285,6 @@ impl SurfaceAt<'_> {
                 iterations: 0,
             });
         }
-        let newton = inv.method == InversionMethod::Newton;
-        let need_d = newton || derivatives;
         let mut p = *targets;
         let mut best = [Inverted {
             source: DVec2::ZERO,
@@ -271,7 +296,8 @@ impl SurfaceAt<'_> {
         let mut active = [true; B];
         let mut it = 0;
         while active.iter().any(|&a| a) {
-            let lanes = self.sample_lanes(&p, need_d);
+            let mut round = [[0.0; B]; 3];
+            let lanes = self.round_lanes::<B, V>(&p, reads, &mut round);
             for l in 0..B {
                 if !active[l] {
                     continue;
@@ -288,6 +314,11 @@ impl SurfaceAt<'_> {
                         residual: r,
                         iterations: it,
                     };
+                    if V {
+                        for (v, r) in velocity.iter_mut().zip(&round) {
+                            v[l] = r[l];
+                        }
+                    }
                 }
                 if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {
                     active[l] = false;
@@ -299,6 +330,22 @@ impl SurfaceAt<'_> {
             it += 1;
         }
         best
+    }
+
+    /// One round of [`SurfaceAt::invert_lanes_v`]: the block sampled at the snapshot's
+    /// precision (always f64 with `V`), reading the FFT grids `reads` names.
+    #[inline(always)]
+    fn round_lanes<const B: usize, const V: bool>(
+        &self,
+        p: &[DVec2; B],
+        reads: FftReads,
+        velocity: &mut [[f64; B]; 3],
+    ) -> crate::wave::Lanes<B> {
+        if V || self.options.precision == crate::Precision::F64 {
+            self.sample_lanes_f64::<B, V>(p, reads, velocity)
+        } else {
+            self.lanes_f32(p, reads != FftReads::Displacement).widen()
+        }
     }
 
     /// Slow reference inversion: Newton on [`SurfaceAt::sample_reference`] for up to 200 steps,

@@ -9,7 +9,7 @@ use std::sync::{Arc, OnceLock};
 use glam::{DVec2, DVec3, Vec3};
 
 use crate::error::{SpecError, finite, in_range, positive};
-use crate::fft::{FftFields, FftFrame, FftLayer, FftSample, FftSpec, lerp_samples};
+use crate::fft::{FftFields, FftFrame, FftLayer, FftReads, FftSample, FftSpec, lerp_samples};
 use crate::gerstner::{GerstnerLayer, GerstnerLayerSpec, fold_number};
 use crate::math::splitmix64;
 use crate::particles::{Impacts, ParticleField, ParticleLayer, ParticleLayerSpec};
@@ -451,11 +451,11 @@ impl Held {
 
     /// The layer at `p0`: the frame's sample, or `a + (b − a)·w` between the two frames.
     #[inline]
-    fn sample(&self, p0: DVec2, filter: crate::fft::SampleFilter) -> FftSample {
-        let a = self.frame.sample(p0, filter);
+    fn sample(&self, p0: DVec2, filter: crate::fft::SampleFilter, reads: FftReads) -> FftSample {
+        let a = self.frame.sample_some(p0, filter, reads);
         match &self.next {
             None => a,
-            Some((b, w)) => lerp_samples(&a, &b.sample(p0, filter), *w),
+            Some((b, w)) => lerp_samples(&a, &b.sample_some(p0, filter, reads), *w),
         }
     }
 
@@ -578,15 +578,16 @@ impl SurfaceAt<'_> {
 
     /// One FFT layer at `p0`: from its frame(s) with the snapshot's filter, or by direct
     /// summation at t when the snapshot is a reference one (or has no frame for the layer).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn fft_sample(
         &self,
         layer: &FftLayer,
         frames: &Option<Held>,
         p0: DVec2,
+        reads: FftReads,
     ) -> FftSample {
         match frames {
-            Some(held) if !self.options.reference => held.sample(p0, self.options.filter),
+            Some(held) if !self.options.reference => held.sample(p0, self.options.filter, reads),
             _ => layer.sample_reference(p0, self.t),
         }
     }
@@ -598,6 +599,22 @@ impl SurfaceAt<'_> {
         if self.options.precision == Precision::F32 {
             return self.lanes_f32(points, derivatives).widen();
         }
+        self.sample_lanes_f64::<B, false>(points, FftReads::every(derivatives), &mut [[0.0; B]; 3])
+    }
+
+    /// The f64 body of [`SurfaceAt::sample_lanes`] (whatever the snapshot's precision); with
+    /// `V`, the analytic layers' particle velocities go into `velocity` from the same `sin_cos`
+    /// ([`WaveSoA::accumulate_lanes_with_velocity`]), unfiltered, in layer order. Other layers add
+    /// no velocity here: the caller adds theirs at the point it keeps
+    /// ([`SurfaceAt::water_lanes`]).
+    #[inline(always)]
+    pub(crate) fn sample_lanes_f64<const B: usize, const V: bool>(
+        &self,
+        points: &[DVec2; B],
+        reads: FftReads,
+        velocity: &mut [[f64; B]; 3],
+    ) -> Lanes<B> {
+        let derivatives = reads != FftReads::Displacement;
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = Lanes::<B>::default();
@@ -612,12 +629,25 @@ impl SurfaceAt<'_> {
             match (layer, soa) {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
-                        add_fft(&mut out, l, &self.fft_sample(f, frame, p0), derivatives);
+                        add_fft(
+                            &mut out,
+                            l,
+                            &self.fft_sample(f, frame, p0, reads),
+                            derivatives,
+                        );
                     }
                 }
                 (Layer::Particles(p), _) => {
                     self.add_particles(i, p, points, derivatives, &mut out);
                 }
+                (_, Some(soa)) if V => soa.accumulate_lanes_with_velocity(
+                    &x,
+                    &z,
+                    self.t,
+                    derivatives,
+                    &mut out,
+                    velocity,
+                ),
                 (_, Some(soa)) => soa.accumulate_lanes(&x, &z, self.t, derivatives, &mut out),
                 (_, None) => {}
             }
@@ -650,7 +680,13 @@ impl SurfaceAt<'_> {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
                         let mut one = Lanes::<1>::default();
-                        add_fft(&mut one, 0, &self.fft_sample(f, frame, p0), derivatives);
+                        let reads = FftReads::every(derivatives);
+                        add_fft(
+                            &mut one,
+                            0,
+                            &self.fft_sample(f, frame, p0, reads),
+                            derivatives,
+                        );
                         out.add(l, &one.get(0));
                     }
                 }

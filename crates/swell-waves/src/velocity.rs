@@ -119,9 +119,23 @@ impl<'s> SurfaceAt<'s> {
     /// are never filtered. Particles move the surface vertically only (`∂h/∂t`). `min_wavelength = 0` is exactly
     /// [`SurfaceAt::velocity`].
     pub fn velocity_filtered(&self, p0: DVec2, min_wavelength: f64) -> DVec3 {
-        let mut out = DVec3::ZERO;
+        self.velocity_layers(p0, min_wavelength, DVec3::ZERO, true)
+    }
+
+    /// The sum of [`SurfaceAt::velocity_filtered`], layer by layer in order, starting from
+    /// `out`; `analytic = false` leaves out the sine and Gerstner layers (a caller that summed
+    /// them already, in the same order, passes that sum as `out`).
+    #[inline]
+    pub(crate) fn velocity_layers(
+        &self,
+        p0: DVec2,
+        min_wavelength: f64,
+        mut out: DVec3,
+        analytic: bool,
+    ) -> DVec3 {
         for (i, layer) in self.surface.layers().iter().enumerate() {
             match layer {
+                Layer::Sine(_) | Layer::Gerstner(_) if !analytic => {}
                 Layer::Sine(_) | Layer::Gerstner(_) => {
                     for w in layer.waves() {
                         if keeps(w, min_wavelength) {

@@ -219,6 +219,9 @@ pub struct WaveSoA {
     /// `A·k` and `Q·A·k`: derivative amplitudes.
     ak: Vec<f64>,
     qak: Vec<f64>,
+    /// `A·ω` and `Q·(A·ω)`: particle velocity amplitudes ([`crate::velocity`]).
+    aw: Vec<f64>,
+    qaw: Vec<f64>,
     /// The single-precision fast path's constants (see [`WaveSoA::accumulate_lanes_f32`]).
     fast: FastWaves,
 }
@@ -401,6 +404,8 @@ impl WaveSoA {
             qadz: col(&|w| w.steepness * w.amplitude * w.direction.y),
             ak: col(&|w| w.amplitude * w.wavenumber),
             qak: col(&|w| w.steepness * w.amplitude * w.wavenumber),
+            aw: col(&|w| w.amplitude * w.omega),
+            qaw: col(&|w| w.steepness * (w.amplitude * w.omega)),
             fast: FastWaves::new(waves),
         }
     }
@@ -427,22 +432,46 @@ impl WaveSoA {
         derivatives: bool,
         out: &mut Lanes<B>,
     ) {
+        let mut no_velocity = [[0.0; B]; 3];
         if derivatives {
-            self.kernel::<B, true>(x, z, t, out);
+            self.kernel::<B, true, false>(x, z, t, out, &mut no_velocity);
         } else {
-            self.kernel::<B, false>(x, z, t, out);
+            self.kernel::<B, false, false>(x, z, t, out, &mut no_velocity);
+        }
+    }
+
+    /// [`WaveSoA::accumulate_lanes`] that also adds each wave's particle velocity, m/s, into
+    /// `velocity` (`[vx, vy, vz][lane]`) from the same `sin θ`, `cos θ`:
+    /// `vx += (Q·A·ω·sin θ)·dx`, `vy −= A·ω·cos θ`, `vz += (Q·A·ω·sin θ)·dz`, in wave order —
+    /// lane by lane the bits of [`crate::velocity::accumulate_velocity`] over the same waves, for
+    /// the price of three more multiply-adds per wave instead of a second pass of `sin_cos`.
+    #[inline(always)]
+    pub fn accumulate_lanes_with_velocity<const B: usize>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
+    ) {
+        if derivatives {
+            self.kernel::<B, true, true>(x, z, t, out, velocity);
+        } else {
+            self.kernel::<B, false, true>(x, z, t, out, velocity);
         }
     }
 
     /// The block kernel: waves outer (so each lane sums in wave order, like the scalar path),
     /// lanes inner (branch-free, so the lane loop vectorises).
     #[inline(always)]
-    fn kernel<const B: usize, const D: bool>(
+    fn kernel<const B: usize, const D: bool, const V: bool>(
         &self,
         x: &[f64; B],
         z: &[f64; B],
         t: f64,
         out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
     ) {
         let n = self.k.len();
         let (k, om, ph) = (&self.k[..n], &self.omega[..n], &self.phase[..n]);
@@ -453,6 +482,7 @@ impl WaveSoA {
             &self.ak[..n],
             &self.qak[..n],
         );
+        let (aw, qaw) = (&self.aw[..n], &self.qaw[..n]);
         for w in 0..n {
             let (kw, wt, phw) = (k[w], om[w] * t, ph[w]);
             let (dx, dz) = (dxs[w], dzs[w]);
@@ -471,6 +501,12 @@ impl WaveSoA {
                     out.d_dz[0][l] -= qak_s * dx * dz;
                     out.d_dz[1][l] += ak_c * dz;
                     out.d_dz[2][l] -= qak_s * dz * dz;
+                }
+                if V {
+                    let qaw_s = qaw[w] * s;
+                    velocity[0][l] += qaw_s * dx;
+                    velocity[1][l] -= aw[w] * c;
+                    velocity[2][l] += qaw_s * dz;
                 }
             }
         }

@@ -220,3 +220,70 @@ fn a_resumed_world_continues_to_the_same_bits() {
     }
     assert_eq!(a.body(id).unwrap().state(), b.body(id).unwrap().state());
 }
+
+/// A world stepped with the run-time AVX2 path (the whole hull's loads, the sea's wave kernel and
+/// FFT reads inlined into it) and with the baseline build's loops ends in the same bits: boats of
+/// three sizes on a steep Gerstner cascade and on Gerstner waves over an FFT layer, 40 ticks.
+#[test]
+fn body_step_uses_the_same_bits_with_and_without_avx2() {
+    use swell_waves::body::{BodySpec, BodyState, HullSpec, World, WorldSettings};
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx2 = false;
+    if !avx2 {
+        eprintln!(
+            "SKIPPED body_step_uses_the_same_bits_with_and_without_avx2: this CPU has no AVX2, \
+             so there is no second path to compare with the baseline"
+        );
+        return;
+    }
+    let mut with_fft = gerstner_spec(8, 6, 0.5);
+    with_fft.layers.push(
+        serde_json::from_value(json!({"kind": "fft", "resolution": 64, "tile_size": 120.0,
+            "choppiness": 1.0, "wind_direction": [1.0, 0.3],
+            "spectrum": {"kind": "jonswap", "wind_speed": 12.0, "fetch": 60000.0}}))
+        .unwrap(),
+    );
+    for spec in [gerstner_spec(31, 16, 0.8), with_fft] {
+        let surface = Surface::new(&spec).unwrap();
+        let options = QueryOptions::default();
+        let run = |simd: bool| {
+            swell_waves::surface::set_simd_dispatch(simd);
+            let mut world = World::new(WorldSettings::default()).unwrap();
+            for (i, (length, mass)) in [(3.0, 400.0), (8.0, 3000.0), (20.0, 40_000.0)]
+                .into_iter()
+                .enumerate()
+            {
+                let body = BodySpec {
+                    mass,
+                    hull: HullSpec::Box {
+                        length,
+                        beam: length / 2.5,
+                        height: length / 5.0,
+                        cells: None,
+                    },
+                    center_of_mass: [0.0; 3],
+                    linear_drag: 0.2 * mass,
+                    quadratic_drag: 0.05 * mass,
+                    angular_damping: mass,
+                    min_wavelength_factor: 0.0,
+                };
+                let at = glam::DVec3::new(37.0 * i as f64 - 20.0, 0.2, 11.0 * i as f64);
+                world
+                    .add(&body, BodyState::at_rest(at, 0.3 * i as f64))
+                    .unwrap();
+            }
+            for _ in 0..40 {
+                world.step_surface(&surface, &options).unwrap();
+            }
+            world
+                .bodies()
+                .map(|(_, b)| format!("{:?}", b.state()))
+                .collect::<Vec<_>>()
+        };
+        let (on, off) = (run(true), run(false));
+        swell_waves::surface::set_simd_dispatch(true);
+        assert_eq!(on, off);
+    }
+}

@@ -178,9 +178,10 @@ fn velocity_frames_from_the_caller_must_match_the_layers() {
     assert_eq!(e.field(), "velocity_frames");
 }
 
-/// The bodies' fast path: `water_lanes` (vectorised inversion) against `water_at` one point at a
-/// time, bit for bit, on seeded random points: steep Gerstner (inversion), Gerstner plus an FFT
-/// layer, sine only (no horizontal motion), Gerstner plus wave particles (which the filter also
+/// The bodies' fast path: `water_lanes` (vectorised inversion, analytic velocities taken from
+/// its own `sin_cos`) against `water_at` one point at a time, bit for bit, on seeded random
+/// points: steep Gerstner (inversion), Gerstner plus an FFT layer, an FFT layer before Gerstner
+/// waves (velocities summed after), sine only (no horizontal motion), Gerstner plus wave particles (which the filter also
 /// drops), with and without a filter that drops waves (the
 /// per-point fallback), under both inversion methods, NaN points included.
 #[test]
@@ -192,9 +193,13 @@ fn water_lanes_equal_water_at_bit_for_bit() {
         serde_json::from_value(serde_json::json!({"kind": "particles", "radius": 4.0}))
             .expect("a particle layer"),
     );
+    // An FFT layer before the analytic ones: velocities summed after the inversion, not in it.
+    let mut fft_first = common::gerstner_spec(4, 5, 0.6);
+    fft_first.layers.insert(0, fft_layer(1.0));
     let seas = [
         Surface::new(&common::gerstner_spec(9, 6, 0.7)).unwrap(),
         Surface::new(&mixed).unwrap(),
+        Surface::new(&fft_first).unwrap(),
         Surface::new(&common::sine_spec()).unwrap(),
         Surface::new(&with_particles).unwrap(),
     ];

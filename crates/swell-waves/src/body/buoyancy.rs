@@ -57,29 +57,96 @@ pub(crate) fn loads(
     let up_y = rot.y_axis.y;
     let side = (1.0 - up_y * up_y).max(0.0).sqrt();
     let inv_vol = 1.0 / model.hull.volume;
-    // Cells in blocks of LANES for the vectorised sea ([`SurfaceAt::water_lanes`], bit-identical
-    // to one cell at a time); the sums below still run cell by cell, in order.
-    for block in model.hull.cells.chunks(LANES) {
-        let r: [DVec3; LANES] =
-            std::array::from_fn(|l| *rot * (block[l.min(block.len() - 1)].position - model.com));
-        let at: [DVec2; LANES] = std::array::from_fn(|l| {
-            let c = com + r[l];
-            DVec2::new(c.x, c.z)
-        });
-        let waters = sea.water_lanes(&at, model.min_wavelength);
-        for (l, cell) in block.iter().enumerate() {
-            let (r, water) = (r[l], waters[l]);
-            let c = com + r;
-            let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);
-            loads_of_cell(
-                &mut out, model, cell, r, c, half, water, v, w, rho, g, inv_vol,
-            );
-        }
+    let cells = Cells {
+        model,
+        com,
+        rot,
+        v,
+        w,
+        sea,
+        rho,
+        g,
+        up_y,
+        side,
+        inv_vol,
+    };
+    #[cfg(target_arch = "x86_64")]
+    if crate::surface::simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, checked on the line above.
+        unsafe { cells_avx2(&cells, &mut out) };
+    } else {
+        cells.add_to(&mut out);
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    cells.add_to(&mut out);
     let frac = out.submerged * inv_vol;
     out.drag_torque -= w * (model.angular_damping * frac);
     out.drag_rate_rot += model.angular_damping * frac;
     out
+}
+
+/// Everything [`loads`] sums over the cells of one hull.
+struct Cells<'a, 's> {
+    model: &'a BodyModel,
+    com: DVec3,
+    rot: &'a DMat3,
+    v: DVec3,
+    w: DVec3,
+    sea: &'a SurfaceAt<'s>,
+    rho: f64,
+    g: f64,
+    up_y: f64,
+    side: f64,
+    inv_vol: f64,
+}
+
+/// [`Cells::add_to`] compiled for AVX2 and chosen at run time, as the batch queries are
+/// ([`crate::surface::for_blocks`]): the sea's wave kernel inlines here and runs four f64 lanes
+/// per instruction instead of two, with the same operations in the same order (no fused
+/// multiply-add), so the same bits; `body_step_uses_the_same_bits_with_and_without_avx2` compares
+/// the two.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn cells_avx2(cells: &Cells<'_, '_>, out: &mut Loads) {
+    cells.add_to(out);
+}
+
+impl Cells<'_, '_> {
+    /// Adds every cell's buoyancy and drag to `out`.
+    #[inline(always)]
+    fn add_to(&self, out: &mut Loads) {
+        let Cells {
+            model,
+            com,
+            rot,
+            v,
+            w,
+            sea,
+            rho,
+            g,
+            up_y,
+            side,
+            inv_vol,
+        } = *self;
+        // Cells in blocks of LANES for the vectorised sea ([`SurfaceAt::water_lanes`],
+        // bit-identical to one cell at a time); the sums below still run cell by cell, in order.
+        for block in model.hull.cells.chunks(LANES) {
+            let r: [DVec3; LANES] = std::array::from_fn(|l| {
+                *rot * (block[l.min(block.len() - 1)].position - model.com)
+            });
+            let at: [DVec2; LANES] = std::array::from_fn(|l| {
+                let c = com + r[l];
+                DVec2::new(c.x, c.z)
+            });
+            let waters = sea.water_lanes(&at, model.min_wavelength);
+            for (l, cell) in block.iter().enumerate() {
+                let (r, water) = (r[l], waters[l]);
+                let c = com + r;
+                let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);
+                loads_of_cell(out, model, cell, r, c, half, water, v, w, rho, g, inv_vol);
+            }
+        }
+    }
 }
 
 /// Cells evaluated together by [`loads`].

@@ -56,7 +56,8 @@ impl SurfaceAt<'_> {
                     }
                 }
                 Layer::Fft(f) => {
-                    let s = self.fft_sample(f, frame, p0);
+                    let reads = crate::fft::FftReads::every(derivatives);
+                    let s = self.fft_sample(f, frame, p0, reads);
                     out.displacement += s.displacement;
                     if derivatives {
                         out.d_dx += DVec3::new(s.jacobian.x, s.slope.x, s.jacobian.z);
@@ -121,6 +122,7 @@ impl SurfaceAt<'_> {
     /// heights come from the vectorised [`SurfaceAt::invert_lanes`] (the same iteration and
     /// best-iterate rule, lane by lane) and only the velocities are summed per point; otherwise
     /// each lane is [`SurfaceAt::water_at`].
+    #[inline(always)]
     pub fn water_lanes<const B: usize>(
         &self,
         worlds: &[DVec2; B],
@@ -138,10 +140,35 @@ impl SurfaceAt<'_> {
         if !unfiltered {
             return std::array::from_fn(|l| self.water_at(worlds[l], min_wavelength));
         }
-        let inverted = self.invert_lanes(worlds, false);
-        std::array::from_fn(|l| WaterPoint {
-            height: inverted[l].sample.displacement.y,
-            velocity: self.velocity_filtered(inverted[l].source, min_wavelength),
+        // Analytic layers first (every built-in scene but `open-sea`): their velocities come out
+        // of the inversion's own `sin_cos`, summed in the order `velocity_filtered` sums them,
+        // and the other layers' are added after, at the source point, in layer order.
+        let analytic = |l: &Layer| matches!(l, Layer::Sine(_) | Layer::Gerstner(_));
+        let layers = self.surface.layers();
+        let analytic_first = layers
+            .iter()
+            .skip_while(|l| analytic(l))
+            .all(|l| !analytic(l));
+        if !analytic_first {
+            let inverted = self.invert_lanes(worlds, false);
+            return std::array::from_fn(|l| WaterPoint {
+                height: inverted[l].sample.displacement.y,
+                velocity: self.velocity_filtered(inverted[l].source, min_wavelength),
+            });
+        }
+        let mut v = [[0.0; B]; 3];
+        let inverted = self.invert_lanes_v::<B, true>(worlds, false, &mut v);
+        let only_analytic = layers.iter().all(analytic);
+        std::array::from_fn(|l| {
+            let summed = DVec3::new(v[0][l], v[1][l], v[2][l]);
+            WaterPoint {
+                height: inverted[l].sample.displacement.y,
+                velocity: if only_analytic {
+                    summed
+                } else {
+                    self.velocity_layers(inverted[l].source, min_wavelength, summed, false)
+                },
+            }
         })
     }
 }

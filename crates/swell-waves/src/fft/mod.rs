@@ -66,6 +66,7 @@ pub use layer::{
     FftLayer, GridPosition, MAX_CHOPPINESS, MAX_REPEAT_PERIOD, MAX_RESOLUTION, MAX_TILE_SIZE,
     MIN_REPEAT_PERIOD, MIN_RESOLUTION, MIN_TILE_SIZE,
 };
+pub(crate) use sample::FftReads;
 pub use sample::{FftSample, SampleFilter, lerp_samples, sample_between};
 pub use velocity::FftVelocityFrame;
 

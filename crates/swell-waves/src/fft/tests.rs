@@ -689,7 +689,10 @@ fn evolution_table_equals_the_per_entry_phase_bit_for_bit() {
 }
 
 /// The one-grid accessors read exactly what `sample` reads, for every filter and grid, and 0 for
-/// grids the frame lacks.
+/// grids the frame lacks; so do the partial reads of `sample_some` (the inversion's and the
+/// height queries'), which read several grids at once (`Stencil::read_many`) and leave the rest
+/// at 0. `sample` itself reads all eight at once when the frame has them all, so this also pins
+/// `read_many` against `read`, grid by grid.
 #[test]
 fn sample_height_and_sample_grid_equal_sample_bit_for_bit() {
     let layer = layer_with(&spec(32, 50.0), 3, bump(12.0, 1.5));
@@ -708,6 +711,17 @@ fn sample_height_and_sample_grid_equal_sample_bit_for_bit() {
                 assert_eq!(frame.sample_height(p0, filter).to_bits(), all[0].to_bits());
                 for (g, v) in FftGrid::ALL.into_iter().zip(all) {
                     assert_eq!(frame.sample_grid(g, p0, filter).to_bits(), v.to_bits());
+                }
+                for (reads, kept) in [
+                    (FftReads::Displacement, &[0, 1, 2][..]),
+                    (FftReads::Jacobian, &[0, 1, 2, 5, 6, 7][..]),
+                    (FftReads::All, &[0, 1, 2, 3, 4, 5, 6, 7][..]),
+                ] {
+                    let some = values(&frame.sample_some(p0, filter, reads));
+                    for (g, (v, w)) in all.iter().zip(some).enumerate() {
+                        let want = if kept.contains(&g) { *v } else { 0.0 };
+                        assert_eq!(w.to_bits(), want.to_bits(), "{reads:?} grid {g}");
+                    }
                 }
             }
         }
