@@ -250,18 +250,20 @@ impl SurfaceAt<'_> {
         targets: &[DVec2; B],
         derivatives: bool,
     ) -> [Inverted; B] {
-        self.invert_lanes_v::<B, false>(targets, derivatives, &mut [[0.0; B]; 3])
+        self.invert_lanes_v::<B, false>(targets, targets, derivatives, &mut [[0.0; B]; 3])
     }
 
     /// [`SurfaceAt::invert_lanes`]; with `V` it also leaves in `velocity` the analytic layers'
     /// particle velocities at each lane's returned source point, taken from the `sin_cos` of
     /// the round that found it ([`SurfaceAt::sample_lanes_f64`]). With `V` the f64 kernel runs
     /// whatever the snapshot's precision (there is no f32 velocity kernel): callers ask for it
-    /// on [`crate::Precision::F64`] snapshots only.
+    /// on [`crate::Precision::F64`] snapshots only. The iteration starts from `starts` (the
+    /// targets themselves for [`SurfaceAt::invert_lanes`]).
     #[inline(always)]
     pub(crate) fn invert_lanes_v<const B: usize, const V: bool>(
         &self,
         targets: &[DVec2; B],
+        starts: &[DVec2; B],
         derivatives: bool,
         velocity: &mut [[f64; B]; 3],
     ) -> [Inverted; B] {
@@ -285,7 +287,7 @@ impl SurfaceAt<'_> {
                 iterations: 0,
             });
         }
-        let mut p = *targets;
+        let mut p = *starts;
         let mut best = [Inverted {
             source: DVec2::ZERO,
             sample: SurfaceSample::default(),

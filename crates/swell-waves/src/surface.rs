@@ -450,7 +450,7 @@ impl Held {
     }
 
     /// The layer at `p0`: the frame's sample, or `a + (b − a)·w` between the two frames.
-    #[inline]
+    #[inline(always)]
     fn sample(&self, p0: DVec2, filter: crate::fft::SampleFilter, reads: FftReads) -> FftSample {
         let a = self.frame.sample_some(p0, filter, reads);
         match &self.next {

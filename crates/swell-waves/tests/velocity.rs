@@ -183,7 +183,8 @@ fn velocity_frames_from_the_caller_must_match_the_layers() {
 /// points: steep Gerstner (inversion), Gerstner plus an FFT layer, an FFT layer before Gerstner
 /// waves (velocities summed after), sine only (no horizontal motion), Gerstner plus wave particles (which the filter also
 /// drops), with and without a filter that drops waves (the
-/// per-point fallback), under both inversion methods, NaN points included.
+/// per-point fallback), under both inversion methods, NaN points included; and warm-started
+/// (`water_lanes_from` against `water_at_from`), which lands on the cold start's solution.
 #[test]
 fn water_lanes_equal_water_at_bit_for_bit() {
     let mut mixed = common::gerstner_spec(5, 8, 0.9);
@@ -234,11 +235,28 @@ fn water_lanes_equal_water_at_bit_for_bit() {
                         pts[2] = DVec2::new(f64::NAN, 1.0);
                     }
                     let lanes = sea.water_lanes(&pts, min_wavelength);
+                    // Warm starts, as a body's later substeps use them: a few cm off.
+                    let starts: [DVec2; 4] = std::array::from_fn(|l| {
+                        pts[l] + DVec2::new(uniform(-0.05, 0.05), uniform(-0.05, 0.05))
+                    });
+                    let warm = sea.water_lanes_from(&pts, &starts, min_wavelength);
+                    let bits = |v: DVec3| v.to_array().map(f64::to_bits);
                     for (l, p) in pts.iter().enumerate() {
                         let one = sea.water_at(*p, min_wavelength);
                         assert_eq!(lanes[l].height.to_bits(), one.height.to_bits(), "{p}");
-                        let bits = |v: DVec3| v.to_array().map(f64::to_bits);
                         assert_eq!(bits(lanes[l].velocity), bits(one.velocity), "{p}");
+                        assert_eq!(
+                            bits(lanes[l].source.extend(0.0)),
+                            bits(one.source.extend(0.0))
+                        );
+                        let from = sea.water_at_from(*p, starts[l], min_wavelength);
+                        assert_eq!(warm[l].height.to_bits(), from.height.to_bits(), "{p}");
+                        assert_eq!(bits(warm[l].velocity), bits(from.velocity), "{p}");
+                        // The same solution as a cold start, within the tolerance's reach.
+                        if one.height.is_finite() && from.height.is_finite() {
+                            let moved = (warm[l].source - lanes[l].source).length();
+                            assert!(moved < 0.05, "{p}: sources {moved} m apart");
+                        }
                     }
                 }
             }

@@ -39,6 +39,13 @@ pub(crate) struct Loads {
 
 /// The loads on `model` with centre of mass at `com` (world), rotation matrix `rot`, velocity
 /// `v` and angular velocity `w`, in `sea`, water density `rho`, gravity `g`.
+///
+/// `offsets` holds one entry per cell: on return, the cell's inversion answer relative to its
+/// world point (`source − world`). With `warm`, each cell's inversion starts from its world
+/// point plus the entry left by the previous call (the previous substep of the same tick)
+/// instead of from the world point: the surface moved for one substep, so the start is a few
+/// millimetres off and Newton needs a round less. A pure function of the tick's own substeps,
+/// so replays and restored worlds take the same rounds.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn loads(
     model: &BodyModel,
@@ -49,6 +56,8 @@ pub(crate) fn loads(
     sea: &SurfaceAt<'_>,
     rho: f64,
     g: f64,
+    offsets: &mut [DVec2],
+    warm: bool,
 ) -> Loads {
     let mut out = Loads {
         force: DVec3::new(0.0, -model.mass * g, 0.0),
@@ -69,16 +78,17 @@ pub(crate) fn loads(
         up_y,
         side,
         inv_vol,
+        warm,
     };
     #[cfg(target_arch = "x86_64")]
     if crate::surface::simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, checked on the line above.
-        unsafe { cells_avx2(&cells, &mut out) };
+        unsafe { cells_avx2(&cells, &mut out, offsets) };
     } else {
-        cells.add_to(&mut out);
+        cells.add_to(&mut out, offsets);
     }
     #[cfg(not(target_arch = "x86_64"))]
-    cells.add_to(&mut out);
+    cells.add_to(&mut out, offsets);
     let frac = out.submerged * inv_vol;
     out.drag_torque -= w * (model.angular_damping * frac);
     out.drag_rate_rot += model.angular_damping * frac;
@@ -98,6 +108,8 @@ struct Cells<'a, 's> {
     up_y: f64,
     side: f64,
     inv_vol: f64,
+    /// Start each cell's inversion from the offset the previous substep left.
+    warm: bool,
 }
 
 /// [`Cells::add_to`] compiled for AVX2 and chosen at run time, as the batch queries are
@@ -107,14 +119,15 @@ struct Cells<'a, 's> {
 /// the two.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn cells_avx2(cells: &Cells<'_, '_>, out: &mut Loads) {
-    cells.add_to(out);
+fn cells_avx2(cells: &Cells<'_, '_>, out: &mut Loads, offsets: &mut [DVec2]) {
+    cells.add_to(out, offsets);
 }
 
 impl Cells<'_, '_> {
-    /// Adds every cell's buoyancy and drag to `out`.
+    /// Adds every cell's buoyancy and drag to `out`, and leaves each cell's source offset in
+    /// `offsets` (see [`loads`]).
     #[inline(always)]
-    fn add_to(&self, out: &mut Loads) {
+    fn add_to(&self, out: &mut Loads, offsets: &mut [DVec2]) {
         let Cells {
             model,
             com,
@@ -127,19 +140,31 @@ impl Cells<'_, '_> {
             up_y,
             side,
             inv_vol,
+            warm,
         } = *self;
-        // Cells in blocks of LANES for the vectorised sea ([`SurfaceAt::water_lanes`],
+        // Cells in blocks of LANES for the vectorised sea ([`SurfaceAt::water_lanes_from`],
         // bit-identical to one cell at a time); the sums below still run cell by cell, in order.
-        for block in model.hull.cells.chunks(LANES) {
-            let r: [DVec3; LANES] = std::array::from_fn(|l| {
-                *rot * (block[l.min(block.len() - 1)].position - model.com)
-            });
+        for (block, offsets) in model
+            .hull
+            .cells
+            .chunks(LANES)
+            .zip(offsets.chunks_mut(LANES))
+        {
+            let last = block.len() - 1;
+            let r: [DVec3; LANES] =
+                std::array::from_fn(|l| *rot * (block[l.min(last)].position - model.com));
             let at: [DVec2; LANES] = std::array::from_fn(|l| {
                 let c = com + r[l];
                 DVec2::new(c.x, c.z)
             });
-            let waters = sea.water_lanes(&at, model.min_wavelength);
+            let starts: [DVec2; LANES] = if warm {
+                std::array::from_fn(|l| at[l] + offsets[l.min(last)])
+            } else {
+                at
+            };
+            let waters = sea.water_lanes_from(&at, &starts, model.min_wavelength);
             for (l, cell) in block.iter().enumerate() {
+                offsets[l] = waters[l].source - at[l];
                 let (r, water) = (r[l], waters[l]);
                 let c = com + r;
                 let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);

@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec2, DVec3};
 
 use super::buoyancy::loads;
 use super::spec::{BodyModel, BodySpec};
@@ -412,6 +412,10 @@ impl World {
     /// [`World::step_surface`] does this for a whole [`Surface`].
     ///
     /// Each body takes [`substeps_for`] substeps of semi-implicit Euler (see [`crate::body`]).
+    /// A hull cell's height inversion starts from the world point on a tick's first substep
+    /// and, on the later ones, from where the previous substep's inversion ended (relative to
+    /// the cell), which saves Newton rounds; nothing carries over between ticks, so a snapshot
+    /// taken between ticks loses nothing.
     /// A body whose state becomes non-finite is put back to its state before the step with its
     /// velocities zeroed, and flagged ([`BodyStatus::quarantined`], [`BodyStatus::rollbacks`]).
     pub fn step<'s>(&mut self, mut sea: impl FnMut(f64) -> SurfaceAt<'s>) {
@@ -423,6 +427,9 @@ impl World {
         let times: Vec<f64> = (0..MAX_SUBSTEPS)
             .map(|k| self.substep_time(tick, k))
             .collect();
+        // Per cell of the body being stepped: where its inversion ended, relative to the cell
+        // (the next substep starts there; see `loads`).
+        let mut offsets: Vec<DVec2> = Vec::new();
         for (id, body) in self.bodies.iter_mut() {
             let (mut f_in, mut t_in) = (DVec3::ZERO, DVec3::ZERO);
             for i in self.inputs.get(id).into_iter().flatten() {
@@ -437,6 +444,8 @@ impl World {
             let mut state = start;
             let mut submerged = 0.0;
             let mut ok = true;
+            offsets.clear();
+            offsets.resize(body.model.hull.cells.len(), DVec2::ZERO);
             for i in 0..n {
                 let key = i * (MAX_SUBSTEPS / n);
                 let pos = match cache.iter().position(|(k, _)| *k == key) {
@@ -450,11 +459,15 @@ impl World {
                     &body.model,
                     &mut state,
                     &cache[pos].1,
-                    f_in,
-                    t_in,
-                    h,
-                    rho,
-                    g,
+                    Forces {
+                        f_in,
+                        t_in,
+                        h,
+                        rho,
+                        g,
+                    },
+                    &mut offsets,
+                    i > 0,
                 );
                 submerged = s;
                 if !state.is_finite() {
@@ -557,6 +570,17 @@ fn unreachable_sea<'s>(surface: &'s Surface, options: &QueryOptions) -> SurfaceA
         .unwrap_or_else(|_| unreachable!("reference snapshots need no frames"))
 }
 
+/// What a substep applies besides the sea: the tick's input force and torque (body frame, N
+/// and N·m), the substep length h, s, water density ρ, kg/m³, and gravity g, m/s².
+#[derive(Clone, Copy)]
+struct Forces {
+    f_in: DVec3,
+    t_in: DVec3,
+    h: f64,
+    rho: f64,
+    g: f64,
+}
+
 /// One semi-implicit Euler substep of length `h`; returns the submerged volume fraction.
 ///
 /// Linear: `v ← v + h·F/m`, `x ← x + h·v`. Angular, in the world frame: `L = I_w·ω + h·τ` with
@@ -565,16 +589,22 @@ fn unreachable_sea<'s>(surface: &'s Surface, options: &QueryOptions) -> SurfaceA
 /// exactly). Drag is limited so that one substep never removes more than the relative velocity
 /// (the implicit-Euler bound): if `h·Σrate > m` the drag force is scaled by `m/(h·Σrate)`, and
 /// likewise the drag torque against the smallest moment of inertia.
-#[allow(clippy::too_many_arguments)]
+///
+/// `offsets` and `warm` are the cells' inversion starts (see [`loads`]): `warm` on every
+/// substep of a tick but the first.
 fn substep(
     model: &BodyModel,
     state: &mut BodyState,
     sea: &SurfaceAt<'_>,
-    f_in: DVec3,
-    t_in: DVec3,
-    h: f64,
-    rho: f64,
-    g: f64,
+    Forces {
+        f_in,
+        t_in,
+        h,
+        rho,
+        g,
+    }: Forces,
+    offsets: &mut [DVec2],
+    warm: bool,
 ) -> f64 {
     let rot = DMat3::from_quat(state.rotation);
     let com = state.position + rot * model.com;
@@ -587,6 +617,8 @@ fn substep(
         sea,
         rho,
         g,
+        offsets,
+        warm,
     );
     let lin_scale = if h * l.drag_rate > model.mass {
         model.mass / (h * l.drag_rate)
