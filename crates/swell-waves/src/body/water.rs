@@ -24,6 +24,10 @@ pub struct WaterPoint {
     /// The undisplaced point whose particle is above the world point (the inversion's answer;
     /// the world point itself on a surface without horizontal motion), m.
     pub source: DVec2,
+    /// The derivatives of the displacement at `source` from the inversion's best round (zero
+    /// where it took none: fixed-point steps, no horizontal motion); only `d_dx` and `d_dz` are
+    /// meaningful. A body predicts its next substep's start from them.
+    pub(crate) derivatives: SurfaceSample,
 }
 
 impl SurfaceAt<'_> {
@@ -90,34 +94,40 @@ impl SurfaceAt<'_> {
     /// from the answer, which saves a Newton round. The answer is the same solution within the
     /// tolerance, not the same bits as a cold start.
     pub fn water_at_from(&self, world: DVec2, start: DVec2, min_wavelength: f64) -> WaterPoint {
-        let (source, height) = if self.surface.has_horizontal_motion() {
+        let (source, height, derivatives) = if self.surface.has_horizontal_motion() {
             self.invert_filtered(world, start, min_wavelength)
         } else {
             let s = self.sample_filtered(world, false, min_wavelength);
-            (world, s.displacement.y)
+            (world, s.displacement.y, SurfaceSample::default())
         };
         WaterPoint {
             height,
             velocity: self.velocity_filtered(source, min_wavelength),
             source,
+            derivatives,
         }
     }
 
     /// The source point and its elevation. Keeps the best iterate exactly as
     /// [`SurfaceAt::invert_lanes`] does: the first one always (even a NaN one, so a NaN is
     /// reported rather than replaced by a made-up 0), then any with a lower residual.
-    fn invert_filtered(&self, target: DVec2, start: DVec2, min_wavelength: f64) -> (DVec2, f64) {
+    fn invert_filtered(
+        &self,
+        target: DVec2,
+        start: DVec2,
+        min_wavelength: f64,
+    ) -> (DVec2, f64, SurfaceSample) {
         let inv = self.options.inversion;
         let newton = inv.method == InversionMethod::Newton;
         let mut p = start;
-        let (mut best, mut best_y, mut best_r) = (start, f64::NAN, f64::INFINITY);
+        let (mut best, mut best_s, mut best_r) = (start, SurfaceSample::default(), f64::INFINITY);
         let mut it = 0;
         loop {
             let s = self.sample_filtered(p, newton, min_wavelength);
             let f = p + DVec2::new(s.displacement.x, s.displacement.z) - target;
             let r = f.length();
             if it == 0 || r < best_r {
-                (best, best_y, best_r) = (p, s.displacement.y, r);
+                (best, best_s, best_r) = (p, s, r);
             }
             if r <= inv.tolerance || it >= inv.iterations || !r.is_finite() {
                 break;
@@ -126,7 +136,7 @@ impl SurfaceAt<'_> {
             p -= step;
             it += 1;
         }
-        (best, best_y)
+        (best, best_s.displacement.y, best_s)
     }
 
     /// [`SurfaceAt::water_at`] for `B` world points at once, bit-identical per lane: when the
@@ -182,6 +192,7 @@ impl SurfaceAt<'_> {
                 height: inverted[l].sample.displacement.y,
                 velocity: self.velocity_filtered(inverted[l].source, min_wavelength),
                 source: inverted[l].source,
+                derivatives: inverted[l].sample,
             });
         }
         let mut v = [[0.0; B]; 3];
@@ -197,6 +208,7 @@ impl SurfaceAt<'_> {
                     self.velocity_layers(inverted[l].source, min_wavelength, summed, false)
                 },
                 source: inverted[l].source,
+                derivatives: inverted[l].sample,
             }
         })
     }

@@ -13,9 +13,9 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use glam::{DMat3, DQuat, DVec2, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 
-use super::buoyancy::loads;
+use super::buoyancy::{CellWater, loads};
 use super::spec::{BodyModel, BodySpec};
 use super::state::{BodyState, BodyStatus, quat_from_rotation_vector};
 use crate::error::{SpecError, finite, positive};
@@ -413,9 +413,10 @@ impl World {
     ///
     /// Each body takes [`substeps_for`] substeps of semi-implicit Euler (see [`crate::body`]).
     /// A hull cell's height inversion starts from the world point on a tick's first substep
-    /// and, on the later ones, from where the previous substep's inversion ended (relative to
-    /// the cell), which saves Newton rounds; nothing carries over between ticks, so a snapshot
-    /// taken between ticks loses nothing.
+    /// and, on the later ones, from a prediction made from what the previous substep's found
+    /// (one Newton step with the displacement extrapolated by the particle velocity), which
+    /// saves Newton rounds; nothing carries over between ticks, so a snapshot taken between
+    /// ticks loses nothing.
     /// A body whose state becomes non-finite is put back to its state before the step with its
     /// velocities zeroed, and flagged ([`BodyStatus::quarantined`], [`BodyStatus::rollbacks`]).
     pub fn step<'s>(&mut self, mut sea: impl FnMut(f64) -> SurfaceAt<'s>) {
@@ -427,9 +428,9 @@ impl World {
         let times: Vec<f64> = (0..MAX_SUBSTEPS)
             .map(|k| self.substep_time(tick, k))
             .collect();
-        // Per cell of the body being stepped: where its inversion ended, relative to the cell
-        // (the next substep starts there; see `loads`).
-        let mut offsets: Vec<DVec2> = Vec::new();
+        // Per cell of the body being stepped: what its inversion found on the previous substep
+        // (the next substep's start is predicted from it; see `loads`).
+        let mut warm: Vec<CellWater> = Vec::new();
         for (id, body) in self.bodies.iter_mut() {
             let (mut f_in, mut t_in) = (DVec3::ZERO, DVec3::ZERO);
             for i in self.inputs.get(id).into_iter().flatten() {
@@ -444,8 +445,8 @@ impl World {
             let mut state = start;
             let mut submerged = 0.0;
             let mut ok = true;
-            offsets.clear();
-            offsets.resize(body.model.hull.cells.len(), DVec2::ZERO);
+            warm.clear();
+            warm.resize(body.model.hull.cells.len(), CellWater::default());
             for i in 0..n {
                 let key = i * (MAX_SUBSTEPS / n);
                 let pos = match cache.iter().position(|(k, _)| *k == key) {
@@ -466,8 +467,8 @@ impl World {
                         rho,
                         g,
                     },
-                    &mut offsets,
-                    i > 0,
+                    &mut warm,
+                    (i > 0).then_some(h),
                 );
                 submerged = s;
                 if !state.is_finite() {
@@ -590,8 +591,8 @@ struct Forces {
 /// (the implicit-Euler bound): if `h·Σrate > m` the drag force is scaled by `m/(h·Σrate)`, and
 /// likewise the drag torque against the smallest moment of inertia.
 ///
-/// `offsets` and `warm` are the cells' inversion starts (see [`loads`]): `warm` on every
-/// substep of a tick but the first.
+/// `warm` and `since` are the cells' inversion starts (see [`loads`]): `since = Some(h)` on
+/// every substep of a tick but the first.
 fn substep(
     model: &BodyModel,
     state: &mut BodyState,
@@ -603,8 +604,8 @@ fn substep(
         rho,
         g,
     }: Forces,
-    offsets: &mut [DVec2],
-    warm: bool,
+    warm: &mut [CellWater],
+    since: Option<f64>,
 ) -> f64 {
     let rot = DMat3::from_quat(state.rotation);
     let com = state.position + rot * model.com;
@@ -617,8 +618,8 @@ fn substep(
         sea,
         rho,
         g,
-        offsets,
         warm,
+        since,
     );
     let lin_scale = if h * l.drag_rate > model.mass {
         model.mass / (h * l.drag_rate)
