@@ -142,8 +142,10 @@ impl SurfaceAt<'_> {
     /// [`SurfaceAt::water_at`] for `B` world points at once, bit-identical per lane: when the
     /// filter keeps every analytic wave and the snapshot is [`crate::Precision::F64`], the
     /// heights come from the vectorised [`SurfaceAt::invert_lanes`] (the same iteration and
-    /// best-iterate rule, lane by lane) and only the velocities are summed per point; otherwise
-    /// each lane is [`SurfaceAt::water_at`].
+    /// best-iterate rule, lane by lane), and so do the analytic layers' velocities when those
+    /// layers come first (taken from the best round's `sin_cos`, in the order
+    /// [`SurfaceAt::velocity_filtered`] sums them; other layers' velocities are added per point
+    /// after); otherwise each lane is [`SurfaceAt::water_at`].
     #[inline(always)]
     pub fn water_lanes<const B: usize>(
         &self,
