@@ -432,12 +432,7 @@ impl WaveSoA {
         derivatives: bool,
         out: &mut Lanes<B>,
     ) {
-        let mut no_velocity = [[0.0; B]; 3];
-        if derivatives {
-            self.kernel::<B, true, false>(x, z, t, out, &mut no_velocity);
-        } else {
-            self.kernel::<B, false, false>(x, z, t, out, &mut no_velocity);
-        }
+        self.accumulate_lanes_v::<B, false>(x, z, t, derivatives, out, &mut [[0.0; B]; 3]);
     }
 
     /// [`WaveSoA::accumulate_lanes`] that also adds each wave's particle velocity, m/s, into
@@ -455,10 +450,24 @@ impl WaveSoA {
         out: &mut Lanes<B>,
         velocity: &mut [[f64; B]; 3],
     ) {
+        self.accumulate_lanes_v::<B, true>(x, z, t, derivatives, out, velocity);
+    }
+
+    /// The two above: the kernel instance for `derivatives`, velocities summed if `V`.
+    #[inline(always)]
+    fn accumulate_lanes_v<const B: usize, const V: bool>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
+    ) {
         if derivatives {
-            self.kernel::<B, true, true>(x, z, t, out, velocity);
+            self.kernel::<B, true, V>(x, z, t, out, velocity);
         } else {
-            self.kernel::<B, false, true>(x, z, t, out, velocity);
+            self.kernel::<B, false, V>(x, z, t, out, velocity);
         }
     }
 

@@ -227,15 +227,7 @@ fn a_resumed_world_continues_to_the_same_bits() {
 #[test]
 fn body_step_uses_the_same_bits_with_and_without_avx2() {
     use swell_waves::body::{BodySpec, BodyState, HullSpec, World, WorldSettings};
-    #[cfg(target_arch = "x86_64")]
-    let avx2 = std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx2 = false;
-    if !avx2 {
-        eprintln!(
-            "SKIPPED body_step_uses_the_same_bits_with_and_without_avx2: this CPU has no AVX2, \
-             so there is no second path to compare with the baseline"
-        );
+    if !common::avx2_or_skip("body_step_uses_the_same_bits_with_and_without_avx2") {
         return;
     }
     let mut with_fft = gerstner_spec(8, 6, 0.5);

@@ -394,17 +394,7 @@ fn f32_fast_path_is_independent_of_the_batch() {
 /// which never takes the AVX2 loop).
 #[test]
 fn simd_dispatch_does_not_change_a_bit() {
-    // Without AVX2 both runs take the baseline loops and comparing them proves nothing: say so
-    // rather than pass silently.
-    #[cfg(target_arch = "x86_64")]
-    let avx2 = std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx2 = false;
-    if !avx2 {
-        eprintln!(
-            "SKIPPED simd_dispatch_does_not_change_a_bit: this CPU has no AVX2, so there is no \
-             second path to compare with the baseline"
-        );
+    if !common::avx2_or_skip("simd_dispatch_does_not_change_a_bit") {
         return;
     }
     let surface = Surface::new(&gerstner_spec(41, 16, 0.9)).unwrap();

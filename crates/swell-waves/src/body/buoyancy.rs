@@ -157,32 +157,19 @@ impl Cells<'_, '_> {
     /// found in `warm` (see [`loads`]).
     #[inline(always)]
     fn add_to(&self, out: &mut Loads, warm: &mut [CellWater]) {
-        let Cells {
-            model,
-            com,
-            rot,
-            v,
-            w,
-            sea,
-            rho,
-            g,
-            up_y,
-            side,
-            inv_vol,
-            since,
-        } = *self;
+        let (model, sea) = (self.model, self.sea);
         let newton = sea.options.inversion.method == crate::query::InversionMethod::Newton;
         // Cells in blocks of LANES for the vectorised sea ([`SurfaceAt::water_lanes_from`],
         // bit-identical to one cell at a time); the sums below still run cell by cell, in order.
         for (block, warm) in model.hull.cells.chunks(LANES).zip(warm.chunks_mut(LANES)) {
             let last = block.len() - 1;
             let r: [DVec3; LANES] =
-                std::array::from_fn(|l| *rot * (block[l.min(last)].position - model.com));
+                std::array::from_fn(|l| *self.rot * (block[l.min(last)].position - model.com));
             let at: [DVec2; LANES] = std::array::from_fn(|l| {
-                let c = com + r[l];
+                let c = self.com + r[l];
                 DVec2::new(c.x, c.z)
             });
-            let starts: [DVec2; LANES] = match since {
+            let starts: [DVec2; LANES] = match self.since {
                 Some(h) => {
                     std::array::from_fn(|l| predicted_start(&warm[l.min(last)], at[l], h, newton))
                 }
@@ -197,46 +184,34 @@ impl Cells<'_, '_> {
                     velocity: DVec2::new(found.velocity.x, found.velocity.z),
                     derivatives: found.derivatives,
                 };
-                let (r, water) = (r[l], waters[l]);
-                let c = com + r;
-                let half = 0.5 * (cell.height * up_y.abs() + cell.width * side);
-                loads_of_cell(out, model, cell, r, c, half, water, v, w, rho, g, inv_vol);
+                self.add_cell(out, cell, r[l], found);
             }
         }
     }
-}
 
-/// Cells evaluated together by [`loads`].
-const LANES: usize = 4;
-
-/// Adds one cell's buoyancy and drag to `out` (see the module docs).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn loads_of_cell(
-    out: &mut Loads,
-    model: &BodyModel,
-    cell: &super::hull::Cell,
-    r: DVec3,
-    c: DVec3,
-    half: f64,
-    water: super::water::WaterPoint,
-    v: DVec3,
-    w: DVec3,
-    rho: f64,
-    g: f64,
-    inv_vol: f64,
-) {
-    {
+    /// Adds one cell's buoyancy and drag to `out` (see the module docs): the cell at `r` from
+    /// the centre of mass (world frame), with `water` above it.
+    #[inline(always)]
+    fn add_cell(
+        &self,
+        out: &mut Loads,
+        cell: &super::hull::Cell,
+        r: DVec3,
+        water: &super::water::WaterPoint,
+    ) {
+        let (model, v, w) = (self.model, self.v, self.w);
+        let c = self.com + r;
+        let half = 0.5 * (cell.height * self.up_y.abs() + cell.width * self.side);
         let f = ((water.height - (c.y - half)) / (2.0 * half)).clamp(0.0, 1.0);
         if f.is_nan() || f > 0.0 {
             // NaN falls through to the sums, so the step's finiteness check catches it.
-            let fb = DVec3::new(0.0, rho * g * cell.volume * f, 0.0);
+            let fb = DVec3::new(0.0, self.rho * self.g * cell.volume * f, 0.0);
             out.force += fb;
             out.torque += r.cross(fb);
             out.submerged += f * cell.volume;
             let u = v + w.cross(r) - water.velocity;
             let rate = f
-                * (cell.volume * inv_vol)
+                * (cell.volume * self.inv_vol)
                 * (model.linear_drag + model.quadratic_drag * u.length());
             let fd = u * -rate;
             out.drag_force += fd;
@@ -246,6 +221,9 @@ fn loads_of_cell(
         }
     }
 }
+
+/// Cells evaluated together by [`loads`].
+const LANES: usize = 4;
 
 #[cfg(test)]
 mod tests {

@@ -77,3 +77,20 @@ pub fn points(seed: u64, n: usize, c: (f64, f64), r: f64) -> Vec<glam::DVec2> {
         })
         .collect()
 }
+
+/// Whether this CPU has AVX2, i.e. whether the run-time AVX2 paths exist to be compared with the
+/// baseline build's. Without it, says that `test` is skipped (comparing a path with itself
+/// proves nothing) rather than passing silently.
+pub fn avx2_or_skip(test: &str) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx2 = false;
+    if !avx2 {
+        eprintln!(
+            "SKIPPED {test}: this CPU has no AVX2, so there is no second path to compare with \
+             the baseline"
+        );
+    }
+    avx2
+}
