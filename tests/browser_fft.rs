@@ -260,32 +260,11 @@ document.getElementById('out').textContent = JSON.stringify(result);
 /// dispatches of one submission would not land between them), then the probes reading pair 0;
 /// a copy and a map. POSTs the result (same shape as the WebGL2 page's) to `/result`.
 const GPU_PAGE_JS: &str = r#"
-const PROBE_KERNEL = `
-@group(2) @binding(0) var<storage, read> swell_probe_in: array<vec2<f32>>;
-@group(2) @binding(1) var<storage, read_write> swell_probe_out: array<vec4<f32>>;
-
-@compute @workgroup_size(64)
-fn swell_probe_cs(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&swell_probe_in)) {
-        return;
-    }
-    let p = swell_probe_in[i];
-    let at = swell_sample(p);
-    let above = swell_sample(swell_invert(p));
-    swell_probe_out[2u * i] = vec4<f32>(at.displacement, swell_jacobian(above));
-    swell_probe_out[2u * i + 1u] = vec4<f32>(swell_normal(above), above.displacement.y);
-}
-`;
+const PROBE_KERNEL = probeKernel(2);
 async function run() {
-  if (!navigator.gpu) return { ok: false, unavailable: 'navigator.gpu is undefined' };
-  const adapter = await navigator.gpu.requestAdapter();
-  if (!adapter) return { ok: false, unavailable: 'requestAdapter() gave no adapter' };
-  const info = adapter.info || {};
-  const device = await adapter.requestDevice();
-  const errors = [];
-  device.addEventListener('uncapturederror', (e) => errors.push(String(e.error.message)));
-  device.lost.then((l) => errors.push('device lost: ' + l.reason + ' ' + l.message));
+  const gpu = await openDevice();
+  if (gpu.unavailable) return { ok: false, unavailable: gpu.unavailable };
+  const { device, errors } = gpu;
   const compile = async (name, code) => {
     const module = device.createShaderModule({ code });
     const ci = await module.getCompilationInfo();
@@ -389,7 +368,7 @@ async function run() {
     out.push({ scene: c.scene, n, ms_per_run: (performance.now() - t0) / c.runs.length, runs });
   }
   if (errors.length) throw new Error('device errors: ' + errors.join('; '));
-  return { ok: true, adapter: [info.vendor, info.architecture, info.description].filter(Boolean).join(' '), cases: out };
+  return { ok: true, adapter: gpu.name, cases: out };
 }
 (async () => {
   let result;

@@ -133,31 +133,11 @@ document.getElementById('out').textContent = JSON.stringify(result);
 /// uniform buffer, one dispatch, a copy, a map. The result (same shape as the WebGL2 page's) is
 /// POSTed to `/result`; an unavailable adapter is reported as such, not as a failure.
 const GPU_PAGE_JS: &str = r#"
-const KERNEL = `
-@group(1) @binding(0) var<storage, read> swell_probe_in: array<vec2<f32>>;
-@group(1) @binding(1) var<storage, read_write> swell_probe_out: array<vec4<f32>>;
-
-@compute @workgroup_size(64)
-fn swell_probe_cs(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&swell_probe_in)) {
-        return;
-    }
-    let p = swell_probe_in[i];
-    let at = swell_sample(p);
-    let above = swell_sample(swell_invert(p));
-    swell_probe_out[2u * i] = vec4<f32>(at.displacement, swell_jacobian(above));
-    swell_probe_out[2u * i + 1u] = vec4<f32>(swell_normal(above), above.displacement.y);
-}
-`;
+const KERNEL = probeKernel(1);
 async function run() {
-  if (!navigator.gpu) return { ok: false, unavailable: 'navigator.gpu is undefined' };
-  const adapter = await navigator.gpu.requestAdapter();
-  if (!adapter) return { ok: false, unavailable: 'requestAdapter() gave no adapter' };
-  const info = adapter.info || {};
-  const device = await adapter.requestDevice();
-  const errors = [];
-  device.addEventListener('uncapturederror', (e) => errors.push(String(e.error.message)));
+  const gpu = await openDevice();
+  if (gpu.unavailable) return { ok: false, unavailable: gpu.unavailable };
+  const { device, errors } = gpu;
   const out = [];
   for (const c of CASES) {
     const module = device.createShaderModule({ code: c.wgsl + KERNEL });
@@ -201,7 +181,7 @@ async function run() {
     out.push({ scene: c.scene, runs });
   }
   if (errors.length) throw new Error('device errors: ' + errors.join('; '));
-  return { ok: true, adapter: [info.vendor, info.architecture, info.description].filter(Boolean).join(' '), cases: out };
+  return { ok: true, adapter: gpu.name, cases: out };
 }
 (async () => {
   let result;

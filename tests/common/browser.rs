@@ -176,10 +176,47 @@ pub async fn run_webgpu_page(
     }
 }
 
-/// JS for the WebGPU pages: `probeValues(v, n)` splits a probe kernel's read-back (`n` probes,
-/// two vec4s each) into the two arrays the tests compare, with `null` for a non-finite value
-/// (JSON has no NaN).
+/// JS for the WebGPU pages:
+/// - `probeKernel(group)`: the WGSL compute entry point `swell_probe_cs` appended to a scene's
+///   surface module, evaluating what the WebGL2 page's `swell_probe_fs` does at each probe (the
+///   displacement and Jacobian at the point; the normal and height above it), its two storage
+///   buffers at `@group(group)`;
+/// - `openDevice()`: the adapter's description, the device, and the device errors seen so far
+///   (uncaptured errors and a lost device), or `{ unavailable }` saying why there is none;
+/// - `probeValues(v, n)` splits a probe kernel's read-back (`n` probes, two vec4s each) into the
+///   two arrays the tests compare, with `null` for a non-finite value (JSON has no NaN).
 pub const PROBE_VALUES_JS: &str = r#"
+function probeKernel(group) {
+  return `
+@group(${group}) @binding(0) var<storage, read> swell_probe_in: array<vec2<f32>>;
+@group(${group}) @binding(1) var<storage, read_write> swell_probe_out: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn swell_probe_cs(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&swell_probe_in)) {
+        return;
+    }
+    let p = swell_probe_in[i];
+    let at = swell_sample(p);
+    let above = swell_sample(swell_invert(p));
+    swell_probe_out[2u * i] = vec4<f32>(at.displacement, swell_jacobian(above));
+    swell_probe_out[2u * i + 1u] = vec4<f32>(swell_normal(above), above.displacement.y);
+}
+`;
+}
+async function openDevice() {
+  if (!navigator.gpu) return { unavailable: 'navigator.gpu is undefined' };
+  const adapter = await navigator.gpu.requestAdapter();
+  if (!adapter) return { unavailable: 'requestAdapter() gave no adapter' };
+  const info = adapter.info || {};
+  const device = await adapter.requestDevice();
+  const errors = [];
+  device.addEventListener('uncapturederror', (e) => errors.push(String(e.error.message)));
+  device.lost.then((l) => errors.push('device lost: ' + l.reason + ' ' + l.message));
+  const name = [info.vendor, info.architecture, info.description].filter(Boolean).join(' ');
+  return { name, device, errors };
+}
 function probeValues(v, n) {
   const a = [], b = [];
   for (let i = 0; i < n; i++) {
