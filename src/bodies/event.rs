@@ -248,8 +248,9 @@ impl SceneBodies {
             return true;
         }
         let options = super::step_options();
+        let memo = swell_waves::FrameMemo::new();
         while self.tick() < target {
-            if !self.step_once(super::Sea::Direct(surface), &options) {
+            if !self.step_once(super::Sea::Memo(surface, &memo), &options) {
                 break;
             }
         }

@@ -112,7 +112,7 @@ pub use query::{
     Inversion, InversionMethod, PointResult, Precision, QueryFields, QueryOptions, TimeSampling,
 };
 pub use surface::{
-    Layer, LayerFrames, LayerSpec, Surface, SurfaceAt, SurfacePointF32, SurfaceSpec,
+    FrameMemo, Layer, LayerFrames, LayerSpec, Surface, SurfaceAt, SurfacePointF32, SurfaceSpec,
 };
 
 /// Version of the model's numbers. Bumped whenever the golden vectors in `proto/vectors/` have to

@@ -285,6 +285,38 @@ impl Surface {
         fields: QueryFields,
         options: &QueryOptions,
     ) -> Result<SurfaceAt<'_>, SpecError> {
+        self.at_via(t, fields, options, |_, f, t, need| {
+            Arc::new(f.frame(t, need))
+        })
+    }
+
+    /// [`Surface::at`] with the FFT frames from `memo` when it has them (same bits: a frame is a
+    /// function of its layer, time and fields), and computed and kept there otherwise. For
+    /// callers that step bodies without a server's cache: a tick reads its grid frames several
+    /// times (substeps, velocity grids) and the next tick reads most of them again.
+    ///
+    /// # Errors
+    /// `t` not finite, or invalid `options`.
+    pub fn at_memo(
+        &self,
+        t: f64,
+        fields: QueryFields,
+        options: &QueryOptions,
+        memo: &FrameMemo,
+    ) -> Result<SurfaceAt<'_>, SpecError> {
+        self.at_via(t, fields, options, |i, f, t, need| {
+            memo.frame(i, f, t, need)
+        })
+    }
+
+    /// [`Surface::at`] with `frame(layer index, layer, time, fields)` computing each FFT frame.
+    fn at_via(
+        &self,
+        t: f64,
+        fields: QueryFields,
+        options: &QueryOptions,
+        mut compute: impl FnMut(usize, &FftLayer, f64, FftFields) -> Arc<FftFrame>,
+    ) -> Result<SurfaceAt<'_>, SpecError> {
         finite("t", t)?;
         options.validate()?;
         let frames = if options.reference {
@@ -292,10 +324,11 @@ impl Surface {
         } else {
             self.layers
                 .iter()
-                .map(|l| match l {
+                .enumerate()
+                .map(|(i, l)| match l {
                     Layer::Fft(f) => {
                         let need = self.fft_fields_for(f, fields, options);
-                        let frame = |t| Arc::new(f.frame(t, need));
+                        let mut frame = |t| compute(i, f, t, need);
                         Some(match options.time {
                             TimeSampling::Exact => LayerFrames::exact(frame(t)),
                             TimeSampling::Grid => {
@@ -415,6 +448,60 @@ impl LayerFrames {
     }
 }
 
+/// The last few FFT frames [`Surface::at_memo`] computed, keyed by layer, time and fields: at
+/// most [`FrameMemo::CAPACITY`], the oldest dropped first. Safe to share between threads.
+#[derive(Debug, Default)]
+pub struct FrameMemo {
+    frames: std::sync::Mutex<Vec<MemoEntry>>,
+}
+
+/// One frame of a [`FrameMemo`]: layer index, time bits, fields, the frame.
+type MemoEntry = (usize, u64, FftFields, Arc<FftFrame>);
+
+impl FrameMemo {
+    /// Most frames kept: a body tick on one FFT layer reads grid frames n − 1, n and n + 1 (and
+    /// n + 2 with substeps between grid times), and the next tick reads all but the oldest.
+    pub const CAPACITY: usize = 6;
+
+    /// An empty memo.
+    pub fn new() -> FrameMemo {
+        FrameMemo::default()
+    }
+
+    /// Number of frames kept.
+    pub fn len(&self) -> usize {
+        self.frames.lock().map_or(0, |g| g.len())
+    }
+
+    /// Whether no frame is kept.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Layer `index`'s frame at `t` with at least `need`, from the memo or computed (outside
+    /// the lock) and kept. A poisoned lock only means nothing is kept.
+    fn frame(&self, index: usize, layer: &FftLayer, t: f64, need: FftFields) -> Arc<FftFrame> {
+        let found = self.frames.lock().ok().and_then(|g| {
+            g.iter()
+                .find(|(i, at, has, _)| {
+                    *i == index && *at == t.to_bits() && has.union(need) == *has
+                })
+                .map(|(.., f)| Arc::clone(f))
+        });
+        if let Some(f) = found {
+            return f;
+        }
+        let f = Arc::new(layer.frame(t, need));
+        if let Ok(mut g) = self.frames.lock() {
+            if g.len() >= Self::CAPACITY {
+                g.remove(0);
+            }
+            g.push((index, t.to_bits(), need, Arc::clone(&f)));
+        }
+        f
+    }
+}
+
 /// A layer's frames in a snapshot, with the weight of `next` (checked against the time).
 #[derive(Debug, Clone)]
 pub(crate) struct Held {
@@ -499,6 +586,15 @@ impl SurfaceAt<'_> {
     /// The time, s.
     pub fn t(&self) -> f64 {
         self.t
+    }
+
+    /// The one frame layer `layer` is read from, when it reads exactly one (a grid time, or an
+    /// exact frame); `None` for other layers, between grid times and in reference mode.
+    pub(crate) fn single_frame(&self, layer: usize) -> Option<&Arc<FftFrame>> {
+        match self.frames.get(layer)? {
+            Some(Held { frame, next: None }) => Some(frame),
+            _ => None,
+        }
     }
 
     /// The surface.

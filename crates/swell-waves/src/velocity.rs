@@ -18,6 +18,7 @@ use glam::{DVec2, DVec3};
 use crate::error::SpecError;
 use crate::fft::FftVelocityFrame;
 use crate::math::{TAU, sin_cos};
+use crate::query::TimeSampling;
 use crate::surface::{Layer, SurfaceAt};
 use crate::wave::Wave;
 
@@ -70,6 +71,42 @@ impl<'s> SurfaceAt<'s> {
             .iter()
             .map(|l| match l {
                 Layer::Fft(f) => Some(Arc::new(f.velocity_frame(t))),
+                _ => None,
+            })
+            .collect();
+        self
+    }
+
+    /// Like [`SurfaceAt::with_velocity`], with each FFT layer's velocity grids from the time
+    /// grid's frames when this snapshot reads grid frames ([`TimeSampling::Grid`]): central
+    /// differences, no transform ([`crate::fft::FftLayer::grid_velocity_frame`]). `at(t')`
+    /// returns this surface at another time t' with the same options and frames from the same
+    /// source as this snapshot's (a shared cache, where they are usually there already); it is
+    /// asked for grid times only. A layer whose frames `at` does not give, and every layer with
+    /// [`TimeSampling::Exact`], gets [`crate::fft::FftLayer::velocity_frame`] instead.
+    #[must_use]
+    pub fn with_grid_velocity(mut self, mut at: impl FnMut(f64) -> Option<SurfaceAt<'s>>) -> Self {
+        if self.options.reference || !self.surface.has_fft() {
+            return self;
+        }
+        let t = self.t;
+        let grid = self.options.time == TimeSampling::Grid;
+        self.velocities = self
+            .surface
+            .layers()
+            .iter()
+            .enumerate()
+            .map(|(i, l)| match l {
+                Layer::Fft(f) => {
+                    let from_grid = grid
+                        .then(|| {
+                            f.grid_velocity_frame(t, |k| {
+                                at(f.grid_time(k))?.single_frame(i).cloned()
+                            })
+                        })
+                        .flatten();
+                    Some(Arc::new(from_grid.unwrap_or_else(|| f.velocity_frame(t))))
+                }
                 _ => None,
             })
             .collect();

@@ -633,10 +633,11 @@ fn body_spec_errors_name_the_field() {
     assert_eq!(e.field(), "tick_hz");
 }
 
-/// Issue 10 (bodies on FFT scenes): the velocity grids of FFT layers are computed once per
-/// tick, at the tick's time, and every substep of the tick reads them. Pinned against a step
-/// that attaches the tick-time grids by hand (the same bits), and against one that computes
-/// grids at every substep time (different bits: the substeps do read velocity).
+/// Issue 10 (bodies on FFT scenes): the velocity grids of FFT layers are made once per tick,
+/// at the tick's time, from the grid frames around it, and every substep of the tick reads
+/// them. Pinned against a step that attaches the tick-time grids by hand (the same bits), and
+/// against one that computes grids at every substep time (different bits: the substeps do read
+/// velocity).
 #[test]
 fn fft_velocity_grids_are_the_ticks_for_every_substep() {
     let sea = storm_sea();
@@ -660,7 +661,13 @@ fn fft_velocity_grids_are_the_ticks_for_every_substep() {
         sea.layers()
             .iter()
             .map(|l| match l {
-                swell_waves::Layer::Fft(f) => Some(std::sync::Arc::new(f.velocity_frame(t))),
+                swell_waves::Layer::Fft(f) => {
+                    let fields = sea.fft_fields_for(f, QueryFields::HEIGHT, &o);
+                    let frame = |k| Some(std::sync::Arc::new(f.grid_frame(k, fields)));
+                    Some(std::sync::Arc::new(
+                        f.grid_velocity_frame(t, frame).unwrap(),
+                    ))
+                }
                 _ => None,
             })
             .collect()

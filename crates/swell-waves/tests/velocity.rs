@@ -263,3 +263,140 @@ fn water_lanes_equal_water_at_bit_for_bit() {
         }
     }
 }
+
+/// An FFT layer like the built-in `open-sea`'s and `storm`'s (1 m grid, so the same shortest
+/// waves), on a smaller tile for speed.
+fn wind_sea(choppiness: f64, wind_speed: f64) -> Surface {
+    let spec: SurfaceSpec = serde_json::from_value(serde_json::json!({"seed": 42, "layers": [
+        {"kind": "fft", "resolution": 64, "tile_size": 64, "choppiness": choppiness,
+         "repeat_period": 200, "wind_direction": [1, 0.3],
+         "spectrum": {"kind": "jonswap", "wind_speed": wind_speed, "fetch": 100000, "gamma": 3.3}}]}))
+    .unwrap();
+    Surface::new(&spec).unwrap()
+}
+
+/// The largest difference between two velocity frames over every node and between nodes, and
+/// the largest speed of the first, m/s.
+fn frame_gap(
+    a: &swell_waves::fft::FftVelocityFrame,
+    b: &swell_waves::fft::FftVelocityFrame,
+) -> (f64, f64) {
+    let filter = swell_waves::fft::SampleFilter::Bicubic;
+    let (mut gap, mut top) = (0.0_f64, 0.0_f64);
+    for i in 0..64 * 64 {
+        let p = DVec2::new((i % 64) as f64 + 0.25, (i / 64) as f64 + 0.5);
+        let (va, vb) = (a.sample(p, filter), b.sample(p, filter));
+        gap = gap.max((va - vb).length());
+        top = top.max(va.length());
+    }
+    (gap, top)
+}
+
+/// The grid velocity (central differences of grid frames, no transform) against the transformed
+/// rate: each mode is scaled by sin(ωΔ)/(ωΔ), so the gap is about (ωΔ)²/6 of the speed of the
+/// shortest waves, far below 0.1 % of the sea's top speed.
+#[test]
+fn grid_velocity_is_the_transformed_rate_within_the_central_difference_error() {
+    for (chop, wind) in [(1.0, 10.0), (2.6, 20.0), (0.0, 10.0)] {
+        let s = wind_sea(chop, wind);
+        let swell_waves::Layer::Fft(layer) = &s.layers()[0] else {
+            unreachable!()
+        };
+        let fields =
+            swell_waves::fft::FftFields::HEIGHT.union(swell_waves::fft::FftFields::DISPLACEMENT);
+        let frame_at = |k: u64| Some(std::sync::Arc::new(layer.grid_frame(k, fields)));
+        // On a grid time, and between two (20.5625 s: a binary fraction, so t + T is exact).
+        assert!(layer.grid_position(20.5625).weight > 0.0);
+        for t in [layer.grid_time(1234), 20.5625] {
+            let grid = layer.grid_velocity_frame(t, frame_at).unwrap();
+            assert_eq!(grid.transforms(), 0);
+            let exact = layer.velocity_frame(t);
+            let (gap, top) = frame_gap(&exact, &grid);
+            eprintln!(
+                "choppiness {chop}, U10 {wind} m/s, t = {t:.4}: gap {gap:.2e} m/s, top speed {top:.2} m/s"
+            );
+            assert!(top > 0.1, "sea too calm to test: {top}");
+            assert!(gap < 1e-3 * top, "gap {gap} m/s vs top speed {top} m/s");
+            // The same bits a repeat period later (indices wrap modulo M).
+            let later = layer
+                .grid_velocity_frame(t + layer.repeat_period(), frame_at)
+                .unwrap();
+            if t == 20.5625 {
+                assert_eq!(frame_gap(&grid, &later).0, 0.0);
+            }
+        }
+        // A frame at another time, or without the displacement grids, is refused.
+        let t = layer.grid_time(600);
+        assert!(layer.grid_velocity_frame(t, |_| None).is_none());
+        let wrong = |k: u64| Some(std::sync::Arc::new(layer.grid_frame(k + 1, fields)));
+        assert!(layer.grid_velocity_frame(t, wrong).is_none());
+        let bare = |k: u64| {
+            Some(std::sync::Arc::new(
+                layer.grid_frame(k, swell_waves::fft::FftFields::SLOPES),
+            ))
+        };
+        assert!(layer.grid_velocity_frame(t, bare).is_none());
+    }
+}
+
+/// `with_grid_velocity` reads the frames `at` gives, and falls back to the transformed rate
+/// where it gives none (and with exact time sampling).
+#[test]
+fn with_grid_velocity_uses_grid_frames_and_falls_back_to_transforms() {
+    let s = wind_sea(1.0, 10.0);
+    let opts = QueryOptions::default();
+    let t = 30.0;
+    let p = DVec2::new(3.3, -7.9);
+    let at = |t: f64| s.at(t, QueryFields::HEIGHT, &opts).ok();
+    let from_grid = s
+        .at(t, QueryFields::HEIGHT, &opts)
+        .unwrap()
+        .with_grid_velocity(at);
+    let transformed = s.at(t, QueryFields::HEIGHT, &opts).unwrap().with_velocity();
+    let none = s
+        .at(t, QueryFields::HEIGHT, &opts)
+        .unwrap()
+        .with_grid_velocity(|_| None);
+    assert_eq!(none.velocity(p), transformed.velocity(p));
+    let (g, x) = (from_grid.velocity(p), transformed.velocity(p));
+    assert_ne!(g, x, "the grid velocity is a difference, not the transform");
+    assert!((g - x).length() < 1e-3 * x.length().max(0.1), "{g} vs {x}");
+    let exact = QueryOptions {
+        time: swell_waves::TimeSampling::Exact,
+        ..opts
+    };
+    let a = s
+        .at(t, QueryFields::HEIGHT, &exact)
+        .unwrap()
+        .with_grid_velocity(|t| s.at(t, QueryFields::HEIGHT, &exact).ok());
+    let b = s
+        .at(t, QueryFields::HEIGHT, &exact)
+        .unwrap()
+        .with_velocity();
+    assert_eq!(a.velocity(p), b.velocity(p));
+}
+
+/// Snapshots through a `FrameMemo` are the snapshots `Surface::at` makes, bit for bit, and the
+/// memo keeps at most `FrameMemo::CAPACITY` frames.
+#[test]
+fn frame_memo_snapshots_equal_fresh_ones() {
+    let s = wind_sea(1.0, 10.0);
+    let opts = QueryOptions::default();
+    let memo = swell_waves::FrameMemo::new();
+    for k in 0..20 {
+        let t = 40.0 + f64::from(k) / 90.0;
+        let fresh = s.at(t, QueryFields::HEIGHT, &opts).unwrap();
+        // Twice: the second from the memo.
+        for _ in 0..2 {
+            let memo_at = s.at_memo(t, QueryFields::HEIGHT, &opts, &memo).unwrap();
+            for p in common::points(k as u64, 8, (0.0, 0.0), 50.0) {
+                assert_eq!(
+                    memo_at.height(p.x, p.y).to_bits(),
+                    fresh.height(p.x, p.y).to_bits(),
+                    "t = {t}, {p}"
+                );
+            }
+        }
+    }
+    assert!(memo.len() <= swell_waves::FrameMemo::CAPACITY);
+}

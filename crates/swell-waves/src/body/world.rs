@@ -21,7 +21,7 @@ use super::state::{BodyState, BodyStatus, quat_from_rotation_vector};
 use crate::error::{SpecError, finite, positive};
 use crate::fft::FftVelocityFrame;
 use crate::query::{QueryFields, QueryOptions};
-use crate::surface::{Surface, SurfaceAt};
+use crate::surface::{FrameMemo, Surface, SurfaceAt};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -494,8 +494,10 @@ impl World {
     }
 
     /// [`World::step`] with the sea of `surface`: `surface.at(t, HEIGHT, options)` with
-    /// velocity grids for FFT layers, per substep time. Fine for analytic layers; for FFT layers
-    /// a server that shares frames between requests should call [`World::step`] with its cache.
+    /// velocity grids for FFT layers, per substep time, FFT frames computed once for the tick
+    /// (a [`FrameMemo`] of its own). Fine for analytic layers; for FFT layers a caller that
+    /// steps many ticks should keep frames between them ([`World::step_memo`], or a server's
+    /// cache through [`World::step_with`]).
     ///
     /// # Errors
     /// Invalid `options` (nothing is stepped then).
@@ -504,8 +506,22 @@ impl World {
         surface: &Surface,
         options: &QueryOptions,
     ) -> Result<(), SpecError> {
+        self.step_memo(surface, options, &FrameMemo::new())
+    }
+
+    /// [`World::step_surface`] keeping FFT frames in `memo` from one call to the next (the
+    /// same bits: a frame depends only on its layer, time and fields).
+    ///
+    /// # Errors
+    /// Invalid `options` (nothing is stepped then).
+    pub fn step_memo(
+        &mut self,
+        surface: &Surface,
+        options: &QueryOptions,
+        memo: &FrameMemo,
+    ) -> Result<(), SpecError> {
         self.step_with(surface, options, |t| {
-            surface.at(t, QueryFields::HEIGHT, options)
+            surface.at_memo(t, QueryFields::HEIGHT, options, memo)
         })
     }
 
@@ -515,11 +531,14 @@ impl World {
     /// velocity grids are added here. A snapshot built from the same frames as `surface.at`
     /// gives the same bits, so the trajectory does not depend on where the frames came from.
     ///
-    /// Velocity grids of FFT layers are computed once per tick, at the tick's time
-    /// ([`SurfaceAt::with_velocity`] on the first snapshot), and every later substep of the tick
-    /// reads those ([`SurfaceAt::with_velocity_frames`]): the water velocity only enters the
-    /// drag, a tick (1/30 s) moves the fastest modes' velocity phase by ω·Δt, and a velocity grid
-    /// costs three 256² transforms — per substep it was most of an FFT scene's body cost.
+    /// Velocity grids of FFT layers are made once per tick, at the tick's time, and every later
+    /// substep of the tick reads those ([`SurfaceAt::with_velocity_frames`]): the water velocity
+    /// only enters the drag, and a tick (1/30 s) moves the fastest modes' velocity phase by ω·Δt.
+    /// With [`crate::TimeSampling::Grid`] they are central differences of the grid frames
+    /// around the tick time ([`SurfaceAt::with_grid_velocity`]; `at` is asked for those grid
+    /// times too, which a cache has already: no transform), otherwise computed
+    /// ([`SurfaceAt::with_velocity`], three 256² transforms, which were a third of an FFT
+    /// scene's body cost).
     ///
     /// # Errors
     /// Invalid `options` (nothing is stepped then). An error from `at` (which a finite substep
@@ -537,7 +556,7 @@ impl World {
         self.step(|t| match at(t) {
             Ok(s) => match &tick_velocities {
                 None => {
-                    let s = s.with_velocity();
+                    let s = s.with_grid_velocity(|t| at(t).ok());
                     tick_velocities = Some(s.velocities.clone());
                     s
                 }

@@ -80,7 +80,7 @@ impl GridPool {
     }
 
     /// A buffer of N² values (contents unspecified: the caller overwrites all of them).
-    fn take(&self) -> Vec<f64> {
+    pub(crate) fn take(&self) -> Vec<f64> {
         let pooled = self.free.lock().ok().and_then(|mut f| f.pop());
         pooled.unwrap_or_else(|| vec![0.0; self.len])
     }
