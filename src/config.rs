@@ -101,6 +101,11 @@ pub struct Limits {
     /// Messages queued for one WebSocket client; when full the client is not reading and is
     /// disconnected. 256 is about 8 s of 30 Hz ticks, far more than a healthy client lags.
     pub ws_send_queue: usize,
+    /// Longest one WebSocket message may wait for the client's socket to take it, ms; then the
+    /// client is not reading and is disconnected. Tick frames are sent as they come (a writer
+    /// behind the tick stream skips to the newest frames), so this is what ends a subscriber
+    /// that stopped reading without sending anything.
+    pub ws_send_stall_ms: u64,
 }
 
 impl Default for Limits {
@@ -117,6 +122,7 @@ impl Default for Limits {
             max_time: 1e10,
             ws_max_message_bytes: 1024 * 1024,
             ws_send_queue: 256,
+            ws_send_stall_ms: 10_000,
         }
     }
 }
@@ -125,6 +131,11 @@ impl Limits {
     /// The request timeout as a duration.
     pub fn request_timeout(&self) -> Duration {
         Duration::from_millis(self.request_timeout_ms)
+    }
+
+    /// [`Limits::ws_send_stall_ms`] as a duration.
+    pub fn ws_send_stall(&self) -> Duration {
+        Duration::from_millis(self.ws_send_stall_ms)
     }
 }
 

@@ -421,6 +421,77 @@ async fn issue_11_oversized_message_gets_close_1009() {
     s.stop().await;
 }
 
+/// A subscriber that stops reading and sends nothing is disconnected once one message has
+/// waited `ws_send_stall_ms` for its socket (tick frames are read by the socket's writer task,
+/// not queued), while another subscriber keeps getting the ticks.
+#[tokio::test]
+async fn a_subscriber_that_stops_reading_is_disconnected_after_the_send_stall() {
+    let mut cfg = config();
+    cfg.limits.ws_send_stall_ms = 300;
+    let s = TestServer::start(cfg).await;
+    let mut spec = common::small_spec();
+    spec["tick_hz"] = json!(60);
+    assert_eq!(s.put_scene("busy", &spec).await.0, 201);
+    // 100 boats: JSON frames of ~15 kB, ~1 MB/s.
+    for i in 0..100 {
+        let boat = json!({"mass": 3000.0,
+            "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+            "position": [f64::from(i % 10) * 20.0, 0.6, f64::from(i / 10) * 20.0]});
+        let (st, v) = s
+            .admin(
+                reqwest::Method::POST,
+                "/v1/scenes/busy/bodies",
+                Some(&boat),
+                Some(common::TOKEN),
+            )
+            .await;
+        assert_eq!(st, 201, "{v}");
+    }
+    let mut healthy = ws_connect(s.addr, "busy", None).await;
+    send_json(&mut healthy, json!({"type": "subscribe", "ticks": true})).await;
+    // The slow client's socket holds 4 kB, so the server's sends block within a second.
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    socket.set_recv_buffer_size(4096).unwrap();
+    let stream = socket.connect(s.addr).await.unwrap();
+    let url = format!("ws://{}/v1/scenes/busy/stream", s.addr);
+    let (mut slow, _) = tokio_tungstenite::client_async(url, stream).await.unwrap();
+    slow.send(Message::Text(
+        json!({"type": "subscribe", "ticks": true})
+            .to_string()
+            .into(),
+    ))
+    .await
+    .unwrap();
+    // Meanwhile the healthy client gets the ticks.
+    let mut ticks = 0;
+    let window = tokio::time::Instant::now();
+    while window.elapsed() < Duration::from_secs(3) {
+        if recv_json(&mut healthy, true).await["type"] == "tick" {
+            ticks += 1;
+        }
+    }
+    assert!(
+        ticks >= 60,
+        "healthy client got {ticks} ticks in 3 s at 60 Hz"
+    );
+    // The slow client reads what was buffered, then finds the connection closed. Had the
+    // server kept it, reading would let its frames flow again and never end.
+    let ended = timeout(Duration::from_secs(10), async {
+        loop {
+            match slow.next().await {
+                Some(Ok(Message::Close(_))) | Some(Err(_)) | None => return,
+                Some(Ok(_)) => {}
+            }
+        }
+    })
+    .await;
+    assert!(
+        ended.is_ok(),
+        "the subscriber that stopped reading was not disconnected"
+    );
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn a_client_that_stops_reading_is_disconnected_without_delaying_others() {
     let mut cfg = config();

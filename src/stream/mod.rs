@@ -8,12 +8,14 @@
 //!   body loop ([`crate::bodies::runner`], the only stepping path) published for its tick.
 //!
 //! # A session
-//! One task reads the socket and owns the session's state (subscription, filter); a writer task
-//! owns the socket's sending half and drains a bounded queue ([`crate::Limits::ws_send_queue`]
-//! messages). Everything sent — answers, tick frames, errors — goes through that queue with
-//! `try_send`, so nothing in the server ever waits on a client's socket: when the queue is full
-//! the client is not reading fast enough and is disconnected, without delaying anyone else's
-//! ticks (the tick loop broadcasts and never waits either).
+//! One task reads the socket and answers requests; a writer task owns the socket's sending half.
+//! The writer drains a bounded queue ([`crate::Limits::ws_send_queue`] entries) of answers,
+//! errors and subscription changes, and while subscribed reads the scene's tick frames from the
+//! broadcast itself: a frame costs each subscriber one task wake, not two. Answers go into the
+//! queue with `try_send`, so nothing in the server ever waits on a client's socket: when the
+//! queue is full, or one message waits [`crate::Limits::ws_send_stall_ms`] for the socket to take
+//! it, the client is not reading and is disconnected, without delaying anyone else's ticks (the tick loop broadcasts
+//! and never waits either; a writer that falls behind it skips to the newest frames).
 //!
 //! Queries run as in HTTP ([`crate::service::query::run_sample`] etc.: inline when cheap, else on a
 //! blocking thread, see [`crate::service::query::runs_inline`]), a few at a time per socket, each answering into the queue when done (answers carry the request's
@@ -156,10 +158,22 @@ enum End {
     Shutdown,
 }
 
+/// What a session hands its writer, in order: a message to send, or a change of the tick
+/// subscription (so a `subscribe` answered before a frame takes effect in that order too).
+enum Out {
+    Message(Message),
+    /// Follow the scene's ticks with this interest. `rx` is a fresh receiver, used only when
+    /// the writer follows none (an existing one keeps its place in the stream: no frame is lost
+    /// to an interest change).
+    Subscribe(broadcast::Receiver<Arc<SharedTick>>, Interest),
+    /// Stop following ticks.
+    Unsubscribe,
+}
+
 /// The sending side of a session: encodes and queues, never waits.
 #[derive(Clone)]
 struct Queue {
-    tx: mpsc::Sender<Message>,
+    tx: mpsc::Sender<Out>,
     codec: Codec,
     /// Fired when the queue overflows; the session then drops the client.
     slow: CancellationToken,
@@ -170,18 +184,12 @@ impl Queue {
     /// ([`Outgoing::finite_or_error`]).
     fn push(&self, out: Outgoing) {
         let out = out.finite_or_error();
-        let msg = match self.codec {
-            Codec::Json => Message::Text(messages::encode_json(&out).into()),
-            Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
-        };
-        if let Err(mpsc::error::TrySendError::Full(_)) = self.tx.try_send(msg) {
-            self.slow.cancel();
-        }
+        self.push_out(Out::Message(encode(self.codec, out)));
     }
 
-    /// Queues an already encoded (and checked) message.
-    fn push_message(&self, msg: Message) {
-        if let Err(mpsc::error::TrySendError::Full(_)) = self.tx.try_send(msg) {
+    /// Queues `out`; a full queue means the client is not reading: the session drops it.
+    fn push_out(&self, out: Out) {
+        if let Err(mpsc::error::TrySendError::Full(_)) = self.tx.try_send(out) {
             self.slow.cancel();
         }
     }
@@ -194,18 +202,92 @@ impl Queue {
     }
 }
 
-/// Sends queued messages until the queue closes (then closes the socket) or a send fails.
-async fn write_loop<W>(mut sink: W, mut rx: mpsc::Receiver<Message>)
-where
-    W: Sink<Message> + Unpin,
-{
-    while let Some(msg) = rx.recv().await {
-        let is_close = matches!(msg, Message::Close(_));
-        if sink.send(msg).await.is_err() || is_close {
-            return;
+/// The writer's view of the session: how to encode what it sends itself (tick frames, and the
+/// error when the scene goes away) and when to give up on the client.
+struct Writer {
+    codec: Codec,
+    scene_id: String,
+    shutdown: CancellationToken,
+    /// Fired when one message waits `stall` for the socket; the session then drops the client.
+    slow: CancellationToken,
+    /// [`crate::Limits::ws_send_stall_ms`].
+    stall: Duration,
+}
+
+impl Writer {
+    /// Sends queued messages and, while subscribed, the scene's tick frames, until the queue
+    /// closes (then closes the socket) or a send fails or stalls.
+    ///
+    /// Tick frames are read from the broadcast here, in the task that owns the socket: one wake
+    /// per subscriber per frame (the session task is not involved), which is what the fan-out to
+    /// a thousand subscribers costs. A writer that falls behind the broadcast (starved of CPU,
+    /// or a socket slow to drain) skips to the newest frames rather than replaying old ones; the
+    /// client sees the gap in the tick numbers.
+    async fn run<W>(self, mut sink: W, mut rx: mpsc::Receiver<Out>)
+    where
+        W: Sink<Message> + Unpin,
+    {
+        let mut sub: Option<Subscription> = None;
+        loop {
+            // Biased: answers and subscription changes before ticks, in the order queued.
+            let msg = tokio::select! {
+                biased;
+                out = rx.recv() => match out {
+                    None => break,
+                    Some(Out::Message(m)) => m,
+                    Some(Out::Subscribe(fresh, interest)) => {
+                        match &mut sub {
+                            Some(s) => s.interest = interest,
+                            None => sub = Some(Subscription { rx: fresh, interest }),
+                        }
+                        continue;
+                    }
+                    Some(Out::Unsubscribe) => {
+                        sub = None;
+                        continue;
+                    }
+                },
+                frame = next_tick(&mut sub) => match frame {
+                    // Encoded once per frame and shared (see `frame`): only the subscriber's
+                    // own selection of pre-encoded body states is assembled here.
+                    Some(t) => {
+                        let all = Interest::default();
+                        let interest = sub.as_ref().map_or(&all, |s| &s.interest);
+                        t.message(self.codec, interest)
+                    }
+                    None => {
+                        sub = None;
+                        if self.shutdown.is_cancelled() {
+                            continue;
+                        }
+                        let out = Outgoing {
+                            id: None,
+                            event: Event::Error(ApiError::scene_not_found(&self.scene_id)),
+                        };
+                        encode(self.codec, out)
+                    }
+                },
+            };
+            let is_close = matches!(msg, Message::Close(_));
+            match tokio::time::timeout(self.stall, sink.send(msg)).await {
+                Ok(Ok(())) if !is_close => {}
+                Ok(_) => return,
+                Err(_) => {
+                    self.slow.cancel();
+                    return;
+                }
+            }
         }
+        let _ = sink.close().await;
     }
-    let _ = sink.close().await;
+}
+
+/// `out` encoded for `codec` (JSON text or protobuf binary).
+fn encode(codec: Codec, out: Outgoing) -> Message {
+    match codec {
+        Codec::Json => Message::Text(messages::encode_json(&out).into()),
+        Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
+    }
 }
 
 /// The scene's tick frames, and the bodies this subscriber follows.
@@ -225,6 +307,7 @@ async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<SharedTick>> {
             Ok(t) => return Some(t),
             // Starved of CPU for a while: skip to the newest frames rather than replay old ones.
             Err(broadcast::error::RecvError::Lagged(n)) => {
+                metrics::counter!("swell_ws_ticks_skipped_total").increment(n);
                 tracing::debug!(skipped = n, "tick subscriber lagged");
             }
             Err(broadcast::error::RecvError::Closed) => return None,
@@ -241,16 +324,25 @@ where
     metrics::gauge!("swell_ws_sessions").increment(1.0);
     metrics::counter!("swell_ws_sessions_total").increment(1);
     let (tx, rx) = mpsc::channel(state.limits.ws_send_queue.max(1));
-    let mut writer = state.tasks.spawn(write_loop(sink, rx));
     let queue = Queue {
         tx,
         codec,
         slow: CancellationToken::new(),
     };
-    let permits = Arc::new(Semaphore::new(QUERIES_PER_SESSION));
-    let mut sub: Option<Subscription> = None;
     let shutdown = state.shutdown.clone();
     let slow = queue.slow.clone();
+    let mut writer = state.tasks.spawn(
+        Writer {
+            codec,
+            scene_id: scene_id.clone(),
+            shutdown: shutdown.clone(),
+            slow: slow.clone(),
+            stall: state.limits.ws_send_stall(),
+        }
+        .run(sink, rx),
+    );
+    let permits = Arc::new(Semaphore::new(QUERIES_PER_SESSION));
+    let mut subscribed = false;
     let end = loop {
         // Biased: shutdown and overflow win over more work; client messages before ticks so a
         // flood of ticks cannot starve requests.
@@ -274,29 +366,17 @@ where
                     },
                 };
                 match decoded {
-                    Ok(m) => handle(&state, &scene_id, &queue, &permits, &mut sub, m),
+                    Ok(m) => handle(&state, &scene_id, &queue, &permits, &mut subscribed, m),
                     Err(DecodeError { id, error }) => queue.error(id, error),
                 }
             }
-            frame = next_tick(&mut sub) => match frame {
-                // Encoded once per frame and shared (see `frame`): only the subscriber's own
-                // selection of pre-encoded body states is assembled here.
-                Some(t) => {
-                    let all = Interest::default();
-                    let interest = sub.as_ref().map_or(&all, |s| &s.interest);
-                    queue.push_message(t.message(codec, interest));
-                }
-                None => {
-                    sub = None;
-                    if !shutdown.is_cancelled() {
-                        queue.error(None, ApiError::scene_not_found(&scene_id));
-                    }
-                }
-            },
         }
     };
-    // Unsubscribe first, so the tick loop can stop if this was its last subscriber.
-    drop(sub);
+    // Unsubscribe first, so the tick loop can stop if this was its last subscriber (a writer
+    // still flushing its queue sends no more frames).
+    if subscribed {
+        queue.push_out(Out::Unsubscribe);
+    }
     match end {
         End::SlowConsumer => {
             // The socket is not draining: no Close frame would get through. Drop it.
@@ -306,24 +386,28 @@ where
         }
         End::Shutdown | End::Client | End::TooBig => {
             if end == End::Shutdown {
-                let _ = queue.tx.try_send(Message::Close(Some(CloseFrame {
-                    code: close_code::AWAY,
-                    reason: "server shutting down".into(),
-                })));
+                let _ = queue
+                    .tx
+                    .try_send(Out::Message(Message::Close(Some(CloseFrame {
+                        code: close_code::AWAY,
+                        reason: "server shutting down".into(),
+                    }))));
             }
             if end == End::TooBig {
                 // The read half is unusable after the error (tungstenite fuses it), but the
                 // write half still works: say why before the connection drops, or the client
                 // sees only an abnormal closure (1005/1006).
                 metrics::counter!("swell_ws_too_big_disconnects_total").increment(1);
-                let _ = queue.tx.try_send(Message::Close(Some(CloseFrame {
-                    code: close_code::SIZE,
-                    reason: format!(
-                        "message larger than {} bytes (ws_max_message_bytes)",
-                        state.limits.ws_max_message_bytes
-                    )
-                    .into(),
-                })));
+                let _ = queue
+                    .tx
+                    .try_send(Out::Message(Message::Close(Some(CloseFrame {
+                        code: close_code::SIZE,
+                        reason: format!(
+                            "message larger than {} bytes (ws_max_message_bytes)",
+                            state.limits.ws_max_message_bytes
+                        )
+                        .into(),
+                    }))));
             }
             // Queries still running hold clones of the queue; the writer ends once they finish
             // or the grace period runs out.
@@ -373,7 +457,7 @@ fn handle(
     scene_id: &str,
     queue: &Queue,
     permits: &Arc<Semaphore>,
-    sub: &mut Option<Subscription>,
+    subscribed: &mut bool,
     m: Incoming,
 ) {
     let id = m.id;
@@ -398,17 +482,20 @@ fn handle(
             region,
             compact,
         } => {
+            // The writer owns the subscription (it reads the frames, see `Writer::run`); it
+            // keeps the receiver it has, so a fresh one only matters when it has none (a first
+            // subscribe, or after the scene's loop ended).
             if !ticks {
-                *sub = None;
-            } else if let Some(s) = sub {
-                s.interest = Interest::new(bodies, region).compact(compact);
+                *subscribed = false;
+                queue.push_out(Out::Unsubscribe);
             } else if let Err(e) = state.scene(scene_id) {
                 queue.error(id, e);
             } else {
-                *sub = Some(Subscription {
-                    rx: state.tickers.subscribe(state, scene_id),
-                    interest: Interest::new(bodies, region).compact(compact),
-                });
+                *subscribed = true;
+                queue.push_out(Out::Subscribe(
+                    state.tickers.subscribe(state, scene_id),
+                    Interest::new(bodies, region).compact(compact),
+                ));
             }
         }
         Request::Sample(req) => query(
