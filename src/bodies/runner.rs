@@ -238,6 +238,7 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
                 return None;
             }
             let start = Instant::now();
+            let cpu_start = thread_cpu_ns();
             let sea = Sea::Shared {
                 cache: &frames.frames,
                 scene: &scene,
@@ -245,6 +246,9 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             };
             let adv = b.advance_to(target, sea, scene_hz, gravity);
             let took = start.elapsed();
+            let cpu = cpu_start
+                .zip(thread_cpu_ns())
+                .map(|(a, b)| Duration::from_nanos(b.saturating_sub(a)));
             // Impacts the step made reach the scene before the states are published: the tick
             // loop waits for the states, then takes the new impacts for the same frame.
             scene.impacts.sync_bodies(&mut b, true);
@@ -260,14 +264,18 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             ) {
                 tracing::error!(scene = %scene_id, error = %e, "journal: could not record a re-anchor");
             }
-            Some((adv, took, b.len()))
+            Some((adv, took, cpu, b.len()))
         })
         .await;
         match done {
-            Ok(Some((adv, took, n))) => {
+            Ok(Some((adv, took, cpu, n))) => {
                 if adv.steps > 0 {
                     metrics::histogram!("swell_body_step_seconds")
                         .record(took.as_secs_f64() / f64::from(adv.steps));
+                    if let Some(cpu) = cpu {
+                        metrics::histogram!("swell_body_step_cpu_seconds")
+                            .record(cpu.as_secs_f64() / f64::from(adv.steps));
+                    }
                     metrics::counter!("swell_body_ticks_total").increment(u64::from(adv.steps));
                 }
                 if adv.reanchored {
@@ -308,4 +316,44 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
     }
     cell.running.store(false, Ordering::SeqCst);
     tracing::debug!(scene = %id, "body loop stopped");
+}
+
+/// CPU time the calling thread has run, ns: the first field of Linux's
+/// `/proc/thread-self/schedstat` (nanosecond resolution, unlike `/proc/…/stat`'s clock ticks).
+/// `None` where that file is missing or unreadable (other systems, kernels without schedstats):
+/// the body loop then reports wall time only. A step runs on one blocking-pool thread from
+/// start to end, so the difference of two readings around it is the step's own CPU time, not
+/// counting the time it waited for a core while other threads ran.
+fn thread_cpu_ns() -> Option<u64> {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+#[cfg(test)]
+mod tests {
+    /// Where schedstats exist (Linux; CI), a busy loop's CPU time grows with its work and never
+    /// exceeds the wall time it took (a busy machine only makes it smaller).
+    #[test]
+    fn thread_cpu_time_counts_this_threads_work() {
+        let Some(a) = super::thread_cpu_ns() else {
+            eprintln!("no /proc/thread-self/schedstat here: the CPU-time metric is off");
+            return;
+        };
+        let wall = std::time::Instant::now();
+        let mut x = 0.0_f64;
+        let mut cpu = 0;
+        while cpu < 30_000_000 && wall.elapsed() < std::time::Duration::from_secs(10) {
+            for _ in 0..10_000 {
+                x = std::hint::black_box(x + 1.0);
+            }
+            cpu = super::thread_cpu_ns().unwrap() - a;
+        }
+        let took = wall.elapsed().as_nanos() as u64;
+        assert!(cpu >= 30_000_000, "{cpu} ns of CPU after 10 s of busy loop");
+        assert!(cpu <= took + 1_000_000, "cpu {cpu} ns > wall {took} ns");
+    }
 }
