@@ -162,7 +162,7 @@ impl<'s> SurfaceAt<'s> {
     /// The sum of [`SurfaceAt::velocity_filtered`], layer by layer in order, starting from
     /// `out`; `analytic = false` leaves out the sine and Gerstner layers (a caller that summed
     /// them already, in the same order, passes that sum as `out`).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn velocity_layers(
         &self,
         p0: DVec2,

@@ -192,7 +192,13 @@ impl SurfaceAt<'_> {
                 self.invert_lanes_v::<B, false>(worlds, starts, false, &mut [[0.0; B]; 3]);
             return std::array::from_fn(|l| WaterPoint {
                 height: inverted[l].sample.displacement.y,
-                velocity: self.velocity_filtered(inverted[l].source, min_wavelength),
+                // `velocity_filtered`'s own sum, inlined (into the AVX2 hull kernel too).
+                velocity: self.velocity_layers(
+                    inverted[l].source,
+                    min_wavelength,
+                    DVec3::ZERO,
+                    true,
+                ),
                 source: inverted[l].source,
                 derivatives: inverted[l].sample,
             });

@@ -61,13 +61,19 @@ pub struct FftSample {
 ///
 /// Computed without library calls, to the same bits as that formula (pinned by a test against
 /// `tests::grid_coord_reference`): for |x| < L, `x % L` is exactly x, so `rem_euclid` is x or
-/// x + L (the fmod call is needed only farther out); g is in [0, N] or is −0, where truncation
+/// x + L, and for |x| < 2L it is x ∓ L, also exact (the fmod call is needed only farther out); g is in [0, N] or is −0, where truncation
 /// is floor, and `+ 0.0` turns the fraction −0 that g = −0 would give into floor's +0. N is a
 /// power of two (the layer checks it), so `mod N` is a mask.
 #[inline]
 fn grid_coord(x: f64, l: f64, n: usize) -> (usize, f64) {
     let u = if x.abs() < l {
         if x < 0.0 { x + l } else { x }
+    } else if x.abs() < 2.0 * l {
+        // rem_euclid's own steps, with the fmod done by hand: for L ≤ |x| < 2L, `x % L` is
+        // x ∓ L, exact (Sterbenz), and so is adding L to a negative remainder. (At x = −L this
+        // gives +0 where fmod gives −0; both floor to node 0 with fraction +0.)
+        let r = if x < 0.0 { x + l } else { x - l };
+        if r < 0.0 { r + l } else { r }
     } else {
         x.rem_euclid(l)
     };

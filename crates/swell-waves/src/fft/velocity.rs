@@ -68,6 +68,7 @@ impl FftVelocityFrame {
 
     /// Velocity `(vx, vy, vz)`, m/s, of the surface particle whose undisplaced position is
     /// `p0 = (x, z)`, read with `filter` (see [`FftFrame::sample`]).
+    #[inline(always)]
     pub fn sample(&self, p0: DVec2, filter: SampleFilter) -> DVec3 {
         self.frame
             .sample_some(p0, filter, super::FftReads::Displacement)
