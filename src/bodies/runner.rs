@@ -238,7 +238,7 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
                 return None;
             }
             let start = Instant::now();
-            let cpu_start = thread_cpu_ns();
+            let cpu_start = thread_cpu();
             let sea = Sea::Shared {
                 cache: &frames.frames,
                 scene: &scene,
@@ -247,8 +247,8 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             let adv = b.advance_to(target, sea, scene_hz, gravity);
             let took = start.elapsed();
             let cpu = cpu_start
-                .zip(thread_cpu_ns())
-                .map(|(a, b)| Duration::from_nanos(b.saturating_sub(a)));
+                .zip(thread_cpu())
+                .map(|(a, b)| b.saturating_sub(a));
             // Impacts the step made reach the scene before the states are published: the tick
             // loop waits for the states, then takes the new impacts for the same frame.
             scene.impacts.sync_bodies(&mut b, true);
@@ -318,42 +318,54 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
     tracing::debug!(scene = %id, "body loop stopped");
 }
 
-/// CPU time the calling thread has run, ns: the first field of Linux's
-/// `/proc/thread-self/schedstat` (nanosecond resolution, unlike `/proc/…/stat`'s clock ticks).
-/// `None` where that file is missing or unreadable (other systems, kernels without schedstats):
-/// the body loop then reports wall time only. A step runs on one blocking-pool thread from
-/// start to end, so the difference of two readings around it is the step's own CPU time, not
-/// counting the time it waited for a core while other threads ran.
-fn thread_cpu_ns() -> Option<u64> {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()?
-        .split_whitespace()
-        .next()?
-        .parse()
+/// CPU time the calling thread has run so far (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, through
+/// `cpu_time`), or `None` where the system has no such clock: the body loop then reports wall
+/// time only. Up to date to the call (unlike `/proc/thread-self/schedstat`, which a running
+/// thread's kernel updates only at scheduler ticks, 4 ms here: it under-counted a 7 ms step by
+/// ~2 ms on average). A step runs on one blocking-pool thread from start to end, so the
+/// difference of two readings around it is the step's own CPU time, not counting time it spent
+/// waiting (for a core, or for a frame another thread was computing).
+fn thread_cpu() -> Option<Duration> {
+    cpu_time::ThreadTime::try_now()
         .ok()
+        .map(|t| t.as_duration())
 }
 
 #[cfg(test)]
 mod tests {
-    /// Where schedstats exist (Linux; CI), a busy loop's CPU time grows with its work and never
-    /// exceeds the wall time it took (a busy machine only makes it smaller).
+    use std::time::{Duration, Instant};
+
+    /// The thread CPU clock counts this thread's work to within a millisecond, and no more
+    /// than the wall time it took (a busy machine only makes it smaller).
     #[test]
     fn thread_cpu_time_counts_this_threads_work() {
-        let Some(a) = super::thread_cpu_ns() else {
-            eprintln!("no /proc/thread-self/schedstat here: the CPU-time metric is off");
+        let Some(a) = super::thread_cpu() else {
+            eprintln!("no thread CPU clock here: the CPU-time metric is off");
             return;
         };
-        let wall = std::time::Instant::now();
+        let wall = Instant::now();
         let mut x = 0.0_f64;
-        let mut cpu = 0;
-        while cpu < 30_000_000 && wall.elapsed() < std::time::Duration::from_secs(10) {
-            for _ in 0..10_000 {
+        let mut cpu = Duration::ZERO;
+        while cpu < Duration::from_millis(7) && wall.elapsed() < Duration::from_secs(10) {
+            for _ in 0..1000 {
                 x = std::hint::black_box(x + 1.0);
             }
-            cpu = super::thread_cpu_ns().unwrap() - a;
+            cpu = super::thread_cpu().unwrap() - a;
         }
-        let took = wall.elapsed().as_nanos() as u64;
-        assert!(cpu >= 30_000_000, "{cpu} ns of CPU after 10 s of busy loop");
-        assert!(cpu <= took + 1_000_000, "cpu {cpu} ns > wall {took} ns");
+        let took = wall.elapsed();
+        assert!(
+            cpu >= Duration::from_millis(7),
+            "{cpu:?} of CPU after 10 s busy"
+        );
+        // Up to date: the loop stops within a few microseconds of 7 ms (a clock updated only
+        // at 4 ms scheduler ticks would overshoot to 8 ms).
+        assert!(
+            cpu < Duration::from_micros(7500),
+            "{cpu:?}: the clock lags the thread"
+        );
+        assert!(
+            cpu <= took + Duration::from_micros(100),
+            "cpu {cpu:?} > wall {took:?}"
+        );
     }
 }
