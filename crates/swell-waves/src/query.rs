@@ -279,7 +279,12 @@ impl SurfaceAt<'_> {
             FftReads::Displacement
         };
         if !self.surface.has_horizontal_motion() {
-            let s = self.round_lanes::<B, V>(targets, FftReads::every(derivatives), velocity);
+            let s = self.round_lanes::<B, V>(
+                targets,
+                FftReads::every(derivatives),
+                &[true; B],
+                velocity,
+            );
             return std::array::from_fn(|l| Inverted {
                 source: targets[l],
                 sample: s.get(l),
@@ -299,7 +304,9 @@ impl SurfaceAt<'_> {
         let mut it = 0;
         while active.iter().any(|&a| a) {
             let mut round = [[0.0; B]; 3];
-            let lanes = self.round_lanes::<B, V>(&p, reads, &mut round);
+            // Lanes that have converged keep their best round: only the others read the FFT
+            // frames again (the analytic kernel does all lanes at once either way).
+            let lanes = self.round_lanes::<B, V>(&p, reads, &active, &mut round);
             for l in 0..B {
                 if !active[l] {
                     continue;
@@ -335,16 +342,18 @@ impl SurfaceAt<'_> {
     }
 
     /// One round of [`SurfaceAt::invert_lanes_v`]: the block sampled at the snapshot's
-    /// precision (always f64 with `V`), reading the FFT grids `reads` names.
+    /// precision (always f64 with `V`), reading the FFT grids `reads` names, for the lanes
+    /// `wanted` marks (in f64; the f32 path reads every lane).
     #[inline(always)]
     fn round_lanes<const B: usize, const V: bool>(
         &self,
         p: &[DVec2; B],
         reads: FftReads,
+        wanted: &[bool; B],
         velocity: &mut [[f64; B]; 3],
     ) -> crate::wave::Lanes<B> {
         if V || self.options.precision == crate::Precision::F64 {
-            self.sample_lanes_f64::<B, V>(p, reads, velocity)
+            self.sample_lanes_f64::<B, V>(p, reads, wanted, velocity)
         } else {
             self.lanes_f32(p, reads != FftReads::Displacement).widen()
         }

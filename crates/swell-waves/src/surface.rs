@@ -695,19 +695,27 @@ impl SurfaceAt<'_> {
         if self.options.precision == Precision::F32 {
             return self.lanes_f32(points, derivatives).widen();
         }
-        self.sample_lanes_f64::<B, false>(points, FftReads::every(derivatives), &mut [[0.0; B]; 3])
+        self.sample_lanes_f64::<B, false>(
+            points,
+            FftReads::every(derivatives),
+            &[true; B],
+            &mut [[0.0; B]; 3],
+        )
     }
 
     /// The f64 body of [`SurfaceAt::sample_lanes`] (whatever the snapshot's precision); with
     /// `V`, the analytic layers' particle velocities go into `velocity` from the same `sin_cos`
     /// ([`WaveSoA::accumulate_lanes_with_velocity`]), unfiltered, in layer order. Other layers add
     /// no velocity here: the caller adds theirs at the point it keeps
-    /// ([`SurfaceAt::water_lanes`]).
+    /// ([`SurfaceAt::water_lanes`]). FFT layers are read only for the lanes `wanted` marks (a
+    /// frame read is scalar, one lane at a time); the others' FFT terms are left out, so only
+    /// wanted lanes carry the full sample.
     #[inline(always)]
     pub(crate) fn sample_lanes_f64<const B: usize, const V: bool>(
         &self,
         points: &[DVec2; B],
         reads: FftReads,
+        wanted: &[bool; B],
         velocity: &mut [[f64; B]; 3],
     ) -> Lanes<B> {
         let derivatives = reads != FftReads::Displacement;
@@ -725,6 +733,9 @@ impl SurfaceAt<'_> {
             match (layer, soa) {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
+                        if !wanted[l] {
+                            continue;
+                        }
                         add_fft(
                             &mut out,
                             l,
