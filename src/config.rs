@@ -101,8 +101,9 @@ pub struct Limits {
     /// Messages queued for one WebSocket client; when full the client is not reading and is
     /// disconnected. 256 is about 8 s of 30 Hz ticks, far more than a healthy client lags.
     pub ws_send_queue: usize,
-    /// Longest one WebSocket message may wait for the client's socket to take it, ms; then the
-    /// client is not reading and is disconnected. Tick frames are sent as they come (a writer
+    /// Longest one WebSocket message may take to be written to the client's socket, ms; then
+    /// the client is not reading and is disconnected (a 10 MB answer to a client on a 1 MB/s
+    /// link needs 10 s of it). Tick frames are sent as they come (a writer
     /// behind the tick stream skips to the newest frames), so this is what ends a subscriber
     /// that stopped reading without sending anything.
     pub ws_send_stall_ms: u64,

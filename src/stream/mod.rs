@@ -13,9 +13,10 @@
 //! errors and subscription changes, and while subscribed reads the scene's tick frames from the
 //! broadcast itself: a frame costs each subscriber one task wake, not two. Answers go into the
 //! queue with `try_send`, so nothing in the server ever waits on a client's socket: when the
-//! queue is full, or one message waits [`crate::Limits::ws_send_stall_ms`] for the socket to take
-//! it, the client is not reading and is disconnected, without delaying anyone else's ticks (the tick loop broadcasts
-//! and never waits either; a writer that falls behind it skips to the newest frames).
+//! queue is full, or one message takes longer than [`crate::Limits::ws_send_stall_ms`] to be
+//! written to the socket, the client is not reading and is disconnected, without delaying
+//! anyone else's ticks (the tick loop broadcasts and never waits either; a writer that falls
+//! behind it skips to the newest frames).
 //!
 //! Queries run as in HTTP ([`crate::service::query::run_sample`] etc.: inline when cheap, else on a
 //! blocking thread, see [`crate::service::query::runs_inline`]), a few at a time per socket, each answering into the queue when done (answers carry the request's
@@ -344,8 +345,8 @@ where
     let permits = Arc::new(Semaphore::new(QUERIES_PER_SESSION));
     let mut subscribed = false;
     let end = loop {
-        // Biased: shutdown and overflow win over more work; client messages before ticks so a
-        // flood of ticks cannot starve requests.
+        // Biased: shutdown and overflow win over more work. (Ticks are the writer's: see
+        // `Writer::run`.)
         tokio::select! {
             biased;
             () = shutdown.cancelled() => break End::Shutdown,
