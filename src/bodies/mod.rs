@@ -868,6 +868,25 @@ mod tests {
         );
     }
 
+    /// A world at tick 10⁶ (30 Hz, gravity `g`) with four of `swell-load`'s boats (8 m × 3 m ×
+    /// 1.5 m, 3 t) spread over 110 m at different yaws, at rest: the fleet the accuracy tests
+    /// below step.
+    fn four_boats(g: f64) -> World {
+        let mut world = World::new(settings(1_000_000, 30.0, g)).unwrap();
+        for i in 0..4 {
+            let req: SpawnRequest = serde_json::from_value(json!({"mass": 3000.0,
+                "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+                "position": [37.0 * f64::from(i), 0.63, -23.0 * f64::from(i)]}))
+            .unwrap();
+            let state = swell_waves::body::BodyState::at_rest(
+                glam::DVec3::from_array(req.position),
+                0.4 * f64::from(i),
+            );
+            world.add(&req.body_spec(g), state).unwrap();
+        }
+        world
+    }
+
     /// The bodies' inversion tolerance (`step_options`, 1 mm) against the query default
     /// (0.01 mm): `swell-load`'s boats (8 m × 3 m × 1.5 m, 3 t) on `lake` (Gerstner) and `storm`
     /// (choppy FFT, folding), 10 s at 30 Hz, stay within a fraction of a millimetre and a
@@ -881,18 +900,7 @@ mod tests {
             let run = |tolerance: f64| {
                 let mut options = step_options();
                 options.inversion.tolerance = tolerance;
-                let mut world = World::new(settings(1_000_000, 30.0, g)).unwrap();
-                for i in 0..4 {
-                    let req: SpawnRequest = serde_json::from_value(json!({"mass": 3000.0,
-                        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
-                        "position": [37.0 * f64::from(i), 0.63, -23.0 * f64::from(i)]}))
-                    .unwrap();
-                    let state = swell_waves::body::BodyState::at_rest(
-                        glam::DVec3::from_array(req.position),
-                        0.4 * f64::from(i),
-                    );
-                    world.add(&req.body_spec(g), state).unwrap();
-                }
+                let mut world = four_boats(g);
                 let mut states = Vec::new();
                 for _ in 0..300 {
                     world.step_surface(&scene.surface, &options).unwrap();
@@ -928,18 +936,7 @@ mod tests {
             let g = scene.spec.surface.gravity;
             let options = step_options();
             let run = |transformed: bool| {
-                let mut world = World::new(settings(1_000_000, 30.0, g)).unwrap();
-                for i in 0..4 {
-                    let req: SpawnRequest = serde_json::from_value(json!({"mass": 3000.0,
-                        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
-                        "position": [37.0 * f64::from(i), 0.63, -23.0 * f64::from(i)]}))
-                    .unwrap();
-                    let state = swell_waves::body::BodyState::at_rest(
-                        glam::DVec3::from_array(req.position),
-                        0.4 * f64::from(i),
-                    );
-                    world.add(&req.body_spec(g), state).unwrap();
-                }
+                let mut world = four_boats(g);
                 let memo = swell_waves::FrameMemo::new();
                 let mut states = Vec::new();
                 for _ in 0..300 {

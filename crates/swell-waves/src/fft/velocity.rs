@@ -86,7 +86,6 @@ impl FftLayer {
     pub fn velocity_frame(&self, t: f64) -> FftVelocityFrame {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
-        let choppy = self.choppiness > 0.0;
         let zero = Complex::new(0.0, 0.0);
         // One sin_cos per distinct ω_q, gathered per entry: the bits of the per-entry phase (see
         // `FftLayer::frame_into`).
@@ -107,15 +106,7 @@ impl FftLayer {
                 htilde_rate(mode, s, c)
             })
             .collect();
-        let grids: &[FftGrid] = if choppy {
-            &[
-                FftGrid::Height,
-                FftGrid::DisplacementX,
-                FftGrid::DisplacementZ,
-            ]
-        } else {
-            &[FftGrid::Height]
-        };
+        let grids = self.velocity_grids();
         let mut out_grids: [Option<Vec<f64>>; 8] = Default::default();
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
@@ -130,7 +121,32 @@ impl FftLayer {
             self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
         }
-        let fields = if choppy {
+        self.velocity_frame_of(t, out_grids, grids.len(), None)
+    }
+
+    /// The grids a velocity frame holds: `∂h/∂t`, and `∂Dx/∂t`, `∂Dz/∂t` for a choppy layer.
+    fn velocity_grids(&self) -> &'static [FftGrid] {
+        if self.choppiness > 0.0 {
+            &[
+                FftGrid::Height,
+                FftGrid::DisplacementX,
+                FftGrid::DisplacementZ,
+            ]
+        } else {
+            &[FftGrid::Height]
+        }
+    }
+
+    /// A velocity frame at `t` holding `grids` (those of [`FftLayer::velocity_grids`]), made
+    /// with `transforms` transforms; its buffers go to `pool` when dropped.
+    fn velocity_frame_of(
+        &self,
+        t: f64,
+        grids: [Option<Vec<f64>>; 8],
+        transforms: usize,
+        pool: Option<Arc<super::frame::GridPool>>,
+    ) -> FftVelocityFrame {
+        let fields = if self.choppiness > 0.0 {
             FftFields::HEIGHT.union(FftFields::DISPLACEMENT)
         } else {
             FftFields::HEIGHT
@@ -139,11 +155,11 @@ impl FftLayer {
             frame: FftFrame {
                 t,
                 fields,
-                n,
+                n: self.n,
                 tile_size: self.tile_size,
-                grids: out_grids,
-                transforms: grids.len(),
-                pool: None,
+                grids,
+                transforms,
+                pool,
             },
         }
     }
@@ -170,16 +186,7 @@ impl FftLayer {
     ) -> Option<FftVelocityFrame> {
         let m = self.grid_steps;
         let p = self.grid_position(t);
-        let choppy = self.choppiness > 0.0;
-        let grids: &[FftGrid] = if choppy {
-            &[
-                FftGrid::Height,
-                FftGrid::DisplacementX,
-                FftGrid::DisplacementZ,
-            ]
-        } else {
-            &[FftGrid::Height]
-        };
+        let grids = self.velocity_grids();
         let mut get = |k: u64| {
             let f = frame_at(k)?;
             let ok = f.t().to_bits() == self.grid_time(k).to_bits()
@@ -216,21 +223,6 @@ impl FftLayer {
             }
             out_grids[grid.index()] = Some(out);
         }
-        let fields = if choppy {
-            FftFields::HEIGHT.union(FftFields::DISPLACEMENT)
-        } else {
-            FftFields::HEIGHT
-        };
-        Some(FftVelocityFrame {
-            frame: FftFrame {
-                t,
-                fields,
-                n: self.n,
-                tile_size: self.tile_size,
-                grids: out_grids,
-                transforms: 0,
-                pool: Some(Arc::clone(&self.grid_pool)),
-            },
-        })
+        Some(self.velocity_frame_of(t, out_grids, 0, Some(Arc::clone(&self.grid_pool))))
     }
 }
