@@ -31,6 +31,7 @@
 //! - [`api`] — HTTP: routes, middleware, handlers, JSON/protobuf negotiation.
 //! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
 //! - [`wire`] — protobuf types generated from `proto/` and their conversions.
+//! - [`memory`] — handing heap freed after a burst back to the OS (glibc's `malloc_trim`).
 //! - [`healthcheck`] — `swell healthcheck`: a tiny HTTP probe for container health checks.
 //! - [`error`] — [`ApiError`], the one error type of every endpoint.
 //!
@@ -49,6 +50,7 @@ pub mod frames;
 pub mod healthcheck;
 pub mod impacts;
 pub mod journal;
+pub mod memory;
 pub mod scene;
 pub mod service;
 pub mod state;
@@ -218,7 +220,9 @@ impl Server {
     ) -> std::io::Result<()> {
         let state = self.state.clone();
         let app = router(self.state.clone());
-        // The Prometheus handle keeps histogram windows bounded only if upkeep runs.
+        // The Prometheus handle keeps histogram windows bounded only if upkeep runs. Heap freed
+        // after a burst goes back to the OS on the same beat (off the reactor: a trim takes the
+        // allocator's locks).
         let upkeep_handle = self.state.metrics.clone();
         let upkeep_stop = state.shutdown.clone();
         state.tasks.spawn(async move {
@@ -226,7 +230,13 @@ impl Server {
             loop {
                 tokio::select! {
                     () = upkeep_stop.cancelled() => return,
-                    _ = tick.tick() => upkeep_handle.run_upkeep(),
+                    _ = tick.tick() => {
+                        upkeep_handle.run_upkeep();
+                        let _ = tokio::task::spawn_blocking(|| {
+                            memory::release_if_held(memory::TRIM_ABOVE)
+                        })
+                        .await;
+                    }
                 }
             }
         });
