@@ -107,6 +107,11 @@ pub struct WorldRecord {
     /// The API impacts the bodies feel ([`SceneBodies::felt_impacts`]).
     #[serde(default)]
     pub felt: Vec<swell_waves::particles::Impact>,
+    /// Per body, where its next tick starts the hull cells' height inversions
+    /// ([`swell_waves::body::Body::warm_start`]; absent in records written before they carried
+    /// over between ticks: those bodies start cold once).
+    #[serde(default)]
+    pub warm: BTreeMap<u64, swell_waves::body::WarmStart>,
 }
 
 /// Most ticks a replay steps between two events (or from the last event to the clock at
@@ -140,6 +145,11 @@ impl SceneBodies {
             impacts: self.derived.clone(),
             wake: self.wake.clone(),
             felt: self.felt.clone(),
+            warm: self
+                .world
+                .bodies()
+                .filter_map(|(id, b)| Some((id, b.warm_start()?)))
+                .collect(),
         }
     }
 
@@ -198,7 +208,10 @@ impl SceneBodies {
             .collect();
         for r in &rec.bodies {
             let status = rec.statuses.get(&r.id).copied().unwrap_or_default();
-            match b.world.restore_body(r.id, &r.spec, r.state, status) {
+            match b
+                .world
+                .restore_body(r.id, &r.spec, r.state, status, rec.warm.get(&r.id))
+            {
                 Ok(()) => {
                     b.specs.insert(r.id, r.spec.clone());
                 }

@@ -506,11 +506,18 @@ impl SurfaceAt<'_> {
 /// `p0 − step`.
 #[inline]
 pub(crate) fn inversion_step(s: &SurfaceSample, f: DVec2, newton: bool) -> DVec2 {
+    inversion_step_slopes([s.d_dx.x, s.d_dz.x, s.d_dx.z, s.d_dz.z], f, newton)
+}
+
+/// [`inversion_step`] from the four horizontal displacement slopes alone,
+/// `[∂Dx/∂x, ∂Dx/∂z, ∂Dz/∂x, ∂Dz/∂z]` (all it reads of the sample).
+#[inline]
+pub(crate) fn inversion_step_slopes(slopes: [f64; 4], f: DVec2, newton: bool) -> DVec2 {
     if !newton {
         return f;
     }
-    let (a, b) = (1.0 + s.d_dx.x, s.d_dz.x);
-    let (c, d) = (s.d_dx.z, 1.0 + s.d_dz.z);
+    let (a, b) = (1.0 + slopes[0], slopes[1]);
+    let (c, d) = (slopes[2], 1.0 + slopes[3]);
     let det = a * d - b * c;
     if det > 1e-9 {
         DVec2::new((d * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)

@@ -160,7 +160,9 @@ fn issue_11_huge_footprints_are_rejected_not_nan() {
 /// moved to tick 40 rounds substep times differently: either drifts in the last bits.)
 #[test]
 fn a_resumed_world_continues_to_the_same_bits() {
-    use swell_waves::body::{BodyInput, BodySpec, BodyState, HullSpec, World, WorldSettings};
+    use swell_waves::body::{
+        BodyInput, BodySpec, BodyState, HullSpec, WarmStart, World, WorldSettings,
+    };
     let spec: swell_waves::SurfaceSpec = serde_json::from_value(serde_json::json!({"layers": [
         {"kind": "gerstner", "waves": [
             {"amplitude": 0.5, "wavelength": 23.0, "direction": [1.0, 0.3], "steepness": 0.5}]}
@@ -206,19 +208,36 @@ fn a_resumed_world_continues_to_the_same_bits() {
     for _ in 0..40 {
         a.step_surface(&surface, &options).unwrap();
     }
-    let mut b = World::resume(settings, a.tick(), a.next_id()).unwrap();
     let (state, status) = (*a.body(id).unwrap().state(), *a.body(id).unwrap().status());
-    b.restore_body(id, &body, state, status).unwrap();
-    assert_eq!(*b.body(id).unwrap().state(), state, "restored to the bit");
-    for i in a.inputs() {
-        b.input(*i).unwrap();
-    }
-    assert_eq!(b.next_id(), 1);
+    let warm = a.body(id).unwrap().warm_start();
+    assert!(
+        warm.is_some(),
+        "a stepped body carries its inversions' starts"
+    );
+    // `b` gets everything back; `cold` all but where its inversions start.
+    let restored = |warm: Option<&WarmStart>| {
+        let mut b = World::resume(settings, a.tick(), a.next_id()).unwrap();
+        b.restore_body(id, &body, state, status, warm).unwrap();
+        assert_eq!(*b.body(id).unwrap().state(), state, "restored to the bit");
+        assert_eq!(b.body(id).unwrap().warm_start().as_ref(), warm);
+        for i in a.inputs() {
+            b.input(*i).unwrap();
+        }
+        assert_eq!(b.next_id(), 1);
+        b
+    };
+    let (mut b, mut cold) = (restored(warm.as_ref()), restored(None));
     for _ in 0..60 {
         a.step_surface(&surface, &options).unwrap();
         b.step_surface(&surface, &options).unwrap();
+        cold.step_surface(&surface, &options).unwrap();
     }
     assert_eq!(a.body(id).unwrap().state(), b.body(id).unwrap().state());
+    // The warm start is state: without it the trajectory leaves the bits (by far less than the
+    // inversion tolerance moves a hull).
+    let (sa, sc) = (a.body(id).unwrap().state(), cold.body(id).unwrap().state());
+    assert_ne!(sa, sc, "the warm start made no difference");
+    assert!((sa.position - sc.position).length() < 1e-3);
 }
 
 /// A world stepped with the run-time AVX2 path (the whole hull's loads, the sea's wave kernel and

@@ -17,7 +17,6 @@ use glam::{DMat3, DVec2, DVec3};
 
 use super::spec::BodyModel;
 use crate::surface::SurfaceAt;
-use crate::wave::SurfaceSample;
 
 /// Forces and torques about the centre of mass, world frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -42,11 +41,12 @@ pub(crate) struct Loads {
 /// `v` and angular velocity `w`, in `sea`, water density `rho`, gravity `g`.
 ///
 /// `warm` holds one entry per cell: on return, what the cell's inversion found. With
-/// `since = Some(h)` (the previous call was the previous substep of the same tick, h seconds
-/// earlier), each cell's inversion starts from a prediction made from that entry instead of
+/// `since = Some(h)` (the previous call was the body's previous substep, h seconds earlier, in
+/// this tick or the last), each cell's inversion starts from a prediction made from that entry instead of
 /// from the world point (see [`predicted_start`]): usually within the 1 mm tolerance already,
-/// so Newton's first round is also its last. A pure function of the tick's own substeps, so
-/// replays and restored worlds take the same rounds.
+/// so Newton's first round is also its last. A pure function of the body's own substeps (and of
+/// the [`super::WarmStart`] a restored body carries), so replays and restored worlds take the
+/// same rounds.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn loads(
     model: &BodyModel,
@@ -109,35 +109,66 @@ struct Cells<'a, 's> {
     up_y: f64,
     side: f64,
     inv_vol: f64,
-    /// Seconds since the previous substep of the tick, whose answers are in the cells'
-    /// [`CellWater`]; `None` on a tick's first substep (cold starts).
+    /// Seconds since the body's previous substep, whose answers are in the cells'
+    /// [`CellWater`]; `None` for cold starts (a body's first step, or after a rollback).
     since: Option<f64>,
 }
 
-/// What one hull cell's inversion found on a substep: the start of the next substep's.
-#[derive(Debug, Clone, Copy, Default)]
+/// What one hull cell's inversion found on a substep: the start of the next substep's (the
+/// next tick's first, too: a body keeps its cells' last answers, see [`super::WarmStart`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct CellWater {
     /// The cell's world (x, z), m.
-    world: DVec2,
+    pub(crate) world: DVec2,
     /// The inversion's source point there, m.
-    source: DVec2,
+    pub(crate) source: DVec2,
     /// The water particle's horizontal velocity at the source, m/s.
-    velocity: DVec2,
-    /// The displacement's derivatives at the source (the inversion's own).
-    derivatives: SurfaceSample,
+    pub(crate) velocity: DVec2,
+    /// The horizontal displacement's slopes at the source, `[∂Dx/∂x, ∂Dx/∂z, ∂Dz/∂x, ∂Dz/∂z]`
+    /// (the Jacobian of the inversion's own last step).
+    pub(crate) slopes: [f64; 4],
+}
+
+impl CellWater {
+    /// As ten numbers: world x, z; source x, z; velocity x, z; the four slopes.
+    pub(crate) fn to_array(self) -> [f64; 10] {
+        let [a, b, c, d] = self.slopes;
+        [
+            self.world.x,
+            self.world.y,
+            self.source.x,
+            self.source.y,
+            self.velocity.x,
+            self.velocity.y,
+            a,
+            b,
+            c,
+            d,
+        ]
+    }
+
+    /// From [`CellWater::to_array`]'s ten numbers (the same bits back).
+    pub(crate) fn from_array(v: [f64; 10]) -> CellWater {
+        CellWater {
+            world: DVec2::new(v[0], v[1]),
+            source: DVec2::new(v[2], v[3]),
+            velocity: DVec2::new(v[4], v[5]),
+            slopes: [v[6], v[7], v[8], v[9]],
+        }
+    }
 }
 
 /// Where to start the inversion for a cell now at world `world`, `h` seconds after `prev`:
 /// one Newton step for `p + D(p, t + h) = world` from the previous source `p₀`, with the
 /// displacement extrapolated in time by the particle velocity,
 /// `F = p₀ + D(p₀, t) + v·h − world ≈ (world₀ − world) + v·h` (the previous residual is within
-/// the tolerance and left out), and the previous derivatives for the Jacobian
+/// the tolerance and left out), and the previous slopes for the Jacobian
 /// ([`crate::query::inversion_step`], a fixed-point step where it is singular or with the
 /// fixed-point method). The world point itself if the prediction is not finite.
 #[inline(always)]
 fn predicted_start(prev: &CellWater, world: DVec2, h: f64, newton: bool) -> DVec2 {
     let f = (prev.world - world) + prev.velocity * h;
-    let start = prev.source - crate::query::inversion_step(&prev.derivatives, f, newton);
+    let start = prev.source - crate::query::inversion_step_slopes(prev.slopes, f, newton);
     if start.is_finite() { start } else { world }
 }
 
@@ -178,11 +209,12 @@ impl Cells<'_, '_> {
             let waters = sea.water_lanes_from(&at, &starts, model.min_wavelength);
             for (l, cell) in block.iter().enumerate() {
                 let found = &waters[l];
+                let d = &found.derivatives;
                 warm[l] = CellWater {
                     world: at[l],
                     source: found.source,
                     velocity: DVec2::new(found.velocity.x, found.velocity.z),
-                    derivatives: found.derivatives,
+                    slopes: [d.d_dx.x, d.d_dz.x, d.d_dx.z, d.d_dz.z],
                 };
                 self.add_cell(out, cell, r[l], found);
             }
@@ -257,11 +289,12 @@ mod tests {
             let (c, d) = rng.gaussian_pair();
             let moved = world + DVec2::new(c, d) * h; // ~1 m/s
             let found = now.water_at(world, 0.0);
+            let d = &found.derivatives;
             let prev = CellWater {
                 world,
                 source: found.source,
                 velocity: DVec2::new(found.velocity.x, found.velocity.z),
-                derivatives: found.derivatives,
+                slopes: [d.d_dx.x, d.d_dz.x, d.d_dx.z, d.d_dz.z],
             };
             let start = predicted_start(&prev, moved, h, true);
             let answer = next.water_at(moved, 0.0).source;

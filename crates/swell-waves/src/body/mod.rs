@@ -42,5 +42,5 @@ pub use state::{BodyState, BodyStatus, quat_from_rotation_vector};
 pub use water::WaterPoint;
 pub use world::{
     Body, BodyId, BodyInput, MAX_SUBSTEPS, MAX_TICK_HZ, PHASE_PER_SUBSTEP, SEA_WATER_DENSITY,
-    World, WorldSettings, WorldSnapshot, substeps_for,
+    WarmStart, World, WorldSettings, WorldSnapshot, substeps_for,
 };

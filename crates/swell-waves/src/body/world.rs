@@ -8,7 +8,8 @@
 //! maths is plain IEEE arithmetic plus the crate's `sin_cos`. Bodies do not interact, so one
 //! body's trajectory does not depend on which other bodies exist. [`World::snapshot`] /
 //! [`World::restore`] copy the whole state, so a restored world reproduces every later tick to
-//! the bit.
+//! the bit. A world rebuilt from persisted parts ([`World::resume`], [`World::restore_body`])
+//! does too when it is given each body's state, status and [`WarmStart`].
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -122,6 +123,28 @@ pub struct Body {
     model: Arc<BodyModel>,
     state: BodyState,
     status: BodyStatus,
+    /// What each hull cell's height inversion found on the body's last substep (one entry per
+    /// cell), and the seconds from that substep to the next tick's first; `None` before the
+    /// first step and after a rollback (cold starts).
+    warm: Option<(f64, Vec<CellWater>)>,
+}
+
+/// Where a body's next tick starts its hull cells' height inversions: what they found on the
+/// body's last substep. Part of the body's state for determinism: the next tick's bits depend on
+/// it (to within the inversion tolerance, not beyond), so a world rebuilt from persisted parts
+/// must get it back ([`World::restore_body`]) to continue the trajectory bit for bit.
+///
+/// Carrying it across the tick saves the first substep's extra Newton rounds: from the world
+/// point a cell takes ~3 rounds to converge on a choppy sea, from the prediction ~1.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+pub struct WarmStart {
+    /// Seconds from the last substep to the next tick's first (the body's substep length), s.
+    pub since: f64,
+    /// Per hull cell, in the hull's order: world x, z (m); source point x, z (m); water particle
+    /// velocity x, z (m/s); the horizontal displacement's slopes `∂Dx/∂x, ∂Dx/∂z, ∂Dz/∂x,
+    /// ∂Dz/∂z` at the source.
+    pub cells: Vec<[f64; 10]>,
 }
 
 impl Body {
@@ -138,6 +161,15 @@ impl Body {
     /// The status after the last step.
     pub fn status(&self) -> &BodyStatus {
         &self.status
+    }
+
+    /// Where the next tick starts this body's height inversions (`None`: from the cells' world
+    /// points). Persist it with the state to resume bit for bit ([`World::restore_body`]).
+    pub fn warm_start(&self) -> Option<WarmStart> {
+        self.warm.as_ref().map(|(since, cells)| WarmStart {
+            since: *since,
+            cells: cells.iter().map(|c| c.to_array()).collect(),
+        })
     }
 }
 
@@ -222,8 +254,10 @@ impl World {
         Ok(w)
     }
 
-    /// Puts back body `id` exactly as a persisted world had it: its state to the bit and its
-    /// status (what its last step measured), with the substep count its model gives here.
+    /// Puts back body `id` exactly as a persisted world had it: its state to the bit, its
+    /// status (what its last step measured), with the substep count its model gives here, and
+    /// where its next tick starts the height inversions (`warm`, [`Body::warm_start`]; one
+    /// with the wrong number of cells or a value that is not finite is dropped: cold starts).
     /// [`World::insert`] normalises the rotation, which moves the last bits of a quaternion the
     /// world itself produced and so the whole later trajectory; here a rotation within 1e-9 of
     /// unit length is kept as it is (a stepped body's is unit to ~1e-15) and only one further
@@ -237,6 +271,7 @@ impl World {
         spec: &BodySpec,
         state: BodyState,
         status: BodyStatus,
+        warm: Option<&WarmStart>,
     ) -> Result<(), SpecError> {
         let normalised = state.validated("state")?;
         let exact = if (state.rotation.length() - 1.0).abs() <= 1e-9 {
@@ -251,6 +286,19 @@ impl World {
                 substeps: b.status.substeps,
                 ..status
             };
+            b.warm = warm
+                .filter(|w| {
+                    w.since.is_finite()
+                        && w.since > 0.0
+                        && w.cells.len() == b.model.hull.cells.len()
+                        && w.cells.iter().flatten().all(|v| v.is_finite())
+                })
+                .map(|w| {
+                    (
+                        w.since,
+                        w.cells.iter().map(|c| CellWater::from_array(*c)).collect(),
+                    )
+                });
         }
         Ok(())
     }
@@ -319,6 +367,7 @@ impl World {
                 model: Arc::new(model),
                 state,
                 status,
+                warm: None,
             },
         );
         self.next_id = self.next_id.max(id.saturating_add(1));
@@ -412,11 +461,11 @@ impl World {
     /// [`World::step_surface`] does this for a whole [`Surface`].
     ///
     /// Each body takes [`substeps_for`] substeps of semi-implicit Euler (see [`crate::body`]).
-    /// A hull cell's height inversion starts from the world point on a tick's first substep
-    /// and, on the later ones, from a prediction made from what the previous substep's found
-    /// (one Newton step with the displacement extrapolated by the particle velocity), which
-    /// saves Newton rounds; nothing carries over between ticks, so a snapshot taken between
-    /// ticks loses nothing.
+    /// A hull cell's height inversion starts from a prediction made from what the body's
+    /// previous substep found, in this tick or the last (one Newton step with the displacement
+    /// extrapolated by the particle velocity), which saves Newton rounds; from the world point
+    /// on a body's first step and after a rollback. What carries over between ticks is part of
+    /// the body ([`Body::warm_start`]), so snapshots keep it.
     /// A body whose state becomes non-finite is put back to its state before the step with its
     /// velocities zeroed, and flagged ([`BodyStatus::quarantined`], [`BodyStatus::rollbacks`]).
     pub fn step<'s>(&mut self, mut sea: impl FnMut(f64) -> SurfaceAt<'s>) {
@@ -428,9 +477,6 @@ impl World {
         let times: Vec<f64> = (0..MAX_SUBSTEPS)
             .map(|k| self.substep_time(tick, k))
             .collect();
-        // Per cell of the body being stepped: what its inversion found on the previous substep
-        // (the next substep's start is predicted from it; see `loads`).
-        let mut warm: Vec<CellWater> = Vec::new();
         for (id, body) in self.bodies.iter_mut() {
             let (mut f_in, mut t_in) = (DVec3::ZERO, DVec3::ZERO);
             for i in self.inputs.get(id).into_iter().flatten() {
@@ -445,8 +491,13 @@ impl World {
             let mut state = start;
             let mut submerged = 0.0;
             let mut ok = true;
-            warm.clear();
-            warm.resize(body.model.hull.cells.len(), CellWater::default());
+            // Per cell: what its inversion found on the body's previous substep (this one's
+            // start is predicted from it; see `loads`), carried over from the last tick.
+            let cells = body.model.hull.cells.len();
+            let (mut since, mut warm) = match body.warm.take() {
+                Some((since, warm)) if warm.len() == cells => (Some(since), warm),
+                _ => (None, vec![CellWater::default(); cells]),
+            };
             for i in 0..n {
                 let key = i * (MAX_SUBSTEPS / n);
                 let pos = match cache.iter().position(|(k, _)| *k == key) {
@@ -468,8 +519,9 @@ impl World {
                         g,
                     },
                     &mut warm,
-                    (i > 0).then_some(h),
+                    since,
                 );
+                since = Some(h);
                 submerged = s;
                 if !state.is_finite() {
                     ok = false;
@@ -480,6 +532,7 @@ impl World {
                 body.state = state;
                 body.status.submerged = submerged;
                 body.status.quarantined = false;
+                body.warm = Some((h, warm));
             } else {
                 body.state = BodyState {
                     velocity: DVec3::ZERO,
@@ -611,7 +664,7 @@ struct Forces {
 /// likewise the drag torque against the smallest moment of inertia.
 ///
 /// `warm` and `since` are the cells' inversion starts (see [`loads`]): `since = Some(h)` on
-/// every substep of a tick but the first.
+/// every substep but a body's first and the first after a rollback.
 fn substep(
     model: &BodyModel,
     state: &mut BodyState,
