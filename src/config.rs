@@ -107,6 +107,14 @@ pub struct Limits {
     /// behind the tick stream skips to the newest frames), so this is what ends a subscriber
     /// that stopped reading without sending anything.
     pub ws_send_stall_ms: u64,
+    /// HTTP connections (WebSocket sessions included) open at once; at the limit new ones wait
+    /// in the kernel's listen backlog until one closes. Each open connection holds ~50 KiB;
+    /// keep it below the process's open-file limit (`ulimit -n`).
+    pub max_connections: usize,
+    /// Longest a connection may wait for a request's headers, ms, from when it opens or its last
+    /// answer was written: an idle keep-alive connection is closed after it (and so is a client
+    /// that trickles its headers). Upgraded WebSockets are not subject to it. 0: no limit.
+    pub idle_timeout_ms: u64,
 }
 
 impl Default for Limits {
@@ -124,6 +132,8 @@ impl Default for Limits {
             ws_max_message_bytes: 1024 * 1024,
             ws_send_queue: 256,
             ws_send_stall_ms: 10_000,
+            max_connections: 10_000,
+            idle_timeout_ms: 60_000,
         }
     }
 }

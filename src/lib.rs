@@ -63,7 +63,6 @@ use std::net::SocketAddr;
 use std::sync::OnceLock;
 use std::time::Duration;
 
-use axum::serve::ListenerExt;
 use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
 use tokio::net::TcpListener;
 
@@ -289,22 +288,21 @@ impl Server {
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
         let draining = state.clone();
-        // TCP_NODELAY: stream frames and small answers go out at once instead of waiting
-        // (Nagle) for more bytes to batch.
-        let listener = self.listener.tap_io(|tcp| {
-            if let Err(e) = tcp.set_nodelay(true) {
-                tracing::debug!(error = %e, "could not set TCP_NODELAY");
-            }
-        });
-        let result = axum::serve(listener, app)
-            .with_graceful_shutdown(async move {
-                shutdown.await;
-                draining.set_ready(false);
-                // WebSocket sessions send Close and end; tick loops stop.
-                draining.shutdown.cancel();
-                tracing::info!("shutting down: draining in-flight requests");
-            })
-            .await;
+        // TCP_NODELAY (stream frames and small answers go out at once instead of waiting for
+        // more bytes to batch), a cap on open connections and an idle timeout.
+        let limits = api::serve::ConnectionLimits {
+            max_connections: state.limits.max_connections,
+            idle_timeout: (state.limits.idle_timeout_ms > 0)
+                .then(|| Duration::from_millis(state.limits.idle_timeout_ms)),
+        };
+        let result = api::serve::serve(self.listener, app, limits, async move {
+            shutdown.await;
+            draining.set_ready(false);
+            // WebSocket sessions send Close and end; tick loops stop.
+            draining.shutdown.cancel();
+            tracing::info!("shutting down: draining in-flight requests");
+        })
+        .await;
         // (Already fired unless serving failed.)
         state.shutdown.cancel();
         state.tasks.close();

@@ -22,6 +22,7 @@ pub mod json;
 pub mod ops;
 pub mod query;
 pub mod scenes;
+pub mod serve;
 pub mod shader;
 pub mod viewer;
 pub mod wire;

@@ -1,0 +1,156 @@
+//! The accept loop's two limits over real sockets: `max_connections` (beyond it a connection
+//! waits, unserved, until another closes) and `idle_timeout_ms` (an idle keep-alive connection,
+//! or one that never sends a request, is closed; a WebSocket is not).
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::{TestServer, config};
+use futures_util::{SinkExt, StreamExt};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+fn limited(max_connections: usize, idle_timeout_ms: u64) -> swell::Config {
+    let mut c = config();
+    c.limits.max_connections = max_connections;
+    c.limits.idle_timeout_ms = idle_timeout_ms;
+    c
+}
+
+const HEALTHZ: &[u8] = b"GET /healthz HTTP/1.1\r\nhost: swell\r\n\r\n";
+
+/// Sends `GET /healthz` and reads until the answer's status line and headers are in.
+async fn healthz(tcp: &mut TcpStream, within: Duration) -> Option<String> {
+    tcp.write_all(HEALTHZ).await.ok()?;
+    read_answer(tcp, within).await
+}
+
+async fn read_answer(tcp: &mut TcpStream, within: Duration) -> Option<String> {
+    let mut got = Vec::new();
+    let deadline = Instant::now() + within;
+    let mut buf = [0u8; 4096];
+    while !String::from_utf8_lossy(&got).contains("\r\n\r\n") {
+        let left = deadline.checked_duration_since(Instant::now())?;
+        match tokio::time::timeout(left, tcp.read(&mut buf)).await {
+            Ok(Ok(0)) | Ok(Err(_)) | Err(_) => return None,
+            Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
+        }
+    }
+    Some(String::from_utf8_lossy(&got).into_owned())
+}
+
+/// Whether the server closes `tcp` (reads end of stream or a reset) within `within`.
+async fn closed_within(tcp: &mut TcpStream, within: Duration) -> bool {
+    let mut buf = [0u8; 256];
+    matches!(
+        tokio::time::timeout(within, tcp.read(&mut buf)).await,
+        Ok(Ok(0)) | Ok(Err(_))
+    )
+}
+
+async fn open_connections(s: &TestServer) -> f64 {
+    let text = s.get("/metrics").await.text().await.unwrap();
+    text.lines()
+        .find_map(|l| l.strip_prefix("swell_http_connections "))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(f64::NAN)
+}
+
+#[tokio::test]
+async fn beyond_max_connections_a_connection_waits_until_another_closes() {
+    let s = TestServer::start(limited(2, 60_000)).await;
+    let mut a = TcpStream::connect(s.addr).await.unwrap();
+    let mut b = TcpStream::connect(s.addr).await.unwrap();
+    for c in [&mut a, &mut b] {
+        let answer = healthz(c, Duration::from_secs(5)).await.expect("answered");
+        assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    }
+    // The third connects (the kernel's backlog takes it) but is not served while two are open.
+    let mut c = TcpStream::connect(s.addr).await.unwrap();
+    assert_eq!(
+        healthz(&mut c, Duration::from_millis(500)).await,
+        None,
+        "served beyond max_connections"
+    );
+    drop(a);
+    let answer = read_answer(&mut c, Duration::from_secs(5))
+        .await
+        .expect("served once a slot freed");
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    drop((b, c));
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn idle_connections_are_closed_after_the_idle_timeout_and_busy_ones_are_not() {
+    let s = TestServer::start(limited(100, 400)).await;
+    // Kept busy: a request every 150 ms for 1.2 s, three idle timeouts' worth.
+    let mut busy = TcpStream::connect(s.addr).await.unwrap();
+    // Idle after one answer.
+    let mut idle = TcpStream::connect(s.addr).await.unwrap();
+    assert!(healthz(&mut idle, Duration::from_secs(5)).await.is_some());
+    // Never sends anything.
+    let mut silent = TcpStream::connect(s.addr).await.unwrap();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1200) {
+        let answer = healthz(&mut busy, Duration::from_secs(5)).await;
+        assert!(
+            answer.is_some_and(|a| a.starts_with("HTTP/1.1 200")),
+            "a busy connection was cut after {:?}",
+            start.elapsed()
+        );
+        tokio::time::sleep(Duration::from_millis(150)).await;
+    }
+    assert!(
+        closed_within(&mut idle, Duration::from_secs(2)).await,
+        "idle one open"
+    );
+    assert!(
+        closed_within(&mut silent, Duration::from_secs(2)).await,
+        "silent one open"
+    );
+    // A WebSocket stays open past the timeout with nothing sent either way, and still answers.
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    let (mut ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(1000)).await;
+    ws.send(tungstenite::Message::text(
+        r#"{"type":"ping","id":1,"client_time":0}"#,
+    ))
+    .await
+    .expect("the WebSocket is still open");
+    let reply = tokio::time::timeout(Duration::from_secs(5), ws.next())
+        .await
+        .expect("an answer")
+        .expect("a message")
+        .expect("not an error");
+    assert!(reply.is_text(), "{reply:?}");
+    drop(ws);
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn open_connections_are_published() {
+    let s = TestServer::start(limited(100, 60_000)).await;
+    let before = open_connections(&s).await;
+    let mut held = Vec::new();
+    for _ in 0..5 {
+        let mut c = TcpStream::connect(s.addr).await.unwrap();
+        assert!(healthz(&mut c, Duration::from_secs(5)).await.is_some());
+        held.push(c);
+    }
+    let during = open_connections(&s).await;
+    assert!(during >= before + 5.0, "{before} → {during}");
+    drop(held);
+    // The server notices the closes on its next read.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let now = open_connections(&s).await;
+        if now <= during - 5.0 {
+            break;
+        }
+        assert!(Instant::now() < deadline, "still {now} open");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    s.stop().await;
+}
