@@ -18,6 +18,9 @@ pub fn client(timeout: Duration, pool: usize) -> reqwest::Result<reqwest::Client
         .no_proxy()
         .tcp_nodelay(true)
         .pool_max_idle_per_host(pool)
+        // Below the server's `idle_timeout_ms` (60 s by default): the tool drops an idle
+        // connection before the server closes it, so it never sends on one the server just shut.
+        .pool_idle_timeout(Duration::from_secs(30))
         .timeout(timeout)
         .connect_timeout(timeout.min(Duration::from_secs(5)))
         .build()
