@@ -108,7 +108,7 @@ pub struct Limits {
     /// that stopped reading without sending anything.
     pub ws_send_stall_ms: u64,
     /// HTTP connections (WebSocket sessions included) open at once; at the limit new ones wait
-    /// in the kernel's listen backlog until one closes. Each open connection holds ~50 KiB;
+    /// in the kernel's listen backlog until one closes. Each open connection holds ~15 KiB;
     /// keep it below the process's open-file limit (`ulimit -n`).
     pub max_connections: usize,
     /// Longest a connection may wait for a request's headers, ms, from when it opens or its last

@@ -16,9 +16,12 @@
 //!
 //! On other C libraries (musl, macOS) these are no-ops: they have neither call.
 
-/// Free bytes in `malloc`'s arenas above which [`release_if_held`] trims (16 MiB): well above
-/// what a steady load keeps free between requests, so a server that is not recovering from a
-/// burst is never trimmed (and never pays the page faults of reusing trimmed pages).
+/// Free bytes in `malloc`'s arenas above which [`release_if_held`] trims (16 MiB): above what a
+/// steady load keeps free between requests, so a server that never had a burst is never
+/// trimmed. `malloc` counts a trimmed page as free still (it stays mapped), so once a burst has
+/// left more than this free, every upkeep beat trims. That is cheap: a trim of pages already
+/// given back only walks the free lists (`swell_memory_trim_seconds`), and reusing a trimmed page
+/// costs one page fault.
 pub const TRIM_ABOVE: usize = 16 << 20;
 
 /// Bytes `malloc` holds free in all its arenas (`mallinfo2().fordblks`); `None` where the C
@@ -57,8 +60,8 @@ pub fn trim() -> bool {
 
 /// Trims when more than `threshold` bytes sit free in the arenas. Returns the free bytes held
 /// when it trimmed, `None` when it did not (below the threshold, or not glibc). Publishes
-/// `swell_memory_free_held_bytes` (before any trim) and counts trims in
-/// `swell_memory_trims_total`.
+/// `swell_memory_free_held_bytes` (before any trim), counts trims in `swell_memory_trims_total`
+/// and times them in `swell_memory_trim_seconds`.
 pub fn release_if_held(threshold: usize) -> Option<usize> {
     let held = free_held()?;
     // A gauge is an f64; precision loss above 2^53 bytes is irrelevant.
@@ -67,7 +70,9 @@ pub fn release_if_held(threshold: usize) -> Option<usize> {
     if held <= threshold {
         return None;
     }
+    let start = std::time::Instant::now();
     trim();
+    metrics::histogram!("swell_memory_trim_seconds").record(start.elapsed().as_secs_f64());
     metrics::counter!("swell_memory_trims_total").increment(1);
     tracing::debug!(held, "returned free heap to the OS");
     Some(held)

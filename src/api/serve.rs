@@ -4,7 +4,7 @@
 //! - **`max_connections`**: connections open at once. At the limit the loop stops accepting;
 //!   new connections wait in the kernel's listen backlog until one closes (as nginx's
 //!   `worker_connections` does), so a burst of clients cannot make the server hold a connection
-//!   (and its ~50 KiB of buffers) per client without bound, or run out of file descriptors.
+//!   (and its buffers, ~15 KiB) per client without bound, or run out of file descriptors.
 //!   WebSocket sessions count: they are connections.
 //! - **`idle_timeout_ms`**: how long a connection may wait for the next request's headers, from
 //!   when it opens or its last answer was written (hyper's header read timeout). An idle
