@@ -1,5 +1,5 @@
 //! The accept loop's two limits over real sockets: `max_connections` (beyond it a connection
-//! waits, unserved, until another closes) and `idle_timeout_ms` (an idle keep-alive connection,
+//! waits, unserved, until another closes, a WebSocket included) and `idle_timeout_ms` (an idle keep-alive connection,
 //! or one that never sends a request, is closed; a WebSocket is not).
 
 mod common;
@@ -77,6 +77,30 @@ async fn beyond_max_connections_a_connection_waits_until_another_closes() {
     let answer = read_answer(&mut c, Duration::from_secs(5))
         .await
         .expect("served once a slot freed");
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    drop((b, c));
+    s.stop().await;
+}
+
+/// A connection upgraded to a WebSocket keeps its place under `max_connections` until the session
+/// ends (hyper hands the socket on at the upgrade; the place goes with the socket).
+#[tokio::test]
+async fn a_websocket_holds_its_connection_slot_until_it_closes() {
+    let s = TestServer::start(limited(2, 60_000)).await;
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    let (ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    let mut b = TcpStream::connect(s.addr).await.unwrap();
+    assert!(healthz(&mut b, Duration::from_secs(5)).await.is_some());
+    let mut c = TcpStream::connect(s.addr).await.unwrap();
+    assert_eq!(
+        healthz(&mut c, Duration::from_millis(500)).await,
+        None,
+        "served while a WebSocket and a connection held both places"
+    );
+    drop(ws);
+    let answer = read_answer(&mut c, Duration::from_secs(5))
+        .await
+        .expect("served once the WebSocket closed");
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
     drop((b, c));
     s.stop().await;

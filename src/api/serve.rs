@@ -5,7 +5,7 @@
 //!   new connections wait in the kernel's listen backlog until one closes (as nginx's
 //!   `worker_connections` does), so a burst of clients cannot make the server hold a connection
 //!   (and its buffers, ~15 KiB) per client without bound, or run out of file descriptors.
-//!   WebSocket sessions count: they are connections.
+//!   WebSocket sessions count until they end: they are connections.
 //! - **`idle_timeout_ms`**: how long a connection may wait for the next request's headers, from
 //!   when it opens or its last answer was written (hyper's header read timeout). An idle
 //!   keep-alive connection is closed after it, and so is a client that trickles a request's
@@ -16,14 +16,18 @@
 //! idle ones at once). Open connections are published as `swell_http_connections`.
 
 use std::future::Future;
+use std::pin::Pin;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::task::{Context, Poll};
 use std::time::Duration;
 
 use axum::Router;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::service::TowerToHyperService;
-use tokio::net::TcpListener;
-use tokio::sync::{Semaphore, watch};
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
 
 /// The limits of [`serve`].
 #[derive(Debug, Clone, Copy)]
@@ -55,7 +59,7 @@ pub async fn serve(
         shutdown.await;
         drop(stop_rx);
     });
-    let open = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let open = Arc::new(AtomicUsize::new(0));
     loop {
         let permit = tokio::select! {
             p = slots.clone().acquire_owned() => match p {
@@ -78,11 +82,12 @@ pub async fn serve(
             tracing::debug!(error = %e, "could not set TCP_NODELAY");
         }
         let service = TowerToHyperService::new(app.clone());
-        let (stop, done, open) = (stop_tx.clone(), done_rx.clone(), open.clone());
+        let (stop, done) = (stop_tx.clone(), done_rx.clone());
+        let tcp = Counted {
+            tcp,
+            _slot: Slot::take(permit, open.clone()),
+        };
         tokio::spawn(async move {
-            let n = open.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            #[allow(clippy::cast_precision_loss)]
-            metrics::gauge!("swell_http_connections").set(n as f64);
             let mut builder = hyper::server::conn::http1::Builder::new();
             builder
                 .timer(TokioTimer::new())
@@ -98,10 +103,6 @@ pub async fn serve(
                     log_end(conn.await, remote);
                 }
             }
-            let n = open.fetch_sub(1, std::sync::atomic::Ordering::Relaxed) - 1;
-            #[allow(clippy::cast_precision_loss)]
-            metrics::gauge!("swell_http_connections").set(n as f64);
-            drop(permit);
             drop(done);
         });
     }
@@ -109,6 +110,83 @@ pub async fn serve(
     drop(done_rx);
     done_tx.closed().await;
     Ok(())
+}
+
+/// One open connection's place: a `max_connections` permit and a count in
+/// `swell_http_connections`, both given back when the socket is dropped. The socket owns it, so
+/// a connection upgraded to a WebSocket keeps its place until the session ends (hyper's
+/// connection future finishes at the upgrade and hands the socket on).
+struct Slot {
+    _permit: OwnedSemaphorePermit,
+    open: Arc<AtomicUsize>,
+}
+
+impl Slot {
+    fn take(permit: OwnedSemaphorePermit, open: Arc<AtomicUsize>) -> Slot {
+        let n = open.fetch_add(1, Ordering::Relaxed) + 1;
+        publish(n);
+        Slot {
+            _permit: permit,
+            open,
+        }
+    }
+}
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        publish(self.open.fetch_sub(1, Ordering::Relaxed) - 1);
+    }
+}
+
+fn publish(open: usize) {
+    #[allow(clippy::cast_precision_loss)]
+    metrics::gauge!("swell_http_connections").set(open as f64);
+}
+
+/// A TCP socket with its [`Slot`]; reads and writes go straight through.
+struct Counted {
+    tcp: TcpStream,
+    _slot: Slot,
+}
+
+impl AsyncRead for Counted {
+    fn poll_read(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.get_mut().tcp).poll_read(cx, buf)
+    }
+}
+
+impl AsyncWrite for Counted {
+    fn poll_write(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.get_mut().tcp).poll_write(cx, buf)
+    }
+
+    fn poll_write_vectored(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        bufs: &[std::io::IoSlice<'_>],
+    ) -> Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.get_mut().tcp).poll_write_vectored(cx, bufs)
+    }
+
+    fn is_write_vectored(&self) -> bool {
+        self.tcp.is_write_vectored()
+    }
+
+    fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.get_mut().tcp).poll_flush(cx)
+    }
+
+    fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.get_mut().tcp).poll_shutdown(cx)
+    }
 }
 
 fn log_end(r: Result<(), hyper::Error>, remote: std::net::SocketAddr) {
