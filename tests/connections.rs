@@ -57,6 +57,22 @@ async fn open_connections(s: &TestServer) -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+/// With every place under `max_connections` taken: a new connection gets in (the kernel's listen
+/// backlog takes it) but is not served within 0.5 s, and is served once `free` gives a place back.
+async fn waits_until_freed(s: &TestServer, free: impl FnOnce(), held: &str) {
+    let mut c = TcpStream::connect(s.addr).await.unwrap();
+    assert_eq!(
+        healthz(&mut c, Duration::from_millis(500)).await,
+        None,
+        "served {held}"
+    );
+    free();
+    let answer = read_answer(&mut c, Duration::from_secs(5))
+        .await
+        .expect("served once a place was given back");
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+}
+
 #[tokio::test]
 async fn beyond_max_connections_a_connection_waits_until_another_closes() {
     let s = TestServer::start(limited(2, 60_000)).await;
@@ -66,19 +82,8 @@ async fn beyond_max_connections_a_connection_waits_until_another_closes() {
         let answer = healthz(c, Duration::from_secs(5)).await.expect("answered");
         assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
     }
-    // The third connects (the kernel's backlog takes it) but is not served while two are open.
-    let mut c = TcpStream::connect(s.addr).await.unwrap();
-    assert_eq!(
-        healthz(&mut c, Duration::from_millis(500)).await,
-        None,
-        "served beyond max_connections"
-    );
-    drop(a);
-    let answer = read_answer(&mut c, Duration::from_secs(5))
-        .await
-        .expect("served once a slot freed");
-    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
-    drop((b, c));
+    waits_until_freed(&s, || drop(a), "beyond max_connections").await;
+    drop(b);
     s.stop().await;
 }
 
@@ -91,18 +96,13 @@ async fn a_websocket_holds_its_connection_slot_until_it_closes() {
     let (ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
     let mut b = TcpStream::connect(s.addr).await.unwrap();
     assert!(healthz(&mut b, Duration::from_secs(5)).await.is_some());
-    let mut c = TcpStream::connect(s.addr).await.unwrap();
-    assert_eq!(
-        healthz(&mut c, Duration::from_millis(500)).await,
-        None,
-        "served while a WebSocket and a connection held both places"
-    );
-    drop(ws);
-    let answer = read_answer(&mut c, Duration::from_secs(5))
-        .await
-        .expect("served once the WebSocket closed");
-    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
-    drop((b, c));
+    waits_until_freed(
+        &s,
+        || drop(ws),
+        "while a WebSocket and a connection held both places",
+    )
+    .await;
+    drop(b);
     s.stop().await;
 }
 
