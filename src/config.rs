@@ -115,6 +115,12 @@ pub struct Limits {
     /// answer was written: an idle keep-alive connection is closed after it (and so is a client
     /// that trickles its headers). Upgraded WebSockets are not subject to it. 0: no limit.
     pub idle_timeout_ms: u64,
+    /// Longest downtime, s of scene time, that a restarted server steps its bodies through
+    /// before it is ready, so that they continue the trajectory of a server that never stopped
+    /// (one boat on an FFT scene: ~4.5 ms a tick). After a longer one the bodies re-anchor at the
+    /// clock instead: they keep their poses, start from rest, and the server is ready at once.
+    /// Capped at the replay limit of 108,000 ticks (an hour at 30 Hz); 0: always re-anchor.
+    pub catch_up_max_s: u64,
 }
 
 impl Default for Limits {
@@ -134,6 +140,7 @@ impl Default for Limits {
             ws_send_stall_ms: 10_000,
             max_connections: 10_000,
             idle_timeout_ms: 60_000,
+            catch_up_max_s: 3600,
         }
     }
 }

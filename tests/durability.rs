@@ -40,6 +40,11 @@ impl Drop for Proc {
 }
 
 async fn start(dir: &Path, snapshot_records: usize) -> Proc {
+    start_with(dir, snapshot_records, None).await
+}
+
+/// [`start`] with a config file (`--config`).
+async fn start_with(dir: &Path, snapshot_records: usize, config: Option<&Path>) -> Proc {
     let port = free_port();
     let log = std::fs::OpenOptions::new()
         .create(true)
@@ -52,6 +57,12 @@ async fn start(dir: &Path, snapshot_records: usize) -> Proc {
         .arg(dir)
         .args(["--admin-token", TOKEN])
         .args(["--snapshot-records", &snapshot_records.to_string()])
+        .args(
+            config
+                .map(|c| [Path::new("--config"), c])
+                .into_iter()
+                .flatten(),
+        )
         .env("RUST_LOG", "info")
         .stdout(Stdio::null())
         .stderr(log)
@@ -292,6 +303,89 @@ async fn after_kill_9_bodies_continue_the_same_trajectory_to_the_bit() {
         .await;
     assert_eq!(ids[0]["id"], json!(4));
     assert_eq!(ids[1]["id"], json!(4));
+}
+
+/// The value of an unlabelled counter in the server's `/metrics` (0 when not yet reported).
+async fn counter(p: &Proc, name: &str) -> f64 {
+    let text = p
+        .client
+        .get(format!("{}/metrics", p.base))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    text.lines()
+        .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
+        .unwrap_or(0.0)
+}
+
+/// A restart after a downtime longer than `limits.catch_up_max_s` does not step the bodies
+/// through it: they re-anchor at the clock (counted, and logged), and the server is ready at
+/// once. Within the setting the bodies catch up and nothing re-anchors.
+#[tokio::test]
+async fn a_restart_after_more_than_catch_up_max_s_re_anchors_instead_of_catching_up() {
+    let dirs = tempfile::tempdir().unwrap();
+    let dir = dirs.path().join("a");
+    let config = dirs.path().join("swell.toml");
+    std::fs::write(&config, "[limits]\ncatch_up_max_s = 1\n").unwrap();
+    let tick_of = |text: String| -> i64 {
+        let v: Value = serde_json::from_str(&text).unwrap();
+        v["tick"].as_i64().unwrap()
+    };
+    let a = start_with(&dir, 1_000_000, Some(&config)).await;
+    a.ok(
+        Method::POST,
+        "/v1/scenes/calm/bodies",
+        Some(&boat(0.0, 1.0, 0.0)),
+    )
+    .await;
+    let t0 = Instant::now();
+    while tick_of(a.bodies("calm").await) == 0 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "the bodies never stepped"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    drop(a); // SIGKILL
+    // 2 s down: 60 ticks of `calm`, more than the 30 of `catch_up_max_s = 1`.
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let a = start_with(&dir, 1_000_000, Some(&config)).await;
+    let t0 = Instant::now();
+    while counter(&a, "swell_body_reanchors_total").await < 1.0 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "the bodies did not re-anchor after a downtime past catch_up_max_s"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let log = std::fs::read_to_string(dir.with_extension("log")).unwrap();
+    assert!(
+        log.contains("the bodies re-anchor at the clock instead of catching up"),
+        "{log}"
+    );
+    let c = a.ok(Method::GET, "/v1/scenes/calm/clock", None).await;
+    let behind = c["tick"].as_i64().unwrap() - tick_of(a.bodies("calm").await);
+    assert!(
+        behind.abs() <= 3,
+        "the bodies are {behind} ticks off the clock"
+    );
+    drop(a);
+
+    // The same downtime with the default (an hour): the bodies are stepped through it before
+    // the server is ready, and nothing re-anchors.
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let a = start(&dir, 1_000_000).await;
+    let c = a.ok(Method::GET, "/v1/scenes/calm/clock", None).await;
+    let behind = c["tick"].as_i64().unwrap() - tick_of(a.bodies("calm").await);
+    assert!(
+        behind.abs() <= 3,
+        "the bodies are {behind} ticks off the clock"
+    );
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    assert_eq!(counter(&a, "swell_body_reanchors_total").await, 0.0);
 }
 
 /// SplitMix64, so the damage is the same on every run.

@@ -279,6 +279,7 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
                     metrics::counter!("swell_body_ticks_total").increment(u64::from(adv.steps));
                 }
                 if adv.reanchored {
+                    metrics::counter!("swell_body_reanchors_total").increment(1);
                     tracing::debug!(scene = %id, tick = target, "body world re-anchored");
                 }
                 metrics::gauge!("swell_bodies", "scene" => id.clone()).set(n as f64);

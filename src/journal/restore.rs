@@ -117,8 +117,12 @@ pub fn restore(state: &AppState, rec: Recovered) {
         };
         let target = state.read_clock(&entry).tick;
         let ahead = target - w.tick();
-        if ahead > 0 && ahead <= MAX_REPLAY_STEPS {
+        let cap = catch_up_cap(state.limits.catch_up_max_s, entry.scene.spec.tick_hz);
+        if ahead > 0 && ahead <= cap {
             catch_up(&mut w, &id, target, &entry.scene.surface);
+        } else if ahead > cap && !w.is_empty() {
+            tracing::info!(scene = %id, ticks = ahead, cap,
+                "journal: the downtime is longer than limits.catch_up_max_s: the bodies re-anchor at the clock instead of catching up");
         }
         // (Further off or behind: the body loop re-anchors at its first step, and journals it.)
         if let Err(e) = append_body_events(journal, &id, &mut w) {
@@ -132,6 +136,19 @@ pub fn restore(state: &AppState, rec: Recovered) {
     }
     if replayed > 0 || !rec.problems.is_empty() {
         tracing::info!(replayed, problems = rec.problems.len(), "journal: restored");
+    }
+}
+
+/// The most ticks a restored world of a scene ticking at `tick_hz` is stepped through at
+/// start-up: `catch_up_max_s` (see [`crate::config::Limits::catch_up_max_s`]) in ticks, at most
+/// [`MAX_REPLAY_STEPS`] (the replay's own limit, which every replica applies alike: it cannot be
+/// a setting).
+fn catch_up_cap(catch_up_max_s: u64, tick_hz: f64) -> i64 {
+    let ticks = (catch_up_max_s as f64 * tick_hz).round();
+    if ticks.is_finite() && ticks < MAX_REPLAY_STEPS as f64 {
+        ticks.max(0.0) as i64
+    } else {
+        MAX_REPLAY_STEPS
     }
 }
 
@@ -185,6 +202,16 @@ fn catch_up(w: &mut SceneBodies, id: &str, target: i64, surface: &swell_waves::S
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_catch_up_cap_is_the_setting_in_ticks_within_the_replay_limit() {
+        assert_eq!(catch_up_cap(3600, 30.0), MAX_REPLAY_STEPS);
+        assert_eq!(catch_up_cap(60, 20.0), 1200);
+        assert_eq!(catch_up_cap(0, 30.0), 0);
+        assert_eq!(catch_up_cap(1, 0.5), 1);
+        assert_eq!(catch_up_cap(u64::MAX, 30.0), MAX_REPLAY_STEPS);
+        assert_eq!(catch_up_cap(7200, 30.0), MAX_REPLAY_STEPS);
+    }
 
     /// The catch-up in chunks (with its progress log) steps the very ticks one `step_to` does:
     /// a restarted server still continues the never-stopped trajectory to the bit.

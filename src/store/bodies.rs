@@ -665,6 +665,9 @@ impl FleetBodies {
             if adv.steps > 0 || adv.reanchored {
                 metrics::counter!("swell_body_ticks_total").increment(u64::from(adv.steps));
             }
+            if adv.reanchored {
+                metrics::counter!("swell_body_reanchors_total").increment(1);
+            }
             cell.publish(&b);
         }
         f.watermark = Some(w);
