@@ -119,7 +119,8 @@ pub struct Limits {
     /// before it is ready, so that they continue the trajectory of a server that never stopped
     /// (one boat on an FFT scene: ~4.5 ms a tick). After a longer one the bodies re-anchor at the
     /// clock instead: they keep their poses, start from rest, and the server is ready at once.
-    /// Capped at the replay limit of 108,000 ticks (an hour at 30 Hz); 0: always re-anchor.
+    /// Capped at the replay limit of 108,000 ticks (an hour at 30 Hz). 0: no catch-up at
+    /// start-up (a gap of up to 60 ticks the body loop still steps through, as after any stall).
     pub catch_up_max_s: u64,
 }
 

@@ -350,8 +350,9 @@ async fn a_restart_after_more_than_catch_up_max_s_re_anchors_instead_of_catching
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     drop(a); // SIGKILL
-    // 2 s down: 60 ticks of `calm`, more than the 30 of `catch_up_max_s = 1`.
-    tokio::time::sleep(Duration::from_secs(2)).await;
+    // 3 s down: 90 ticks of `calm`, more than the 30 of `catch_up_max_s = 1` and than the 60
+    // the body loop would step through itself.
+    tokio::time::sleep(Duration::from_secs(3)).await;
     let a = start_with(&dir, 1_000_000, Some(&config)).await;
     let t0 = Instant::now();
     while counter(&a, "swell_body_reanchors_total").await < 1.0 {
@@ -376,7 +377,7 @@ async fn a_restart_after_more_than_catch_up_max_s_re_anchors_instead_of_catching
 
     // The same downtime with the default (an hour): the bodies are stepped through it before
     // the server is ready, and nothing re-anchors.
-    tokio::time::sleep(Duration::from_secs(2)).await;
+    tokio::time::sleep(Duration::from_secs(3)).await;
     let a = start(&dir, 1_000_000).await;
     let c = a.ok(Method::GET, "/v1/scenes/calm/clock", None).await;
     let behind = c["tick"].as_i64().unwrap() - tick_of(a.bodies("calm").await);
