@@ -152,6 +152,11 @@ impl Limits {
         Duration::from_millis(self.request_timeout_ms)
     }
 
+    /// [`Limits::idle_timeout_ms`] as a duration; `None` when it is 0 (no limit).
+    pub fn idle_timeout(&self) -> Option<Duration> {
+        (self.idle_timeout_ms > 0).then(|| Duration::from_millis(self.idle_timeout_ms))
+    }
+
     /// [`Limits::ws_send_stall_ms`] as a duration.
     pub fn ws_send_stall(&self) -> Duration {
         Duration::from_millis(self.ws_send_stall_ms)

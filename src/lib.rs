@@ -292,8 +292,7 @@ impl Server {
         // more bytes to batch), a cap on open connections and an idle timeout.
         let limits = api::serve::ConnectionLimits {
             max_connections: state.limits.max_connections,
-            idle_timeout: (state.limits.idle_timeout_ms > 0)
-                .then(|| Duration::from_millis(state.limits.idle_timeout_ms)),
+            idle_timeout: state.limits.idle_timeout(),
         };
         let result = api::serve::serve(self.listener, app, limits, async move {
             shutdown.await;

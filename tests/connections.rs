@@ -51,10 +51,7 @@ async fn closed_within(tcp: &mut TcpStream, within: Duration) -> bool {
 
 async fn open_connections(s: &TestServer) -> f64 {
     let text = s.get("/metrics").await.text().await.unwrap();
-    text.lines()
-        .find_map(|l| l.strip_prefix("swell_http_connections "))
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(f64::NAN)
+    common::metric(&text, "swell_http_connections").unwrap_or(f64::NAN)
 }
 
 /// With every place under `max_connections` taken: a new connection gets in (the kernel's listen

@@ -316,9 +316,7 @@ async fn counter(p: &Proc, name: &str) -> f64 {
         .text()
         .await
         .unwrap();
-    text.lines()
-        .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
-        .unwrap_or(0.0)
+    common::metric(&text, name).unwrap_or(0.0)
 }
 
 /// A restart after a downtime longer than `limits.catch_up_max_s` does not step the bodies

@@ -176,6 +176,12 @@ pub async fn into_json(r: Response) -> (u16, Value) {
     (status, v)
 }
 
+/// The value of an unlabelled metric in a Prometheus text page (`name value` on its own line).
+pub fn metric(page: &str, name: &str) -> Option<f64> {
+    page.lines()
+        .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
+}
+
 /// f64 bits of a JSON number.
 pub fn bits(v: &Value) -> u64 {
     v.as_f64()
