@@ -22,9 +22,11 @@
 //! scene in use.
 //!
 //! # Computing ahead
-//! While a scene is queried ([`FrameCache::active_scenes`]), [`run_ahead`] computes the grid
+//! While a scene is queried near its clock's now ([`FrameCache::active_scenes`]: a query or a
+//! body step reading a near grid frame within [`ACTIVE_FOR`]), [`run_ahead`] computes the grid
 //! frames the clock is about to reach, so a query at now finds its frames ready and answers
-//! without waiting for an FFT (on the reactor, see `service::query`).
+//! without waiting for an FFT (on the reactor, see `service::query`). Queries at far-off or
+//! exact times alone do not start it: those frames would be of no use to them.
 //!
 //! Computing happens in the caller's thread, which must be a blocking one (`spawn_blocking`):
 //! `OnceLock::get_or_init` blocks the waiters.
@@ -171,6 +173,15 @@ impl FrameCache {
                 grid_distance(n, at, layer.grid_steps()) <= NEAR_STEPS
             }
         }
+    }
+
+    /// Whether a query of `scene` at `t` reads a near frame of any FFT layer: a grid frame
+    /// within [`NEAR_STEPS`] of the clock's `now`.
+    fn reads_near(scene: &Scene, t: f64, now: f64, time: TimeSampling) -> bool {
+        scene.surface.layers().iter().any(|layer| match layer {
+            Layer::Fft(f) => Self::is_near(f, Self::whens(f, t, time).0, now),
+            _ => false,
+        })
     }
 
     /// Notes a query of `scene` needing `need` from each FFT layer.
@@ -345,7 +356,12 @@ impl FrameCache {
         }
         options.validate()?;
         let needs = Self::needs(scene, fields, options);
-        Self::note_activity(&mut self.lock(), scene, &needs);
+        // Only a query near the clock's now keeps the scene's frames computed ahead: the frames
+        // the clock reaches next are of no use to one at a far-off (or exact) time, and
+        // computing them costs ~15% of a core per FFT scene (60 frames a second).
+        if Self::reads_near(scene, t, now, options.time) {
+            Self::note_activity(&mut self.lock(), scene, &needs);
+        }
         let frames = surface
             .layers()
             .iter()
@@ -399,7 +415,7 @@ impl FrameCache {
             })
     }
 
-    /// Uids of the scenes queried within [`ACTIVE_FOR`].
+    /// Uids of the scenes queried near their clock's now within [`ACTIVE_FOR`].
     pub fn active_scenes(&self) -> Vec<u64> {
         let now = Instant::now();
         let mut g = self.lock();
@@ -574,6 +590,36 @@ mod tests {
             .unwrap();
         assert_eq!(cache.len(), 2);
         assert!(cache.has_frames(&scene, t0 + 0.6 * dt, QueryFields::ALL, &o));
+    }
+
+    /// Only queries near the clock's now make a scene active (its frames computed ahead): one
+    /// at a far-off grid time, or at an exact time, gains nothing from the frames the clock
+    /// reaches next.
+    #[test]
+    fn only_queries_near_now_make_a_scene_active() {
+        let scene = builtin("storm");
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&scene);
+        let now = f.grid_time(500) + 0.25 * f.time_step();
+        let far = now + 3.0 * NEAR_STEPS as f64 * f.time_step();
+        cache
+            .surface_at(&scene, far, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        let exact = QueryOptions {
+            time: TimeSampling::Exact,
+            ..QueryOptions::default()
+        };
+        cache
+            .surface_at(&scene, now, now, QueryFields::HEIGHT, &exact)
+            .unwrap();
+        assert!(cache.active_scenes().is_empty());
+        // Within NEAR_STEPS of now, on either side: active.
+        let near = now - (NEAR_STEPS as f64 - 1.0) * f.time_step();
+        cache
+            .surface_at(&scene, near, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(cache.active_scenes(), vec![scene.uid]);
     }
 
     /// The frame-ahead step computes the frames the clock reaches in the next two grid steps,
