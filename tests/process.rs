@@ -19,8 +19,9 @@ impl Drop for Killed {
     }
 }
 
-#[tokio::test]
-async fn a_second_server_process_answers_the_same_bits() {
+/// `swell serve` as a separate process on a free loopback port with its own data dir, once it
+/// answers `/readyz`; the base URL, the child (killed on drop) and the data dir.
+async fn spawn_server(client: &reqwest::Client) -> (String, Killed, tempfile::TempDir) {
     let port = free_port();
     let dir = tempfile::tempdir().unwrap();
     let child = Command::new(env!("CARGO_BIN_EXE_swell"))
@@ -33,8 +34,7 @@ async fn a_second_server_process_answers_the_same_bits() {
         .stderr(Stdio::null())
         .spawn()
         .expect("the swell binary starts");
-    let _guard = Killed(child);
-    let client = reqwest::Client::builder().no_proxy().build().unwrap();
+    let guard = Killed(child);
     let base = format!("http://127.0.0.1:{port}");
     let start = Instant::now();
     loop {
@@ -49,6 +49,24 @@ async fn a_second_server_process_answers_the_same_bits() {
         );
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
+    (base, guard, dir)
+}
+
+/// Resident bytes of process `pid` (`/proc/PID/statm`, second field, in pages).
+fn resident(pid: u32) -> usize {
+    let statm = std::fs::read_to_string(format!("/proc/{pid}/statm")).expect("statm");
+    let pages: usize = statm
+        .split_whitespace()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .expect("resident pages");
+    pages * 4096
+}
+
+#[tokio::test]
+async fn a_second_server_process_answers_the_same_bits() {
+    let client = reqwest::Client::builder().no_proxy().build().unwrap();
+    let (base, _guard, _dir) = spawn_server(&client).await;
     let here = TestServer::start(config()).await;
     let body = json!({"t": 1234.5678, "origin": [1e6, -2e6],
         "points": [[0.0, 0.0], [13.25, -7.5], [250.0, 999.0]],
@@ -89,4 +107,48 @@ async fn a_second_server_process_answers_the_same_bits() {
         }
     }
     here.stop().await;
+}
+
+/// A stream subscriber costs the server tens of kilobytes, not the 128 KiB read buffer
+/// tungstenite allocates per socket by default and zeroes before every read (1,000
+/// subscribers held 152 MiB; `stream::WS_READ_BUFFER_BYTES`). Measured on a separate server
+/// process, so the clients' own buffers do not count.
+#[cfg(target_os = "linux")]
+#[tokio::test]
+async fn a_stream_subscriber_costs_the_server_well_under_128_kib() {
+    use futures_util::SinkExt as _;
+    const SUBSCRIBERS: usize = 200;
+    let client = reqwest::Client::builder().no_proxy().build().unwrap();
+    let (base, guard, _dir) = spawn_server(&client).await;
+    let pid = guard.0.id();
+    let addr: std::net::SocketAddr = base.trim_start_matches("http://").parse().unwrap();
+    // One connection first, so the server's first-use allocations are not counted.
+    let mut first = common::ws_connect(addr, "calm", None).await;
+    first
+        .send(tungstenite::Message::text(
+            json!({"type": "subscribe", "ticks": true}).to_string(),
+        ))
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let before = resident(pid);
+    let mut all = Vec::with_capacity(SUBSCRIBERS);
+    for _ in 0..SUBSCRIBERS {
+        let mut ws = common::ws_connect(addr, "calm", None).await;
+        ws.send(tungstenite::Message::text(
+            json!({"type": "subscribe", "ticks": true}).to_string(),
+        ))
+        .await
+        .unwrap();
+        all.push(ws);
+    }
+    // Every session has read its subscribe (its socket's read buffer touched) and sent ticks.
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let per = resident(pid).saturating_sub(before) / SUBSCRIBERS;
+    eprintln!("{per} bytes resident per subscriber ({SUBSCRIBERS} subscribers)");
+    assert!(
+        per < 64 * 1024,
+        "{per} bytes resident per subscriber ({SUBSCRIBERS} subscribers)"
+    );
+    drop(all);
 }

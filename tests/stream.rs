@@ -385,6 +385,26 @@ async fn unknown_scene_and_plain_get_are_refused_before_the_upgrade() {
     s.stop().await;
 }
 
+/// A message many times the socket's read buffer (`stream::WS_READ_BUFFER_BYTES`, 8 KiB) is read
+/// whole over several reads: a ping padded with 200 kB of JSON whitespace gets its pong.
+#[tokio::test]
+async fn a_message_longer_than_the_read_buffer_is_read_whole() {
+    let s = TestServer::start(config()).await;
+    let mut ws = ws_connect(s.addr, "calm", None).await;
+    let padded = format!(
+        r#"{{"type":"ping","id":2,{}"client_time":1.5}}"#,
+        " ".repeat(25 * swell::stream::WS_READ_BUFFER_BYTES)
+    );
+    ws.send(Message::Text(padded.into())).await.expect("send");
+    let v = recv_json(&mut ws, false).await;
+    assert_eq!(
+        (&v["type"], &v["id"], &v["client_time"]),
+        (&json!("pong"), &json!(2), &json!(1.5)),
+        "{v}"
+    );
+    s.stop().await;
+}
+
 /// Regression (issue 11): a message over `ws_max_message_bytes` dropped the connection without
 /// the documented Close 1009: the client saw no status (1005) or an abnormal closure. (This test
 /// used to accept a close without a frame.) Both a message a little over the limit and one far
