@@ -61,8 +61,7 @@ pub struct FftSample {
 ///
 /// Computed without library calls, to the same bits as that formula (pinned by a test against
 /// `tests::grid_coord_reference`): for |x| < L, `x % L` is exactly x, so `rem_euclid` is x or
-/// x + L, and for |x| < 2L it is x ∓ L, also exact; farther out, [`rem_euclid_far`] divides by
-/// exact subtractions (fmod is called only past 2^16 tiles); g is in [0, N] or is −0, where truncation
+/// x + L, and for |x| < 2L it is x ∓ L, also exact (the fmod call is needed only farther out); g is in [0, N] or is −0, where truncation
 /// is floor, and `+ 0.0` turns the fraction −0 that g = −0 would give into floor's +0. N is a
 /// power of two (the layer checks it), so `mod N` is a mask.
 #[inline]
@@ -76,42 +75,12 @@ fn grid_coord(x: f64, l: f64, n: usize) -> (usize, f64) {
         let r = if x < 0.0 { x + l } else { x - l };
         if r < 0.0 { r + l } else { r }
     } else {
-        rem_euclid_far(x, l)
+        x.rem_euclid(l)
     };
     let g = u * n as f64 / l;
     let t = g as usize;
     (t & (n - 1), (g - t as f64) + 0.0)
 }
-
-/// `x.rem_euclid(l)` for |x| ≥ 2L, to the same bits, without the `fmod` call out to
-/// 2^[`FAR_TILES_LOG2`] tiles (a batch spread over a few km of a few-hundred-metre tile spent ~3%
-/// of the server's CPU in the software `fmod`). `fmod(|x|, L)` by binary long division: with
-/// `m = 2^k·L` for k = K−1 … 0 and the remainder `r < 2m` on entry to each step, `r ≥ m` means
-/// `m ≤ r < 2m`, so `r − m` is exact (Sterbenz); every `m` is exact (L scaled by powers of two,
-/// all normal for a normal L), so `r` ends as the exact remainder in [0, L), which is fmod's.
-/// fmod keeps the sign of x, and `rem_euclid` then adds L to a negative remainder, as here.
-/// Farther out, NaN, or L too small to scale exactly: `rem_euclid` itself.
-#[inline]
-fn rem_euclid_far(x: f64, l: f64) -> f64 {
-    const TOP: f64 = (1u64 << FAR_TILES_LOG2) as f64;
-    let a = x.abs();
-    if !(a < l * TOP && l >= f64::MIN_POSITIVE * TOP) {
-        return x.rem_euclid(l);
-    }
-    let mut r = a;
-    let mut m = l * (TOP * 0.5);
-    for _ in 0..FAR_TILES_LOG2 {
-        if r >= m {
-            r -= m;
-        }
-        m *= 0.5;
-    }
-    let r = if x < 0.0 { -r } else { r };
-    if r < 0.0 { r + l } else { r }
-}
-
-/// How far [`rem_euclid_far`] reduces without `fmod`: 2^16 tiles (16 exact subtractions at most).
-const FAR_TILES_LOG2: u32 = 16;
 
 /// Catmull–Rom weights for nodes −1, 0, 1, 2 at fraction t:
 /// `w₋₁ = 0.5·((−t + 2)·t − 1)·t`, `w₀ = 0.5·((3t − 5)·t·t + 2)`,
@@ -430,13 +399,6 @@ mod tests {
                 (ri, rf.to_bits()),
                 "x = {x:e}, L = {l}, N = {n}"
             );
-            if x.abs() >= 2.0 * l {
-                assert_eq!(
-                    rem_euclid_far(x, l).to_bits(),
-                    x.rem_euclid(l).to_bits(),
-                    "x = {x:e}, L = {l}"
-                );
-            }
         };
         for &(l, n) in &[
             (100.0, 64),
@@ -488,18 +450,6 @@ mod tests {
                 check(b * l * 1e-12, l, n);
                 check(a * l * 1e6, l, n);
                 check(b * 1e15, l, n);
-                // Out to and past rem_euclid_far's 2^16 tiles, at every scale in between.
-                let tiles = (2.0f64).powf(17.0 * rng.uniform());
-                check(a * l * tiles, l, n);
-                check(b.signum() * l * tiles.ceil(), l, n);
-            }
-            // Multiples of L and their neighbours at the reduction's edges (2, 2^15, 2^16 tiles).
-            for k in [2.0, 3.0, 32767.0, 32768.0, 65535.0, 65536.0, 65537.0] {
-                for x in [k * l, -k * l] {
-                    check(x, l, n);
-                    check(f64::from_bits(x.to_bits() + 1), l, n);
-                    check(f64::from_bits(x.to_bits() - 1), l, n);
-                }
             }
         }
     }
