@@ -10,9 +10,9 @@
 //! caches: the bodies' cost alone. `paced` sleeps until each tick's wall-clock boundary (every
 //! `1/tick_hz` s), as the server's body loop does, so every step starts after ~25 ms asleep,
 //! with whatever the caches and the host made of that (on this project's 2-core VM, 10–25%
-//! more per step; see `docs/performance.md`, P8). The boats are `swell-load`'s (8 m × 3 m × 1.5 m, 3 t, on a 20 m
-//! grid around the origin, dropped from 0.5 m, as `swell-load --spawn-bodies` spawns them) and
-//! stepped for 30 ticks before the measured ones.
+//! more per step; see `docs/performance.md`, P8). The boats are `swell-load`'s (8 m × 3 m ×
+//! 1.5 m, 3 t, on a 20 m grid around the origin, dropped from 0.5 m, as `swell-load
+//! --spawn-bodies` spawns them) and stepped for 30 ticks before the measured ones.
 //! The share of one core at 30 Hz is `30 × time per tick`. As in the live server, the FFT grid
 //! frames around each tick are computed ahead (`FrameCache::compute_ahead`, what the server's
 //! frame-ahead loop calls), outside the timed step: the figure is the bodies' own cost.
