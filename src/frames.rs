@@ -614,7 +614,7 @@ mod tests {
             .surface_at(&scene, now, now, QueryFields::HEIGHT, &exact)
             .unwrap();
         assert!(cache.active_scenes().is_empty());
-        // Within NEAR_STEPS of now, on either side: active.
+        // Within NEAR_STEPS of now (here NEAR_STEPS − 1 steps before it): active.
         let near = now - (NEAR_STEPS as f64 - 1.0) * f.time_step();
         cache
             .surface_at(&scene, near, now, QueryFields::HEIGHT, &o)

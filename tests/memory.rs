@@ -3,17 +3,13 @@
 
 #![cfg(all(target_os = "linux", target_env = "gnu"))]
 
+mod common;
+
 use swell::memory::{TRIM_ABOVE, free_held, release_if_held};
 
-/// Resident bytes of this process (`/proc/self/statm`, second field, in pages).
+/// Resident bytes of this process.
 fn resident() -> usize {
-    let statm = std::fs::read_to_string("/proc/self/statm").expect("statm");
-    let pages: usize = statm
-        .split_whitespace()
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .expect("resident pages");
-    pages * 4096
+    common::resident_bytes("self")
 }
 
 #[test]

@@ -52,17 +52,6 @@ async fn spawn_server(client: &reqwest::Client) -> (String, Killed, tempfile::Te
     (base, guard, dir)
 }
 
-/// Resident bytes of process `pid` (`/proc/PID/statm`, second field, in pages).
-fn resident(pid: u32) -> usize {
-    let statm = std::fs::read_to_string(format!("/proc/{pid}/statm")).expect("statm");
-    let pages: usize = statm
-        .split_whitespace()
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .expect("resident pages");
-    pages * 4096
-}
-
 #[tokio::test]
 async fn a_second_server_process_answers_the_same_bits() {
     let client = reqwest::Client::builder().no_proxy().build().unwrap();
@@ -120,7 +109,7 @@ async fn a_stream_subscriber_costs_the_server_well_under_128_kib() {
     const SUBSCRIBERS: usize = 200;
     let client = reqwest::Client::builder().no_proxy().build().unwrap();
     let (base, guard, _dir) = spawn_server(&client).await;
-    let pid = guard.0.id();
+    let pid = guard.0.id().to_string();
     let addr: std::net::SocketAddr = base.trim_start_matches("http://").parse().unwrap();
     // One connection first, so the server's first-use allocations are not counted.
     let mut first = common::ws_connect(addr, "calm", None).await;
@@ -131,7 +120,7 @@ async fn a_stream_subscriber_costs_the_server_well_under_128_kib() {
         .await
         .unwrap();
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let before = resident(pid);
+    let before = common::resident_bytes(&pid);
     let mut all = Vec::with_capacity(SUBSCRIBERS);
     for _ in 0..SUBSCRIBERS {
         let mut ws = common::ws_connect(addr, "calm", None).await;
@@ -144,7 +133,7 @@ async fn a_stream_subscriber_costs_the_server_well_under_128_kib() {
     }
     // Every session has read its subscribe (its socket's read buffer touched) and sent ticks.
     tokio::time::sleep(Duration::from_millis(1500)).await;
-    let per = resident(pid).saturating_sub(before) / SUBSCRIBERS;
+    let per = common::resident_bytes(&pid).saturating_sub(before) / SUBSCRIBERS;
     eprintln!("{per} bytes resident per subscriber ({SUBSCRIBERS} subscribers)");
     assert!(
         per < 64 * 1024,

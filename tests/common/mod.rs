@@ -14,6 +14,17 @@ use tokio::task::JoinHandle;
 pub const TOKEN: &str = "test-token";
 
 /// A config for tests: ephemeral port, fixed token, built-in scenes, no data dir.
+/// Resident bytes of a process (`"self"` or a pid): `/proc/PID/statm`, second field, in pages.
+pub fn resident_bytes(pid: &str) -> usize {
+    let statm = std::fs::read_to_string(format!("/proc/{pid}/statm")).expect("statm");
+    let pages: usize = statm
+        .split_whitespace()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .expect("resident pages");
+    pages * 4096
+}
+
 /// A free loopback port for a child `swell` process: bind port 0, learn the port, release it
 /// (a small race, fine in tests).
 pub fn free_port() -> u16 {
