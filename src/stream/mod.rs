@@ -39,6 +39,7 @@ pub mod messages;
 pub mod ticks;
 
 use std::sync::Arc;
+use std::task::Poll;
 use std::time::Duration;
 
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
@@ -46,7 +47,7 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::Response;
-use futures_util::{Sink, SinkExt, Stream, StreamExt};
+use futures_util::{FutureExt as _, Sink, SinkExt, Stream, StreamExt};
 use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
@@ -277,8 +278,20 @@ impl Writer {
                 },
             };
             let is_close = matches!(msg, Message::Close(_));
-            match tokio::time::timeout(self.stall, sink.send(msg)).await {
-                Ok(Ok(())) if !is_close => {}
+            // Almost every send completes at once (the socket has room): the stall timer is
+            // armed only for one that does not, not a thousand times a tick.
+            let mut send = sink.send(msg);
+            let first =
+                std::future::poll_fn(|cx| Poll::Ready(send.poll_unpin(cx).map(|r| r.is_ok())))
+                    .await;
+            let sent = match first {
+                Poll::Ready(ok) => Ok(ok),
+                Poll::Pending => tokio::time::timeout(self.stall, send)
+                    .await
+                    .map(|r| r.is_ok()),
+            };
+            match sent {
+                Ok(true) if !is_close => {}
                 Ok(_) => return,
                 Err(_) => {
                     self.slow.cancel();
