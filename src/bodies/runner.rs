@@ -312,7 +312,7 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         // taken after every loop has ended.
         tokio::select! {
             () = state.shutdown.cancelled() => break,
-            () = tokio::time::sleep(wait) => {}
+            () = crate::stream::ticks::sleep_to_boundary(wait) => {}
         }
     }
     cell.running.store(false, Ordering::SeqCst);
