@@ -246,6 +246,22 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
 mod tests {
     use super::*;
 
+    /// Never wakes before the boundary, whether the wait is shorter than the coarse part or
+    /// longer (how late it wakes is a measurement: `swell_tick_lateness_seconds`).
+    #[tokio::test]
+    async fn the_boundary_sleep_never_wakes_early() {
+        for ms in [0, 1, 3, 7] {
+            let wait = Duration::from_millis(ms);
+            let start = std::time::Instant::now();
+            sleep_to_boundary(wait).await;
+            assert!(
+                start.elapsed() >= wait,
+                "{ms} ms: woke after {:?}",
+                start.elapsed()
+            );
+        }
+    }
+
     #[test]
     fn sleeps_until_the_next_boundary_in_the_clock_direction() {
         // 30 Hz, t just past tick 30's start: the next boundary is 1/30 s later at rate 1.
