@@ -46,6 +46,7 @@ pub mod driver;
 pub mod http;
 pub mod report;
 pub mod run;
+pub mod rx_time;
 pub mod server;
 pub mod stats;
 pub mod stream;

@@ -211,11 +211,24 @@ impl fmt::Display for Report {
                 s.gaps,
                 s.out_of_order
             )?;
+            let at = if s.frames_timed_at_read == 0 {
+                "at the socket".to_string()
+            } else {
+                format!(
+                    "{} frames timed at read: no kernel stamp",
+                    s.frames_timed_at_read
+                )
+            };
             writeln!(
                 f,
-                "  delivery  {}  ({} frames early beyond sync error)",
+                "  delivery  {}  ({at}; {} frames early beyond sync error)",
                 lat(&s.delay),
                 s.early_frames
+            )?;
+            writeln!(
+                f,
+                "  read      {}  (when this tool read them)",
+                lat(&s.read_delay)
             )?;
             writeln!(
                 f,

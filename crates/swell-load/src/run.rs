@@ -60,7 +60,7 @@ pub async fn run(o: Options, stop: CancellationToken, progress: bool) -> Result<
     let conns = if o.mode == Mode::WsQuery {
         let mut v = Vec::with_capacity(o.connections);
         for _ in 0..o.connections {
-            let w = ws::connect(&o.url, &o.scene, o.wire)
+            let w = ws::connect(&o.url, &o.scene, o.wire, false, 16 * 1024)
                 .await
                 .map_err(LoadError::Setup)?;
             v.push(ws::QueryConn::new(w, o.wire, o.timeout));

@@ -1,6 +1,11 @@
 //! `stream` subscribers: each connects, syncs its clock by ping/pong, subscribes to tick frames
 //! with its interest set, and records per frame how late it arrived against the tick's scene
 //! time (mapped to this machine's clock through the sync), and whether tick numbers were skipped.
+//!
+//! "Arrived" is when the frame's last byte reached the subscriber's socket (the kernel's receive
+//! stamp, [`crate::rx_time`]): the server's delivery. When the tool got round to reading it is
+//! recorded too (the read delay): with many subscribers on the cores the server uses, that adds
+//! the tool's own queue of sockets to read.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -15,6 +20,7 @@ use tokio_tungstenite::tungstenite::Message;
 use tokio_util::sync::CancellationToken;
 
 use crate::cli::Options;
+use crate::rx_time::WallClock;
 use crate::stats::{Latency, Window, histogram};
 use crate::wire::Wire;
 use crate::workload::Rng;
@@ -29,6 +35,9 @@ const EARLY_TOLERANCE_S: f64 = 0.002;
 #[derive(Default)]
 struct Inner {
     delay: Option<Histogram<u64>>,
+    read_delay: Option<Histogram<u64>>,
+    /// Frames whose delay is the read time (no kernel stamp).
+    unstamped: u64,
     frames: u64,
     gaps: u64,
     out_of_order: u64,
@@ -42,6 +51,7 @@ struct Inner {
 /// What the subscribers saw.
 pub struct StreamRecorder {
     window: Window,
+    clock: WallClock,
     inner: Mutex<Inner>,
     /// Frames received (progress line).
     pub live_frames: AtomicU64,
@@ -54,6 +64,7 @@ impl StreamRecorder {
     pub fn new(window: Window) -> Self {
         Self {
             window,
+            clock: WallClock::now(),
             inner: Mutex::default(),
             live_frames: AtomicU64::new(0),
             live_gaps: AtomicU64::new(0),
@@ -79,6 +90,8 @@ impl StreamRecorder {
             gaps: g.gaps,
             out_of_order: g.out_of_order,
             delay: g.delay.as_ref().map(Latency::of).unwrap_or_default(),
+            read_delay: g.read_delay.as_ref().map(Latency::of).unwrap_or_default(),
+            frames_timed_at_read: g.unstamped,
             early_frames: g.early,
             bytes_per_s: g.bytes as f64 / secs,
             bodies_per_frame: if g.frames == 0 {
@@ -111,8 +124,15 @@ pub struct StreamSummary {
     pub gaps: u64,
     /// Frames whose tick went the wrong way.
     pub out_of_order: u64,
-    /// Delivery delay: arrival minus the tick's scene time on this machine's clock.
+    /// Delivery delay: arrival at the subscriber's socket (the kernel's receive stamp) minus the
+    /// tick's scene time on this machine's clock. Frames without a stamp (not Linux) count the
+    /// read time instead: see `frames_timed_at_read`.
     pub delay: Latency,
+    /// Read delay: when the tool read the frame, minus the tick's scene time. Holds the delivery
+    /// delay plus the wait for the tool to get to the socket.
+    pub read_delay: Latency,
+    /// Frames whose delivery delay is their read time (no kernel receive stamp).
+    pub frames_timed_at_read: u64,
     /// Frames that arrived more than 2 ms before their tick (a clock-sync miss).
     pub early_frames: u64,
     /// Frame bytes per second, all subscribers.
@@ -177,9 +197,16 @@ pub async fn connect_all(o: &Options, n: usize, ids: &[u64]) -> Result<Vec<Subsc
         } else {
             Some(interest.len())
         };
+        // Frames carry ~400 bytes a body in JSON, ~140 in protobuf, ~60 compact.
+        let per_body = match (wire, compact) {
+            (Wire::Json, _) => 400,
+            (Wire::Protobuf, false) => 140,
+            (Wire::Protobuf, true) => 60,
+        };
+        let read_buffer = ws::read_buffer_for(expected_bodies.unwrap_or(ids.len()) * per_body);
         set.spawn(async move {
             let _permit = slots.acquire_owned().await.expect("never closed");
-            let mut ws = ws::connect(&url, &scene, wire).await?;
+            let mut ws = ws::connect(&url, &scene, wire, true, read_buffer).await?;
             let sync = ws::sync_clock(&mut ws, wire, timeout).await?;
             ws.send(ws::subscribe(wire, &interest, region, compact))
                 .await
@@ -251,7 +278,14 @@ pub async fn follow(
         let Some(bytes) = ws::payload(&m) else {
             continue;
         };
-        let Ok(ServerMsg::Tick { tick, t, bodies }) = ws::decode(wire, bytes) else {
+        let fast = match wire {
+            Wire::Protobuf => ws::protobuf_tick(bytes),
+            Wire::Json => None,
+        };
+        let Some((tick, t, bodies)) = fast.or_else(|| match ws::decode(wire, bytes) {
+            Ok(ServerMsg::Tick { tick, t, bodies }) => Some((tick, t, bodies)),
+            _ => None,
+        }) else {
             continue;
         };
         let prev = last.replace(tick);
@@ -259,8 +293,13 @@ pub async fn follow(
         if !window.records(arrival) {
             continue;
         }
-        let delay = s.sync.delay(t, rate, arrival);
+        let at_socket = s.ws.get_ref().last_rx().map(|t| rec.clock.instant_of(t));
+        let read_delay = s.sync.delay(t, rate, arrival);
+        let delay = at_socket.map_or(read_delay, |a| s.sync.delay(t, rate, a));
         let mut g = rec.lock();
+        if at_socket.is_none() {
+            g.unstamped += 1;
+        }
         g.frames += 1;
         g.bytes += bytes.len() as u64;
         g.bodies += bodies as u64;
@@ -280,10 +319,13 @@ pub async fn follow(
         if delay < -EARLY_TOLERANCE_S {
             g.early += 1;
         }
-        let us = (delay.max(0.0) * 1e6) as u64;
+        let us = |d: f64| ((d.max(0.0) * 1e6) as u64).max(1);
         g.delay
             .get_or_insert_with(histogram)
-            .saturating_record(us.max(1));
+            .saturating_record(us(delay));
+        g.read_delay
+            .get_or_insert_with(histogram)
+            .saturating_record(us(read_delay));
     }
     let _ = s.ws.close(None).await;
 }

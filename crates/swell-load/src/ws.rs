@@ -13,12 +13,12 @@ use serde::de::IgnoredAny;
 use tokio::sync::{mpsc, oneshot};
 use tokio_tungstenite::tungstenite::{self, Message, client::IntoClientRequest as _};
 
+use crate::rx_time::TimedTcp;
 use crate::stats::Outcome;
 use crate::wire::{Wire, v1};
 
-/// A client WebSocket.
-pub type Ws =
-    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+/// A client WebSocket (plain TCP: the tool speaks `http://` URLs only).
+pub type Ws = tokio_tungstenite::WebSocketStream<TimedTcp>;
 
 /// Pings per clock sync; the one with the shortest round trip wins (its midpoint is the best
 /// estimate of when the server read its clock).
@@ -26,11 +26,32 @@ const SYNC_PINGS: u32 = 5;
 /// Messages queued to one socket's writer before senders wait.
 const WRITE_QUEUE: usize = 1024;
 
-/// Opens `GET {url}/v1/scenes/{scene}/stream` with `wire`'s subprotocol.
+/// Read buffer for a socket whose messages are about `message_bytes` long: a power of two that
+/// holds one, within 4–64 KiB.
+///
+/// tungstenite zeroes its read buffer before every read (128 KiB by default): at 30,000 frames
+/// a second that memset was 41% of the tool's CPU, stolen from the server it shares the cores
+/// with, and still 15% with 16 KiB for frames of 1.4 kB. A message longer than the buffer takes
+/// a few reads.
+pub fn read_buffer_for(message_bytes: usize) -> usize {
+    (message_bytes + 512)
+        .next_power_of_two()
+        .clamp(4 * 1024, 64 * 1024)
+}
+
+/// Opens `GET {url}/v1/scenes/{scene}/stream` with `wire`'s subprotocol and a read buffer of
+/// `read_buffer` bytes ([`read_buffer_for`]); with `stamp`, the socket keeps the kernel's
+/// receive time of what it reads ([`TimedTcp`]).
 ///
 /// # Errors
 /// The reason, with the status and body of a refused upgrade.
-pub async fn connect(url: &str, scene: &str, wire: Wire) -> Result<Ws, String> {
+pub async fn connect(
+    url: &str,
+    scene: &str,
+    wire: Wire,
+    stamp: bool,
+    read_buffer: usize,
+) -> Result<Ws, String> {
     let ws_url = format!(
         "{}/v1/scenes/{scene}/stream",
         url.replacen("http://", "ws://", 1)
@@ -43,11 +64,20 @@ pub async fn connect(url: &str, scene: &str, wire: Wire) -> Result<Ws, String> {
         "sec-websocket-protocol",
         wire.subprotocol().parse().expect("a valid header value"),
     );
-    // tungstenite zeroes its whole read buffer before every read (128 KiB by default): at
-    // 30,000 frames a second that memset was 41% of the tool's CPU, stolen from the server it
-    // shares the cores with. Frames are ~0.5-25 kB; a longer one takes a few reads.
-    let config = tungstenite::protocol::WebSocketConfig::default().read_buffer_size(16 * 1024);
-    match tokio_tungstenite::connect_async_with_config(req, Some(config), true).await {
+    let config = tungstenite::protocol::WebSocketConfig::default().read_buffer_size(read_buffer);
+    let uri = req.uri();
+    let (host, port) = (
+        uri.host().unwrap_or("127.0.0.1").to_owned(),
+        uri.port_u16().unwrap_or(80),
+    );
+    let tcp = tokio::net::TcpStream::connect((host.as_str(), port))
+        .await
+        .map_err(|e| format!("{ws_url}: {e}"))?;
+    // Each message goes out at once (the pings of the clock sync are timed).
+    tcp.set_nodelay(true)
+        .map_err(|e| format!("{ws_url}: {e}"))?;
+    let tcp = TimedTcp::new(tcp, stamp).map_err(|e| format!("{ws_url}: {e}"))?;
+    match tokio_tungstenite::client_async_with_config(req, tcp, Some(config)).await {
         Ok((ws, _)) => Ok(ws),
         Err(tungstenite::Error::Http(resp)) => {
             let body = resp
@@ -194,6 +224,63 @@ pub fn decode(wire: Wire, payload: &[u8]) -> Result<ServerMsg, String> {
             })
         }
     }
+}
+
+/// A protobuf tick frame's number, scene time and body count, read without decoding the body
+/// states: the stream follower does this 30,000 times a second on the cores the server uses,
+/// and decoding every state was ~10% of the tool's CPU. `None` for anything that is not a
+/// well-formed tick (the caller then uses [`decode`]).
+pub fn protobuf_tick(payload: &[u8]) -> Option<(i64, f64, usize)> {
+    use prost::encoding::{DecodeContext, WireType, decode_key, decode_varint, skip_field};
+    // Field numbers: `ServerMessage.tick`; `Tick.tick`, `.t`, `.bodies`, `.compact`;
+    // `CompactBodies.bodies`.
+    const MSG_TICK: u32 = 5;
+    const TICK: u32 = 1;
+    const T: u32 = 2;
+    const BODIES: u32 = 3;
+    const COMPACT: u32 = 4;
+    const COMPACT_BODIES: u32 = 2;
+    fn field<'a>(buf: &mut &'a [u8]) -> Option<&'a [u8]> {
+        let len = usize::try_from(decode_varint(buf).ok()?).ok()?;
+        let (head, rest) = (buf.get(..len)?, buf.get(len..)?);
+        *buf = rest;
+        Some(head)
+    }
+    let skip = |wt, tag, buf: &mut &[u8]| skip_field(wt, tag, buf, DecodeContext::default()).ok();
+    let mut buf = payload;
+    let mut msg = None;
+    while !buf.is_empty() {
+        match decode_key(&mut buf).ok()? {
+            (MSG_TICK, WireType::LengthDelimited) => msg = Some(field(&mut buf)?),
+            (tag, wt) => skip(wt, tag, &mut buf)?,
+        }
+    }
+    let mut m = msg?;
+    let (mut tick, mut t, mut bodies) = (0_i64, 0.0_f64, 0_usize);
+    while !m.is_empty() {
+        match decode_key(&mut m).ok()? {
+            // int64: two's complement in a 64-bit varint.
+            (TICK, WireType::Varint) => tick = decode_varint(&mut m).ok()? as i64,
+            (T, WireType::SixtyFourBit) => {
+                t = f64::from_le_bytes(m.get(..8)?.try_into().ok()?);
+                m = m.get(8..)?;
+            }
+            (BODIES, WireType::LengthDelimited) => {
+                field(&mut m)?;
+                bodies += 1;
+            }
+            (COMPACT, WireType::LengthDelimited) => {
+                let mut c = field(&mut m)?;
+                while !c.is_empty() {
+                    let (tag, wt) = decode_key(&mut c).ok()?;
+                    bodies += usize::from(tag == COMPACT_BODIES);
+                    skip(wt, tag, &mut c)?;
+                }
+            }
+            (tag, wt) => skip(wt, tag, &mut m)?,
+        }
+    }
+    Some((tick, t, bodies))
 }
 
 /// A frame of `wire`'s kind carrying `payload`.
@@ -501,6 +588,83 @@ mod tests {
             }
         );
         assert!(decode(Wire::Json, b"{\"type\":\"dance\"}").is_err());
+    }
+
+    /// The envelope reader agrees with the full decoder on full and compact frames, with and
+    /// without impacts, and gives up on what is not a tick.
+    #[test]
+    fn protobuf_ticks_read_without_decoding_the_states() {
+        let body = |id| v1::BodyState {
+            id,
+            position: Some(v1::Vec3 {
+                x: 1.5,
+                y: -0.25,
+                z: 3.0,
+            }),
+            ..Default::default()
+        };
+        let compact = v1::CompactBodies {
+            origin: Some(v1::Vec3::default()),
+            bodies: vec![v1::CompactBodyState::default(); 3],
+        };
+        let impact = v1::ImpactEvent {
+            tick: 9,
+            ..Default::default()
+        };
+        let frames = [
+            (-12, 0.0, vec![], None, vec![]),
+            (
+                10234,
+                341.1333333333333,
+                vec![body(1), body(7)],
+                None,
+                vec![],
+            ),
+            (5, 0.25, vec![], Some(compact), vec![impact]),
+            (
+                i64::MAX,
+                -1e300,
+                vec![body(u64::MAX)],
+                None,
+                vec![impact; 2],
+            ),
+        ];
+        for (tick, t, bodies, compact, impacts) in frames {
+            let pb = v1::ServerMessage {
+                id: None,
+                msg: Some(v1::server_message::Msg::Tick(v1::Tick {
+                    tick,
+                    t,
+                    bodies,
+                    compact,
+                    impacts,
+                })),
+            }
+            .encode_to_vec();
+            let Ok(ServerMsg::Tick { tick, t, bodies }) = decode(Wire::Protobuf, &pb) else {
+                panic!("not a tick");
+            };
+            assert_eq!(protobuf_tick(&pb), Some((tick, t, bodies)));
+        }
+        let pong = v1::ServerMessage {
+            id: Some(3),
+            msg: Some(v1::server_message::Msg::Pong(v1::Pong::default())),
+        }
+        .encode_to_vec();
+        assert_eq!(protobuf_tick(&pong), None);
+        // Truncated: no answer rather than a wrong one.
+        let pb = v1::ServerMessage {
+            id: None,
+            msg: Some(v1::server_message::Msg::Tick(v1::Tick {
+                tick: 3,
+                bodies: vec![body(1)],
+                ..Default::default()
+            })),
+        }
+        .encode_to_vec();
+        for cut in 1..pb.len() {
+            assert_eq!(protobuf_tick(&pb[..cut]), None, "cut at {cut}");
+        }
     }
 
     #[test]

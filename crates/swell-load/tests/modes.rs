@@ -296,6 +296,23 @@ async fn stream_subscribers_get_every_tick_with_their_interest_set() {
     assert!((st.bodies_per_frame - 2.0).abs() < 1e-9);
     assert_eq!(st.delay.count, st.frames);
     assert!(st.delay.p50_ms < 1000.0, "{:?}", st.delay);
+    // Delivery is timed at the socket by the kernel (Linux), the read after it.
+    if cfg!(target_os = "linux") {
+        assert_eq!(st.frames_timed_at_read, 0);
+    }
+    assert_eq!(st.read_delay.count, st.frames);
+    for (at_socket, read) in [
+        (st.delay.p50_ms, st.read_delay.p50_ms),
+        (st.delay.p99_ms, st.read_delay.p99_ms),
+        (st.delay.max_ms, st.read_delay.max_ms),
+    ] {
+        assert!(
+            read + 0.01 >= at_socket,
+            "{:?} {:?}",
+            st.delay,
+            st.read_delay
+        );
+    }
     assert!(st.bytes_per_s > 0.0);
     assert!(st.disconnects.is_empty(), "{:?}", st.disconnects);
 
@@ -539,9 +556,15 @@ async fn setup_failures_stop_the_run_with_the_reason() {
     assert!(matches!(e, LoadError::UnknownScene { .. }), "{e}");
     assert!(e.to_string().contains("calm"), "{e}");
     // A refused upgrade says so, with the status.
-    let e = swell_load::ws::connect(&s.url(), "atlantis", swell_load::wire::Wire::Json)
-        .await
-        .expect_err("no such scene");
+    let e = swell_load::ws::connect(
+        &s.url(),
+        "atlantis",
+        swell_load::wire::Wire::Json,
+        true,
+        4096,
+    )
+    .await
+    .expect_err("no such scene");
     assert!(e.contains("upgrade refused: 404"), "{e}");
     // A wrong admin token stops --spawn-bodies.
     let mut o = s.options(&[
