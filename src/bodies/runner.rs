@@ -209,10 +209,6 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
     tracing::debug!(scene = %id, "body loop started");
     let mut planned: Option<Instant> = None;
     loop {
-        if let Some(p) = planned {
-            let lateness = Instant::now().saturating_duration_since(p).as_secs_f64();
-            metrics::histogram!("swell_tick_lateness_seconds").record(lateness);
-        }
         let entry = match state.scene(&id) {
             Ok(e) if !state.bodies.is_stopping() && !state.shutdown.is_cancelled() => e,
             _ => break,
@@ -224,15 +220,26 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         if !still_registered {
             break;
         }
-        let reading = state.read_clock(&entry);
-        let (target, now) = (reading.tick, reading.t);
         let scene = entry.scene.clone();
         let (scene_hz, gravity) = (scene.spec.tick_hz, scene.spec.surface.gravity);
         let stepping = cell.clone();
         let journaling = state.clone();
         let frames = state.clone();
         let scene_id = id.clone();
+        let reading_entry = entry.clone();
         let done = tokio::task::spawn_blocking(move || {
+            // The last stretch to the tick boundary is slept here, on this blocking thread, to
+            // the OS timer's precision (the async timer woke us up to `COARSE_WAKE` early).
+            if let Some(p) = planned {
+                let left = p.saturating_duration_since(Instant::now());
+                if !left.is_zero() {
+                    std::thread::sleep(left);
+                }
+                let lateness = Instant::now().saturating_duration_since(p).as_secs_f64();
+                metrics::histogram!("swell_tick_lateness_seconds").record(lateness);
+            }
+            let reading = frames.read_clock(&reading_entry);
+            let (target, now) = (reading.tick, reading.t);
             let mut b = stepping.lock();
             if b.is_empty() {
                 return None;
@@ -264,11 +271,11 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             ) {
                 tracing::error!(scene = %scene_id, error = %e, "journal: could not record a re-anchor");
             }
-            Some((adv, took, cpu, b.len()))
+            Some((adv, took, cpu, b.len(), target))
         })
         .await;
         match done {
-            Ok(Some((adv, took, cpu, n))) => {
+            Ok(Some((adv, took, cpu, n, target))) => {
                 if adv.steps > 0 {
                     metrics::histogram!("swell_body_step_seconds")
                         .record(took.as_secs_f64() / f64::from(adv.steps));
@@ -312,7 +319,7 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         // taken after every loop has ended.
         tokio::select! {
             () = state.shutdown.cancelled() => break,
-            () = crate::stream::ticks::sleep_to_boundary(wait) => {}
+            () = tokio::time::sleep(wait.saturating_sub(crate::stream::ticks::COARSE_WAKE)) => {}
         }
     }
     cell.running.store(false, Ordering::SeqCst);

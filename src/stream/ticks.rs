@@ -112,12 +112,15 @@ pub fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool)
 /// How early the async timer is asked to wake before a tick boundary. Its resolution is a
 /// millisecond, and it rounds deadlines up, so a plain `tokio::time::sleep` to the boundary woke
 /// 1.3 ms late on average (`swell_tick_lateness_seconds` under `swell-load stream`), and every
-/// frame carried that delay.
-const COARSE_WAKE: Duration = Duration::from_millis(2);
+/// frame carried that delay. The body loop sleeps the rest on the blocking thread that then
+/// steps ([`crate::bodies::runner`]); the tick loop of a scene without bodies in
+/// [`sleep_to_boundary`].
+pub const COARSE_WAKE: Duration = Duration::from_millis(2);
 
 /// Sleeps `wait` to within the OS timer's precision (tens of microseconds): the async timer for
 /// all but the last [`COARSE_WAKE`], then a thread of the blocking pool for the rest (a thread
-/// asleep in `nanosleep` costs no CPU, and the reactor threads stay free).
+/// asleep in `nanosleep` costs no CPU, and the reactor threads stay free; the hop costs a few
+/// microseconds, so only loops that need the precision use it).
 pub async fn sleep_to_boundary(wait: Duration) {
     let deadline = std::time::Instant::now() + wait;
     if let Some(coarse) = wait.checked_sub(COARSE_WAKE) {
@@ -223,6 +226,9 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
             reading.rate,
             reading.paused,
         );
+        // With bodies, the stepping path's publication (right after the boundary) wakes the
+        // loop: the clock needs to be precise only without them.
+        let stepped = cell.as_ref().is_some_and(|c| !c.latest().states.is_empty());
         // Woken early by a body publication: late states go out as soon as they exist.
         let publication = async {
             let changed = match published.as_mut() {
@@ -234,8 +240,15 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
                 std::future::pending::<()>().await;
             }
         };
+        let clock = async {
+            if stepped {
+                tokio::time::sleep(wait).await;
+            } else {
+                sleep_to_boundary(wait).await;
+            }
+        };
         tokio::select! {
-            () = sleep_to_boundary(wait) => {}
+            () = clock => {}
             () = publication => {}
             () = state.shutdown.cancelled() => {}
         }
