@@ -74,7 +74,9 @@ impl TimedTcp {
     }
 
     /// The kernel's receive time (real-time clock) of the last packet the latest read took data
-    /// from; `None` before the first stamped read.
+    /// from; `None` when that read carried no stamp. The kernel switches stamping on shortly
+    /// after the first socket asks (a deferred switch shared by every socket), so packets that
+    /// arrive within the first moments after [`TimedTcp::new`] may come without one.
     pub fn last_rx(&self) -> Option<SystemTime> {
         self.last_rx
     }
@@ -171,7 +173,8 @@ impl AsyncRead for TimedTcp {
                         guard.clear_ready();
                     }
                     buf.advance(n);
-                    if stamp.is_some() {
+                    if n > 0 {
+                        // Never an older read's stamp for newer data.
                         this.last_rx = stamp;
                     }
                     return Poll::Ready(Ok(()));
@@ -255,12 +258,22 @@ pub struct WallClock {
 }
 
 impl WallClock {
-    /// Reads both clocks now.
+    /// Reads both clocks now: of a few tries, the one whose real-time reading sat between the
+    /// two closest monotonic readings (a thread preempted between two reads would otherwise
+    /// skew every stamp by the preemption), at their midpoint.
     pub fn now() -> Self {
-        Self {
-            instant: Instant::now(),
-            system: SystemTime::now(),
+        let mut best: Option<(Duration, Self)> = None;
+        for _ in 0..5 {
+            let before = Instant::now();
+            let system = SystemTime::now();
+            let after = Instant::now();
+            let gap = after - before;
+            if best.as_ref().is_none_or(|(g, _)| gap < *g) {
+                let instant = before + gap / 2;
+                best = Some((gap, Self { instant, system }));
+            }
         }
+        best.expect("five tries").1
     }
 
     /// The [`Instant`] of real-time `t`.
@@ -292,15 +305,25 @@ mod tests {
         assert_eq!(timed.stamped(), cfg!(target_os = "linux"));
         assert_eq!(timed.last_rx(), None);
         let clock = WallClock::now();
-        let before = Instant::now();
-        server.write_all(b"a frame's bytes").await.unwrap();
-        tokio::time::sleep(Duration::from_millis(20)).await;
         let mut got = [0u8; 64];
-        let n = timed.read(&mut got).await.unwrap();
-        let after_read = Instant::now();
-        assert_eq!(&got[..n], b"a frame's bytes");
-        if cfg!(target_os = "linux") {
-            let at = clock.instant_of(timed.last_rx().expect("a stamp"));
+        // The kernel turns stamping on a moment after the first socket asks (in a fresh test
+        // process, this one): the first packets may come unstamped, never wrongly stamped.
+        for attempt in 0.. {
+            let before = Instant::now();
+            server.write_all(b"a frame's bytes").await.unwrap();
+            tokio::time::sleep(Duration::from_millis(20)).await;
+            let n = timed.read(&mut got).await.unwrap();
+            let after_read = Instant::now();
+            assert_eq!(&got[..n], b"a frame's bytes");
+            if !cfg!(target_os = "linux") {
+                assert_eq!(timed.last_rx(), None);
+                break;
+            }
+            let Some(stamp) = timed.last_rx() else {
+                assert!(attempt < 50, "no stamp after {attempt} reads");
+                continue;
+            };
+            let at = clock.instant_of(stamp);
             // Stamped when it arrived, ~20 ms before it was read (a millisecond of slack for
             // the two clocks' pairing).
             assert!(
@@ -312,6 +335,7 @@ mod tests {
                 "stamp is the read time, not the arrival: {:?} before the read",
                 after_read - at
             );
+            break;
         }
         // Writes pass through; end of stream reads as 0.
         timed.write_all(b"back").await.unwrap();
