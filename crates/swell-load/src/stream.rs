@@ -125,8 +125,9 @@ pub struct StreamSummary {
     /// Frames whose tick went the wrong way.
     pub out_of_order: u64,
     /// Delivery delay: arrival at the subscriber's socket (the kernel's receive stamp) minus the
-    /// tick's scene time on this machine's clock. Frames without a stamp (not Linux) count the
-    /// read time instead: see `frames_timed_at_read`.
+    /// tick's scene time on this machine's clock. Frames without a stamp (off Linux, or read
+    /// before the kernel turned stamping on) count the read time instead: see
+    /// `frames_timed_at_read`.
     pub delay: Latency,
     /// Read delay: when the tool read the frame, minus the tick's scene time. Holds the delivery
     /// delay plus the wait for the tool to get to the socket.
