@@ -667,6 +667,22 @@ mod tests {
         }
     }
 
+    /// A read buffer holds one message (with room for its header), is a power of two, and
+    /// stays within 4–64 KiB: 1.4 kB protobuf frames get 4 KiB, not the 16 KiB memset per read.
+    #[test]
+    fn read_buffers_fit_the_frames() {
+        for (bytes, want) in [
+            (0, 4096),
+            (1_400, 4096),
+            (4_000, 8192),
+            (14_000, 16_384),
+            (38_000, 65_536),
+            (1 << 20, 65_536),
+        ] {
+            assert_eq!(read_buffer_for(bytes), want, "{bytes} bytes");
+        }
+    }
+
     #[test]
     fn delay_maps_scene_time_through_the_sync() {
         let local = Instant::now();
