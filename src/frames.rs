@@ -429,6 +429,16 @@ impl FrameCache {
     /// with the fields recent queries wanted (height, at least). Frames already held cost
     /// nothing. Blocking: call from `spawn_blocking`. Returns the number of frames computed.
     pub fn compute_ahead(&self, scene: &Scene, now: f64, rate: f64) -> usize {
+        self.compute_through(scene, now, rate, 0.0)
+    }
+
+    /// [`FrameCache::compute_ahead`] reaching `lead` scene seconds further: every grid frame a
+    /// read between `now` and `lead` + [`AHEAD_STEPS`] grid steps later in the clock's direction
+    /// needs (at most [`MAX_AHEAD_STEPS`] grid steps in all). The body loop calls it right after
+    /// its step with a tick period as `lead`, so the frames its next step and the ahead loop
+    /// at the next tick boundary want are computed on the step's own thread after the states
+    /// went out, not at that boundary beside the next step.
+    pub fn compute_through(&self, scene: &Scene, now: f64, rate: f64, lead: f64) -> usize {
         let wanted = self.lock().activity.get(&scene.uid).map(|a| a.wanted);
         self.prune_near(scene, now);
         let mut computed = 0;
@@ -444,9 +454,13 @@ impl FrameCache {
                 0.0
             };
             let step = f.time_step() * direction;
-            let mut whens = Vec::with_capacity(4);
-            for k in 0..3 {
-                let (a, b) = Self::whens(f, now + step * f64::from(k), TimeSampling::Grid);
+            // `max` drops a NaN lead; the layer's time step is positive (validated).
+            let steps = (AHEAD_STEPS + lead.max(0.0) / f.time_step()).min(MAX_AHEAD_STEPS);
+            let mut whens = Vec::with_capacity(steps as usize + 2);
+            // Grid times up to `steps` (and the reach itself: it may fall between two).
+            let reads = (0..=steps.ceil() as u32).map(|k| f64::from(k).min(steps));
+            for k in reads {
+                let (a, b) = Self::whens(f, now + step * k, TimeSampling::Grid);
                 for w in [Some(a), b].into_iter().flatten() {
                     if !whens.contains(&w) {
                         whens.push(w);
@@ -469,6 +483,13 @@ impl FrameCache {
         computed
     }
 }
+
+/// Grid steps past the clock's now whose frames [`FrameCache::compute_ahead`] prepares.
+pub const AHEAD_STEPS: f64 = 2.0;
+
+/// Most grid steps [`FrameCache::compute_through`] reaches past now: near frames are those
+/// within [`NEAR_STEPS`] of now; it stops short of them.
+pub const MAX_AHEAD_STEPS: f64 = NEAR_STEPS as f64 - 1.0;
 
 /// How often [`run_ahead`] looks at the clocks: well inside one grid step (17 ms by default),
 /// so the next frames are ready long before the clock reaches them.
@@ -645,6 +666,29 @@ mod tests {
         let far_later = now + 40.0 * f.time_step();
         cache.compute_ahead(&scene, far_later, 1.0);
         assert!(!cache.has_frames(&scene, now, QueryFields::HEIGHT, &o));
+        assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
+    }
+
+    /// The body loop's reach: the frames through one tick period past two grid steps, so the
+    /// frame-ahead step at the next tick boundary finds nothing left to compute; a lead beyond
+    /// the near frames stops at [`MAX_AHEAD_STEPS`], and a NaN lead counts as none.
+    #[test]
+    fn compute_through_reaches_the_next_tick() {
+        let scene = builtin("storm");
+        let cache = FrameCache::new(4);
+        let f = fft(&scene);
+        let dt = f.time_step();
+        let now = f.grid_time(500) + 0.25 * dt;
+        // Through now + 4Δ = index 504.25: 500 to 505.
+        assert_eq!(cache.compute_through(&scene, now, 1.0, 2.0 * dt), 6);
+        let next_boundary = f.grid_time(502) + 0.01 * dt;
+        assert_eq!(cache.compute_ahead(&scene, next_boundary, 1.0), 0);
+        // Capped at MAX_AHEAD_STEPS (5): index 505.25, so 506 is the one more.
+        assert_eq!(cache.compute_through(&scene, now, 1.0, 1e9), 1);
+        assert_eq!(cache.compute_through(&scene, now, 1.0, f64::INFINITY), 0);
+        assert_eq!(cache.compute_through(&scene, now, 1.0, f64::NAN), 0);
+        // Backwards, the same reach before now (index 496.25): 499 down to 496.
+        assert_eq!(cache.compute_through(&scene, now, -1.0, 2.0 * dt), 4);
         assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
     }
 }

@@ -271,7 +271,20 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             ) {
                 tracing::error!(scene = %scene_id, error = %e, "journal: could not record a re-anchor");
             }
-            Some((adv, took, cpu, b.len(), target))
+            let n = b.len();
+            drop(b);
+            // The states are out: now, on this thread, the FFT frames the next step reads
+            // (through the next tick boundary and the ahead loop's two grid steps past it).
+            // Left to the ahead loop, they were computed at the boundary, on the other core,
+            // while the next step ran: on two cores, anything else woken then (the tick
+            // fan-out, the reactor) had to take one of the two from them.
+            if scene.has_fft() {
+                let rate = if reading.paused { 0.0 } else { reading.rate };
+                frames
+                    .frames
+                    .compute_through(&scene, now, rate, 1.0 / scene_hz);
+            }
+            Some((adv, took, cpu, n, target))
         })
         .await;
         match done {
