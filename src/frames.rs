@@ -28,6 +28,11 @@
 //! without waiting for an FFT (on the reactor, see `service::query`). Queries at far-off or
 //! exact times alone do not start it: those frames would be of no use to them.
 //!
+//! A scene's body loop also computes ahead ([`FrameCache::compute_through`]), right after each
+//! step, through the next tick boundary and two grid steps past it: the frames its next step
+//! reads and those the ahead loop would otherwise find due at that boundary, where they would
+//! run beside the next step.
+//!
 //! Computing happens in the caller's thread, which must be a blocking one (`spawn_blocking`):
 //! `OnceLock::get_or_init` blocks the waiters.
 
