@@ -398,3 +398,65 @@ async fn next_tick(ws: &mut common::Ws) -> Value {
         }
     }
 }
+
+/// The body loop computes the FFT frames its next step reads right after publishing a step
+/// (`FrameCache::compute_through`), so no FFT runs beside the next step at the tick boundary.
+/// On `open-sea` (30 Hz, grid step Δ = 1/60 s) the grid frame 2.5 Δ past the next tick boundary
+/// needs index B + 3 (B: that boundary's grid index), which the frame-ahead loop alone reaches
+/// only once the clock is past the boundary (it computes through `now + 2Δ`). Held before the
+/// boundary, it was the body loop's.
+#[tokio::test]
+async fn the_body_loop_computes_the_next_ticks_frames_after_its_step() {
+    use swell_waves::{Layer, QueryFields, QueryOptions};
+
+    let s = TestServer::start(config()).await;
+    let (st, v) = spawn(&s, "open-sea", &boat(0.0)).await;
+    assert_eq!(st, 201, "{v}");
+    let entry = s.state.scene("open-sea").unwrap();
+    let scene = entry.scene.clone();
+    let dt = scene
+        .surface
+        .layers()
+        .iter()
+        .find_map(|l| match l {
+            Layer::Fft(f) => Some(f.time_step()),
+            _ => None,
+        })
+        .expect("open-sea has an FFT layer");
+    let hz = scene.spec.tick_hz;
+    assert_eq!(
+        1.0 / hz / dt,
+        2.0,
+        "the reasoning above assumes two grid steps a tick"
+    );
+    let cell = s.state.bodies.get("open-sea").expect("the body loop runs");
+    let mut published = cell.watch();
+    let options = QueryOptions::default();
+    let (mut early, ticks) = (0, 30);
+    for _ in 0..ticks {
+        published.changed().await.unwrap();
+        let tick = published.borrow_and_update().tick;
+        let boundary = (tick + 1) as f64 / hz;
+        let probe = boundary + 2.5 * dt;
+        loop {
+            // Frames first, then the clock: held at a clock reading before the boundary means
+            // held before the boundary.
+            let held = s
+                .state
+                .frames
+                .has_frames(&scene, probe, QueryFields::HEIGHT, &options);
+            let before = s.state.read_clock(&entry).t < boundary;
+            if held || !before {
+                early += usize::from(held && before);
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(1)).await;
+        }
+    }
+    // A loaded test machine can make the step or its frames late now and then; most must not be.
+    assert!(
+        early >= ticks / 2,
+        "the frames 2.5 grid steps past the next tick boundary were held before it in only {early} of {ticks} ticks"
+    );
+    s.stop().await;
+}
