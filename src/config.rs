@@ -37,6 +37,15 @@ pub struct Config {
     /// Bearer token for admin endpoints; `None` generates one at start (see
     /// [`crate::Server::admin_token`]).
     pub admin_token: Option<String>,
+    /// Tokens file (`role token` lines; see [`crate::access`]), read again when it changes.
+    pub tokens_file: Option<PathBuf>,
+    /// Tokens from the environment: role → comma-separated tokens.
+    pub env_tokens: Vec<(crate::access::Role, String)>,
+    /// Whether queries and streams need a `reader` (or higher) token.
+    pub reads_need_token: bool,
+    /// A second listener for `/healthz`, `/readyz` and `/metrics` only, outside every client
+    /// limit (for Kubernetes probes and Prometheus on a port clients cannot reach).
+    pub probe_bind: Option<SocketAddr>,
     /// Whether to start with the built-in scenes (`calm`, `lake`, `open-sea`, `storm`).
     pub builtin_scenes: bool,
     /// Scenes from the config file, sorted by id (ids validated at load).
@@ -58,6 +67,10 @@ impl Default for Config {
             data_dir: None,
             store: None,
             admin_token: None,
+            tokens_file: None,
+            env_tokens: Vec::new(),
+            reads_need_token: false,
+            probe_bind: None,
             builtin_scenes: true,
             scenes: Vec::new(),
             limits: Limits::default(),
@@ -122,6 +135,62 @@ pub struct Limits {
     /// Capped at the replay limit of 108,000 ticks (an hour at 30 Hz). 0: no catch-up at
     /// start-up (a gap of up to 60 ticks the body loop still steps through, as after any stall).
     pub catch_up_max_s: u64,
+    /// Connections open at once from one client address; beyond it a new one is answered 429
+    /// and closed. Keeps one peer from taking every `max_connections` slot. Peers in
+    /// `exempt_peers` are not counted.
+    pub max_connections_per_peer: usize,
+    /// Longest a request body may take to arrive, ms, from when the handler's turn comes; then
+    /// 408 and the connection is closed.
+    pub body_timeout_ms: u64,
+    /// Slowest a request body may arrive after a 2 s grace, bytes/s (or the whole body, if it is
+    /// smaller); slower: 408. Stops clients that trickle a body to hold a request open. 0: off.
+    pub body_min_bytes_per_s: u64,
+    /// Bytes the server holds for clients at once: request bodies being read and answers not yet
+    /// written. A request that would exceed it gets 503 `overloaded`. 256 MiB.
+    pub max_buffered_bytes: usize,
+    /// The same, per client address: 24 MiB holds an 8 MiB body and a 65,536-point answer
+    /// (~11 MB) at once.
+    pub max_buffered_bytes_per_peer: usize,
+    /// Longest an HTTP answer may wait for the client to read it, ms: a connection whose writes
+    /// make no progress for this long is closed (`swell_http_send_stalls_total`). 0: no limit.
+    pub http_send_stall_ms: u64,
+    /// Requests a second per client address, on average (0: no limit); beyond it: 429 with
+    /// `Retry-After`. Probes are not counted.
+    pub peer_requests_per_s: f64,
+    /// Burst allowed per client address above the average rate, requests.
+    pub peer_requests_burst: f64,
+    /// Requests a second per token (0: no limit), so one leaked game token cannot flood the
+    /// server from many addresses.
+    pub token_requests_per_s: f64,
+    /// Burst allowed per token, requests.
+    pub token_requests_burst: f64,
+    /// WebSocket messages a second one socket may send, on average (0: no limit); beyond it an
+    /// `rate_limited` error frame answers each message, and a socket that keeps going past twice
+    /// the burst is closed (1008).
+    pub ws_messages_per_s: f64,
+    /// Burst of WebSocket messages allowed above the average rate.
+    pub ws_messages_burst: f64,
+    /// A WebSocket that sends nothing for this long, ms, is pinged at half of it and closed
+    /// (1001) at the end. 0: never.
+    pub ws_idle_timeout_ms: u64,
+    /// Proxies (`addr/prefix`) whose `X-Forwarded-For` names the client. Default: loopback, where
+    /// the shipped nginx runs. Clear it when the server faces clients directly on loopback.
+    pub trusted_proxies: Vec<String>,
+    /// Clients (`addr/prefix`) that the per-peer limits (connections, rate, bytes) do not
+    /// apply to. Default: loopback, so load tests and sidecars on the same host are not
+    /// throttled; a client behind a trusted proxy is judged by its forwarded address.
+    pub exempt_peers: Vec<String>,
+    /// Scenes the server holds at most; a put of a new id beyond it gets 409 `too_many_scenes`.
+    /// 1,024: far more than a game server runs, few enough that their specs and clocks stay
+    /// small.
+    pub max_scenes: usize,
+    /// FFT frame memory all scenes may hold, bytes: each scene is charged the near frames of
+    /// its FFT layers (every field; 52 MiB for a 256² layer, 832 MiB for 1024²) when it is put,
+    /// and a put beyond the budget gets 422 `fft_budget`. 2 GiB.
+    pub max_fft_bytes: u64,
+    /// Whether `/metrics` on the main listener is public; when false it needs an admin token.
+    /// Either way it is also served on `--probe-bind`, if set.
+    pub metrics_public: bool,
 }
 
 impl Default for Limits {
@@ -142,6 +211,24 @@ impl Default for Limits {
             max_connections: 10_000,
             idle_timeout_ms: 60_000,
             catch_up_max_s: 3600,
+            max_connections_per_peer: 256,
+            body_timeout_ms: 15_000,
+            body_min_bytes_per_s: 4096,
+            max_buffered_bytes: 256 * 1024 * 1024,
+            max_buffered_bytes_per_peer: 24 * 1024 * 1024,
+            http_send_stall_ms: 10_000,
+            peer_requests_per_s: 500.0,
+            peer_requests_burst: 1000.0,
+            token_requests_per_s: 5000.0,
+            token_requests_burst: 10_000.0,
+            ws_messages_per_s: 100.0,
+            ws_messages_burst: 200.0,
+            ws_idle_timeout_ms: 60_000,
+            trusted_proxies: vec!["127.0.0.0/8".into(), "::1".into()],
+            exempt_peers: vec!["127.0.0.0/8".into(), "::1".into()],
+            metrics_public: true,
+            max_scenes: 1024,
+            max_fft_bytes: 2 << 30,
         }
     }
 }
@@ -155,6 +242,35 @@ impl Limits {
     /// [`Limits::idle_timeout_ms`] as a duration; `None` when it is 0 (no limit).
     pub fn idle_timeout(&self) -> Option<Duration> {
         (self.idle_timeout_ms > 0).then(|| Duration::from_millis(self.idle_timeout_ms))
+    }
+
+    /// [`Limits::body_timeout_ms`] as a duration.
+    pub fn body_timeout(&self) -> Duration {
+        Duration::from_millis(self.body_timeout_ms)
+    }
+
+    /// [`Limits::http_send_stall_ms`] as a duration; `None` when it is 0.
+    pub fn http_send_stall(&self) -> Option<Duration> {
+        (self.http_send_stall_ms > 0).then(|| Duration::from_millis(self.http_send_stall_ms))
+    }
+
+    /// [`Limits::ws_idle_timeout_ms`] as a duration; `None` when it is 0.
+    pub fn ws_idle_timeout(&self) -> Option<Duration> {
+        (self.ws_idle_timeout_ms > 0).then(|| Duration::from_millis(self.ws_idle_timeout_ms))
+    }
+
+    /// The trusted proxies and exempt peers, parsed.
+    ///
+    /// # Errors
+    /// An entry that is not `addr[/prefix]`, named.
+    pub fn peer_policy(&self) -> Result<crate::peers::PeerPolicy, String> {
+        use crate::peers::{Nets, PeerPolicy};
+        Ok(PeerPolicy {
+            trusted_proxies: Nets::parse(&self.trusted_proxies)
+                .map_err(|e| format!("limits.trusted_proxies: {e}"))?,
+            exempt: Nets::parse(&self.exempt_peers)
+                .map_err(|e| format!("limits.exempt_peers: {e}"))?,
+        })
     }
 
     /// [`Limits::ws_send_stall_ms`] as a duration.

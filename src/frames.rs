@@ -134,6 +134,42 @@ impl FrameCache {
         }
     }
 
+    /// Drops every frame of the built scene `uid` (deleted or replaced): its memory goes at
+    /// once, not when the frames would have aged out.
+    pub fn forget_scene(&self, uid: u64) {
+        let mut g = self.lock();
+        let mut far_dropped = 0;
+        g.entries.retain(|k, e| {
+            let keep = k.scene != uid;
+            if !keep && !e.near {
+                far_dropped += 1;
+            }
+            keep
+        });
+        g.far -= far_dropped;
+        g.activity.remove(&uid);
+    }
+
+    /// The FFT memory a scene in use holds at most, bytes: the near frames of each FFT layer
+    /// (`2·NEAR_STEPS + 1` frames of every field, `resolution²` f64 values each) and the
+    /// layer's spectrum (h0 and ω, complex and real, per mode). What `max_fft_bytes` is
+    /// charged when the scene is put.
+    pub fn scene_bytes(scene: &Scene) -> u64 {
+        scene
+            .surface
+            .layers()
+            .iter()
+            .map(|layer| match layer {
+                Layer::Fft(f) => {
+                    let cells = (f.resolution() * f.resolution()) as u64;
+                    let frame = cells * FftFields::ALL.grid_count() as u64 * 8;
+                    (2 * NEAR_STEPS + 1) * frame + cells * (16 + 8)
+                }
+                _ => 0,
+            })
+            .sum()
+    }
+
     /// Number of frames held (computed or being computed), near and far.
     pub fn len(&self) -> usize {
         self.lock().entries.len()

@@ -27,9 +27,16 @@ use swell_waves::SurfaceAt;
 use swell_waves::error::SpecError;
 use swell_waves::particles::{Impact, Impacts};
 
-/// Most impacts a scene holds (the set is kept for queries at any t; 100,000 impacts are a
-/// few MB and a replay of milliseconds).
+/// Most impacts a scene holds (100,000 impacts are a few MB and a replay of milliseconds).
+/// Only live ones count: an impact expires once it is more than a ring lifetime older than the
+/// newest impact of the set ([`SceneImpacts::set_lifetime`]), so a scene that splashes forever
+/// never fills up.
 pub const MAX_SCENE_IMPACTS: usize = 100_000;
+
+/// How far ahead of the scene clock's now an impact may be dated, s. Beyond it: 422. A relay
+/// schedules splashes a frame or a tick ahead; a minute covers any clock skew and keeps a
+/// client from filling the set with events nobody will see for years.
+pub const IMPACT_HORIZON_S: f64 = 60.0;
 /// Most impacts within one ring lifetime of each other: bounds the rings alive at any time
 /// (the model allows 4,096) and so the cost of a snapshot with ripples.
 pub const MAX_NEAR_IMPACTS: usize = 1024;
@@ -95,6 +102,9 @@ struct Inner {
     added: u64,
     /// The last [`RECENT`] additions, `(number, impact)`.
     recent: VecDeque<(u64, Impact)>,
+    /// The ring lifetime of the scene's particle layer, s: API impacts older than the newest by
+    /// more than this are dropped. `None`: keep all (no particle layer, nothing ripples).
+    lifetime: Option<f64>,
 }
 
 impl Inner {
@@ -201,8 +211,14 @@ impl SceneImpacts {
         Self::push(&mut self.write(), impact)
     }
 
+    /// Sets the ring lifetime that expires API impacts (at scene build).
+    pub fn set_lifetime(&self, lifetime: f64) {
+        self.write().lifetime = Some(lifetime);
+    }
+
     fn push(g: &mut Inner, impact: Impact) -> Result<(), SpecError> {
-        g.api = Arc::new(g.api.with(impact)?);
+        let with = g.api.with(impact)?;
+        g.api = Arc::new(expire(with, g.lifetime));
         g.remerge();
         g.announce(impact);
         Ok(())
@@ -220,7 +236,7 @@ impl SceneImpacts {
             g.recent.clear();
             Vec::new()
         };
-        g.api = Arc::new(impacts);
+        g.api = Arc::new(expire(impacts, g.lifetime));
         g.remerge();
         for i in fresh {
             g.announce(i);
@@ -279,6 +295,31 @@ impl SceneImpacts {
         }
         sea.with_impacts(&set)
     }
+}
+
+/// `set` without the impacts that are more than `lifetime` older than its newest one: their
+/// rings are dead at the newest impact's time and at every later one. A pure function of the
+/// set, so every replica and every replay of the same adds holds the same impacts. (Queries of
+/// times before the newest impact by more than a lifetime no longer see the expired rings.)
+fn expire(set: Impacts, lifetime: Option<f64>) -> Impacts {
+    let Some(lifetime) = lifetime else {
+        return set;
+    };
+    let events = set.events();
+    let Some(newest) = events.iter().map(|e| e.t).reduce(f64::max) else {
+        return set;
+    };
+    let keep_from = newest - lifetime;
+    if events.iter().all(|e| e.t >= keep_from) {
+        return set;
+    }
+    let kept: Vec<Impact> = events
+        .iter()
+        .filter(|e| e.t >= keep_from)
+        .copied()
+        .collect();
+    // A subset of a valid set is valid.
+    Impacts::from_events(kept).unwrap_or(set)
 }
 
 /// How many of `events` (canonical order) lie within `window` seconds of `t`.

@@ -28,9 +28,12 @@
 //! - [`service`] — the transport-free query service: request/response types, time resolution,
 //!   the `run_*` queries, JSON decoding, the no-NaN check. HTTP and WebSocket both call it; the
 //!   domain modules depend on it, never on [`api`].
+//! - [`access`] — roles (`admin`, `game`, `reader`) and the bearer tokens that carry them.
 //! - [`api`] — HTTP: routes, middleware, handlers, JSON/protobuf negotiation.
 //! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
 //! - [`wire`] — protobuf types generated from `proto/` and their conversions.
+//! - [`peers`] — client addresses (trusted proxies), per-key rate limits, the byte budget of
+//!   what clients make the server hold, connections per address.
 //! - [`memory`] — handing heap freed after a burst back to the OS (glibc's `malloc_trim`).
 //! - [`healthcheck`] — `swell healthcheck`: a tiny HTTP probe for container health checks.
 //! - [`error`] — [`ApiError`], the one error type of every endpoint.
@@ -42,6 +45,7 @@
 //! numbers are written in shortest round-trip form. A world point is `origin + point` in f64.
 //! FFT frames are shared but computed from `(layer, t)` alone, so caching never changes bits.
 
+pub mod access;
 pub mod api;
 pub mod bodies;
 pub mod config;
@@ -51,6 +55,7 @@ pub mod healthcheck;
 pub mod impacts;
 pub mod journal;
 pub mod memory;
+pub mod peers;
 pub mod scene;
 pub mod service;
 pub mod state;
@@ -116,6 +121,7 @@ fn metrics_handle() -> PrometheusHandle {
 #[derive(Debug)]
 pub struct Server {
     listener: TcpListener,
+    probe_listener: Option<TcpListener>,
     state: AppState,
     snapshots: journal::snapshot::SnapshotPolicy,
     shutdown_timeout: Duration,
@@ -155,7 +161,21 @@ impl Server {
             None => api::admin::generate_token()
                 .map_err(|e| StartError::Setup(format!("generating an admin token: {e}")))?,
         };
-        let state = AppState::new(config.limits.clone(), journal, token, metrics_handle());
+        let access = access::Access::new(
+            &token,
+            &config.env_tokens,
+            config.tokens_file.clone(),
+            config.reads_need_token,
+        )
+        .map_err(|e| StartError::Setup(e.to_string()))?;
+        config.limits.peer_policy().map_err(StartError::Setup)?;
+        let state = AppState::new(
+            config.limits.clone(),
+            journal,
+            token,
+            access,
+            metrics_handle(),
+        );
         if let Some(url) = &config.store {
             let fleet = store::Fleet::new(url.clone()).map_err(StartError::Setup)?;
             tracing::info!(store = %url, "admin changes are shared through Redis");
@@ -176,8 +196,20 @@ impl Server {
                 what: format!("binding {}", config.bind),
                 source,
             })?;
+        let probe_listener = match config.probe_bind {
+            Some(addr) => Some(
+                TcpListener::bind(addr)
+                    .await
+                    .map_err(|source| StartError::Io {
+                        what: format!("binding the probe listener {addr}"),
+                        source,
+                    })?,
+            ),
+            None => None,
+        };
         Ok(Server {
             listener,
+            probe_listener,
             state,
             snapshots: config.snapshots,
             shutdown_timeout: config.shutdown_timeout,
@@ -190,6 +222,13 @@ impl Server {
         self.listener
             .local_addr()
             .unwrap_or_else(|_| SocketAddr::from(([0, 0, 0, 0], 0)))
+    }
+
+    /// The probe listener's address (`--probe-bind`), if there is one.
+    pub fn probe_addr(&self) -> Option<SocketAddr> {
+        self.probe_listener
+            .as_ref()
+            .and_then(|l| l.local_addr().ok())
     }
 
     /// The admin token in force (configured or generated).
@@ -224,6 +263,7 @@ impl Server {
         // allocator's locks).
         let upkeep_handle = self.state.metrics.clone();
         let upkeep_stop = state.shutdown.clone();
+        let upkeep_state = state.clone();
         state.tasks.spawn(async move {
             let mut tick = tokio::time::interval(Duration::from_secs(5));
             loop {
@@ -231,6 +271,8 @@ impl Server {
                     () = upkeep_stop.cancelled() => return,
                     _ = tick.tick() => {
                         upkeep_handle.run_upkeep();
+                        // Rotated tokens take effect within one beat.
+                        upkeep_state.access.reload_if_changed();
                         let _ = tokio::task::spawn_blocking(|| {
                             memory::release_if_held(memory::TRIM_ABOVE)
                         })
@@ -287,12 +329,30 @@ impl Server {
         }
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
+        // Probes and metrics on their own port: outside every limit clients can fill, and off
+        // the public path. Stops with the shutdown token.
+        if let Some(probe) = self.probe_listener {
+            let app = api::probe_router(state.clone());
+            let stop = state.shutdown.clone();
+            tracing::info!(addr = ?probe.local_addr().ok(), "serving probes");
+            state.tasks.spawn(async move {
+                let served = axum::serve(probe, app)
+                    .with_graceful_shutdown(async move { stop.cancelled().await })
+                    .await;
+                if let Err(e) = served {
+                    tracing::error!(error = %e, "the probe listener failed");
+                }
+            });
+        }
         let draining = state.clone();
         // TCP_NODELAY (stream frames and small answers go out at once instead of waiting for
         // more bytes to batch), a cap on open connections and an idle timeout.
         let limits = api::serve::ConnectionLimits {
             max_connections: state.limits.max_connections,
             idle_timeout: state.limits.idle_timeout(),
+            per_peer: state.limits.max_connections_per_peer,
+            send_stall: state.limits.http_send_stall(),
+            policy: state.peer_policy.clone(),
         };
         let result = api::serve::serve(self.listener, app, limits, async move {
             shutdown.await;

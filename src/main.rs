@@ -26,6 +26,9 @@ enum Command {
     Scenes,
     /// Exit 0 if a server answers 2xx at `--url` (container health checks: no curl needed).
     Healthcheck(HealthcheckArgs),
+    /// Print the `sha256:` form of a token (read from stdin) for the tokens file, so the file
+    /// need not hold the token itself.
+    HashToken,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -56,6 +59,25 @@ struct ServeArgs {
     /// Admin bearer token; without one a random token is generated and printed once.
     #[arg(long, env = "SWELL_ADMIN_TOKEN", hide_env_values = true)]
     admin_token: Option<String>,
+    /// More admin tokens, comma-separated.
+    #[arg(long, env = "SWELL_ADMIN_TOKENS", hide_env_values = true)]
+    admin_tokens: Option<String>,
+    /// `game` tokens (bodies, inputs, impacts), comma-separated.
+    #[arg(long, env = "SWELL_GAME_TOKENS", hide_env_values = true)]
+    game_tokens: Option<String>,
+    /// `reader` tokens (queries, streams; only needed with --reads-need-token), comma-separated.
+    #[arg(long, env = "SWELL_READER_TOKENS", hide_env_values = true)]
+    reader_tokens: Option<String>,
+    /// File of `role token` lines (`role sha256:<hex>` too), read again when it changes.
+    #[arg(long, env = "SWELL_TOKENS_FILE")]
+    tokens_file: Option<PathBuf>,
+    /// Queries and streams need a reader (or game, or admin) token; public otherwise.
+    #[arg(long, env = "SWELL_READS_NEED_TOKEN")]
+    reads_need_token: bool,
+    /// Serve /healthz, /readyz and /metrics on this address too, outside every client limit
+    /// (Kubernetes probes, Prometheus).
+    #[arg(long, env = "SWELL_PROBE_BIND")]
+    probe_bind: Option<SocketAddr>,
     /// Start without the built-in scenes.
     #[arg(long)]
     no_builtin_scenes: bool,
@@ -106,6 +128,14 @@ async fn main() -> anyhow::Result<()> {
                 }
             }
         }
+        Some(Command::HashToken) => {
+            let mut token = String::new();
+            std::io::stdin()
+                .read_line(&mut token)
+                .context("reading the token from stdin")?;
+            println!("{}", swell::access::hashed(token.trim()));
+            Ok(())
+        }
         Some(Command::Serve(args)) => serve(args).await,
         None => serve(cli.serve).await,
     }
@@ -121,6 +151,17 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
         data_dir: Some(args.data_dir),
         store: args.store.clone(),
         admin_token: args.admin_token.clone(),
+        env_tokens: [
+            (swell::access::Role::Admin, &args.admin_tokens),
+            (swell::access::Role::Game, &args.game_tokens),
+            (swell::access::Role::Reader, &args.reader_tokens),
+        ]
+        .into_iter()
+        .filter_map(|(role, list)| list.clone().map(|l| (role, l)))
+        .collect(),
+        tokens_file: args.tokens_file.clone(),
+        reads_need_token: args.reads_need_token,
+        probe_bind: args.probe_bind,
         builtin_scenes: !args.no_builtin_scenes,
         snapshots: swell::journal::snapshot::SnapshotPolicy {
             interval: std::time::Duration::try_from_secs_f64(args.snapshot_interval)
@@ -146,6 +187,9 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
         println!("admin token: {}", server.admin_token());
     }
     println!("swell listening on http://{}", server.local_addr());
+    if let Some(p) = server.probe_addr() {
+        println!("probes on http://{p}");
+    }
     server
         .run(swell::shutdown_signal())
         .await

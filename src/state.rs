@@ -49,6 +49,10 @@ pub struct Inner {
     /// Every task the server spawns (sessions, tick and body loops, query work), so shutdown
     /// can await them, with a deadline, before the final snapshot.
     pub tasks: TaskTracker,
+    /// Tokens and roles ([`crate::access`]).
+    pub access: crate::access::Access,
+    /// Trusted proxies and exempt peers, parsed from the limits (checked at bind).
+    pub peer_policy: crate::peers::PeerPolicy,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     journal: Option<Journal>,
     admin_token: String,
@@ -83,9 +87,12 @@ impl AppState {
         limits: Limits,
         journal: Option<Journal>,
         admin_token: String,
+        access: crate::access::Access,
         metrics: PrometheusHandle,
     ) -> AppState {
         AppState(Arc::new(Inner {
+            access,
+            peer_policy: limits.peer_policy().unwrap_or_default(),
             frames: FrameCache::new(limits.frame_cache_entries),
             limits,
             metrics,
@@ -221,18 +228,67 @@ impl AppState {
         let clock =
             clock.unwrap_or_else(|| Clock::from_epoch(scene.spec.epoch.unwrap_or(BUILTIN_EPOCH)));
         let id = scene.id.clone();
-        self.write_scenes().insert(
+        let old = self.write_scenes().insert(
             id,
             Arc::new(SceneEntry {
                 scene: Arc::new(scene),
                 clock: Mutex::new(clock),
             }),
         );
+        if let Some(old) = old {
+            self.frames.forget_scene(old.scene.uid);
+        }
     }
 
     /// Removes a scene at start-up.
     pub fn remove_loaded(&self, id: &str) {
-        self.write_scenes().remove(id);
+        let old = self.write_scenes().remove(id);
+        if let Some(old) = old {
+            self.frames.forget_scene(old.scene.uid);
+        }
+    }
+
+    /// Checks that scene `id` built as `scene` fits the scene count and the FFT memory budget,
+    /// counting every other scene as it is now.
+    ///
+    /// # Errors
+    /// 409 `too_many_scenes` at [`Limits::max_scenes`] (a new id only); 422 `fft_budget` when
+    /// the FFT frames of all scenes would exceed [`Limits::max_fft_bytes`].
+    pub fn check_room_for(&self, id: &str, scene: &Scene) -> Result<(), ApiError> {
+        let map = self.read_scenes();
+        if !map.contains_key(id) && map.len() >= self.limits.max_scenes {
+            return Err(ApiError::new(
+                axum::http::StatusCode::CONFLICT,
+                "too_many_scenes",
+                format!(
+                    "the server holds {} scenes, its limit (max_scenes); delete one first",
+                    map.len()
+                ),
+            ));
+        }
+        let mine = FrameCache::scene_bytes(scene);
+        if mine == 0 {
+            return Ok(());
+        }
+        let others: u64 = map
+            .iter()
+            .filter(|(k, _)| k.as_str() != id)
+            .map(|(_, e)| FrameCache::scene_bytes(&e.scene))
+            .sum();
+        if others + mine > self.limits.max_fft_bytes {
+            return Err(ApiError::new(
+                axum::http::StatusCode::UNPROCESSABLE_ENTITY,
+                "fft_budget",
+                format!(
+                    "this scene's FFT layers need up to {} MiB of frames and the other scenes {} MiB: more than max_fft_bytes ({} MiB); lower a layer's resolution or delete a scene",
+                    mine >> 20,
+                    others >> 20,
+                    self.limits.max_fft_bytes >> 20
+                ),
+            )
+            .with_field("layers"));
+        }
+        Ok(())
     }
 
     /// Creates or replaces scene `id` from its spec JSON; a replaced scene keeps its clock.
@@ -253,6 +309,7 @@ impl AppState {
             .map_err(ApiError::internal)??;
         let mut scene = scene;
         let _guard = self.admin_lock.lock().await;
+        self.check_room_for(id, &scene)?;
         // The epoch: as given; else a replaced scene's; else now (a new scene starts at t = 0,
         // and the journaled spec remembers when, so its clock survives restarts).
         let old = self.scene(id).ok();
@@ -303,7 +360,9 @@ impl AppState {
             scene: Arc::new(scene),
             clock: Mutex::new(clock),
         });
-        map.insert(id.to_owned(), entry.clone());
+        if let Some(old) = map.insert(id.to_owned(), entry.clone()) {
+            self.frames.forget_scene(old.scene.uid);
+        }
         Ok((outcome, entry))
     }
 
@@ -326,8 +385,13 @@ impl AppState {
             scene: id.to_owned(),
         })
         .await?;
-        self.write_scenes().remove(id);
+        let old = self.write_scenes().remove(id);
+        if let Some(old) = old {
+            self.frames.forget_scene(old.scene.uid);
+        }
         self.bodies.remove_scene(id);
+        // The frames and spectra just dropped may be hundreds of MB: give them back now.
+        tokio::task::spawn_blocking(|| crate::memory::release_if_held(0));
         Ok(())
     }
 

@@ -653,9 +653,13 @@ async fn kill_loop_loses_nothing_acknowledged() {
     let mut bodies: Vec<u64> = Vec::new();
     let mut clock_t: Option<f64> = None;
     let mut n = 0_u64;
+    // Each round puts scenes until it is killed: 50 rounds put thousands, more than the default
+    // scene limit, which is not what this test is about.
+    let limits = dirs.path().join("limits.toml");
+    std::fs::write(&limits, "[limits]\nmax_scenes = 100000\n").unwrap();
     // One more start than kills: the last one only checks.
     for round in 0..=kills {
-        let a = start(&d, 5).await;
+        let a = start_with(&d, 5, Some(&limits)).await;
         // Everything acknowledged so far is back.
         for s in &scenes {
             let (st, _) = a.req(Method::GET, &format!("/v1/scenes/{s}"), None).await;

@@ -3,15 +3,14 @@
 //! rippling. The set itself is [`crate::impacts`].
 
 use axum::extract::{Path, Query, State};
-use axum::http::{HeaderMap, StatusCode};
+use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use swell_waves::particles::Impact;
 
-use crate::api::admin::require_admin;
 use crate::api::json::RawBody;
 use crate::error::ApiError;
-use crate::impacts::{AddError, ImpactEvent, MAX_SCENE_IMPACTS, apply_tick};
+use crate::impacts::{AddError, IMPACT_HORIZON_S, ImpactEvent, MAX_SCENE_IMPACTS, apply_tick};
 use crate::journal::Op;
 use crate::service::json::from_slice;
 use crate::state::AppState;
@@ -52,10 +51,8 @@ pub struct ImpactAccepted {
 pub async fn create(
     State(state): State<AppState>,
     Path(id): Path<String>,
-    headers: HeaderMap,
     RawBody(body): RawBody,
 ) -> Result<Response, ApiError> {
-    require_admin(&headers, state.admin_token())?;
     let req: ImpactRequest = from_slice(&body)?;
     let entry = state.scene(&id)?;
     let scene = &entry.scene;
@@ -81,6 +78,22 @@ pub async fn create(
     impact
         .validate("")
         .map_err(|e| ApiError::invalid(e.field(), e.to_string()))?;
+    // Only impacts whose rings can still be seen, or will be soon: not the distant past (the
+    // ring would be dead on arrival) nor the distant future (it would sit in the set for ever).
+    let now = state.read_clock(&entry).t;
+    let lifetime = layer.ripples().lifetime;
+    if !(t >= now - lifetime && t <= now + IMPACT_HORIZON_S) {
+        return Err(ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "impact_out_of_window",
+            format!(
+                "t = {t} is outside [now - lifetime, now + {IMPACT_HORIZON_S}] = [{}, {}] of this scene's clock",
+                now - lifetime,
+                now + IMPACT_HORIZON_S
+            ),
+        )
+        .with_field("t"));
+    }
     let refused = |e: AddError| match e {
         AddError::Full(why) => ApiError::new(StatusCode::CONFLICT, "too_many_impacts", why),
         AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),

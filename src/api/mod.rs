@@ -11,12 +11,18 @@
 //! - [`shader`] — the generated shader, the frame's uniforms, FFT spectra (GPU clients).
 //! - [`viewer`] — the browser viewer's page and scripts (`/viewer`).
 //!
+//! - [`admission`] — rate limits, roles, body deadlines, the in-flight limit and the byte
+//!   budget, in that order (the limiters and budgets themselves: [`crate::peers`]).
+//!
 //! Middleware, outermost first: panic → 500 JSON; trace span; metrics by route and status;
-//! errors re-encoded as protobuf for clients that accept it;
-//! in-flight limit (503 beyond it, never an unbounded queue) and timeout (503); body-size limit.
+//! errors re-encoded as protobuf for clients that accept it; every other error made JSON;
+//! admission ([`admission::admit`]); body-size limit. The health probes sit outside all but
+//! the first three: client traffic cannot make them wait.
 
 pub mod admin;
+pub mod admission;
 pub mod bodies;
+pub mod errors;
 pub mod impacts;
 pub mod json;
 pub mod ops;
@@ -27,16 +33,14 @@ pub mod shader;
 pub mod viewer;
 pub mod wire;
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use axum::Router;
-use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
-use axum::http::StatusCode;
+use axum::extract::{DefaultBodyLimit, MatchedPath, Request};
+use axum::http::{Method, StatusCode};
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
-use tokio::sync::Semaphore;
 use tower_http::catch_panic::CatchPanicLayer;
 use tower_http::trace::TraceLayer;
 
@@ -46,9 +50,12 @@ use crate::state::AppState;
 /// The router over `state`: every endpoint and middleware.
 pub fn router(state: AppState) -> Router {
     let limits = state.limits.clone();
-    let in_flight = Arc::new(Semaphore::new(limits.max_in_flight.max(1)));
-    let timeout = limits.request_timeout();
-    Router::new()
+    let budget = crate::peers::Budget::new(
+        limits.max_buffered_bytes,
+        limits.max_buffered_bytes_per_peer,
+    );
+    let gate = admission::Gate::new(state.clone(), state.peer_policy.clone(), budget);
+    let api = Router::new()
         .route("/v1/scenes", get(scenes::list))
         .route(
             "/v1/scenes/{id}",
@@ -84,8 +91,6 @@ pub fn router(state: AppState) -> Router {
         .route("/v1/scenes/{id}/uniforms", get(shader::uniforms))
         .route("/v1/scenes/{id}/spectrum", get(shader::spectrum))
         .route("/v1/scenes/{id}/stream", get(crate::stream::stream))
-        .route("/healthz", get(ops::healthz))
-        .route("/readyz", get(ops::readyz))
         .route("/metrics", get(ops::metrics))
         .route("/openapi.json", get(ops::openapi))
         .route("/docs", get(ops::docs))
@@ -93,13 +98,31 @@ pub fn router(state: AppState) -> Router {
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(limits.max_body_bytes))
-        .layer(middleware::from_fn_with_state(
-            (in_flight, timeout),
-            limit_and_timeout,
-        ))
-        .layer(middleware::from_fn(wire::protobuf_errors))
+        .layer(middleware::from_fn_with_state(gate, admission::admit))
+        .layer(middleware::from_fn(errors::json_errors))
+        .layer(middleware::from_fn(wire::protobuf_errors));
+    probes()
+        .merge(api)
         .layer(middleware::from_fn(track_metrics))
         .layer(TraceLayer::new_for_http())
+        .layer(CatchPanicLayer::custom(|_panic| {
+            ApiError::internal("a handler panicked").into_response()
+        }))
+        .with_state(state)
+}
+
+/// `/healthz` and `/readyz`: no admission, no limits.
+fn probes() -> Router<AppState> {
+    Router::new()
+        .route("/healthz", get(ops::healthz))
+        .route("/readyz", get(ops::readyz))
+}
+
+/// The router of `--probe-bind`: the probes and `/metrics`, nothing a client can fill.
+pub fn probe_router(state: AppState) -> Router {
+    probes()
+        .route("/metrics", get(ops::metrics))
+        .fallback(not_found)
         .layer(CatchPanicLayer::custom(|_panic| {
             ApiError::internal("a handler panicked").into_response()
         }))
@@ -118,30 +141,6 @@ async fn method_not_allowed() -> ApiError {
     )
 }
 
-/// Sheds load beyond `max_in_flight` (503 at once, rather than queueing without bound) and
-/// answers 503 to a request that runs past the timeout. A timed-out blocking query still runs to
-/// its end on its thread; the in-flight permit is released with the response, so the limit
-/// bounds what clients wait on, not the CPU already committed.
-async fn limit_and_timeout(
-    State((sem, timeout)): State<(Arc<Semaphore>, std::time::Duration)>,
-    req: Request,
-    next: Next,
-) -> Response {
-    let Ok(_permit) = sem.try_acquire() else {
-        metrics::counter!("swell_http_shed_total").increment(1);
-        return ApiError::overloaded("too many requests in flight; retry shortly").into_response();
-    };
-    match tokio::time::timeout(timeout, next.run(req)).await {
-        Ok(r) => r,
-        Err(_) => ApiError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "timeout",
-            format!("the request took longer than {} ms", timeout.as_millis()),
-        )
-        .into_response(),
-    }
-}
-
 /// Counts requests and records latency by route (the matched pattern, not the raw path, so ids
 /// do not explode the label set), method and status.
 async fn track_metrics(req: Request, next: Next) -> Response {
@@ -149,11 +148,25 @@ async fn track_metrics(req: Request, next: Next) -> Response {
         .extensions()
         .get::<MatchedPath>()
         .map_or_else(|| "unmatched".to_owned(), |m| m.as_str().to_owned());
-    let method = req.method().as_str().to_owned();
+    // A fixed set: the method is client input, and every label value is a new time series.
+    let method = match *req.method() {
+        Method::GET => "GET",
+        Method::POST => "POST",
+        Method::PUT => "PUT",
+        Method::DELETE => "DELETE",
+        Method::HEAD => "HEAD",
+        Method::OPTIONS => "OPTIONS",
+        Method::PATCH => "PATCH",
+        _ => "other",
+    };
     let start = Instant::now();
     let resp = next.run(req).await;
     let status = resp.status().as_u16().to_string();
-    let labels = [("route", route), ("method", method), ("status", status)];
+    let labels = [
+        ("route", route),
+        ("method", method.to_owned()),
+        ("status", status),
+    ];
     metrics::counter!("swell_http_requests_total", &labels).increment(1);
     metrics::histogram!("swell_http_request_duration_seconds", &labels)
         .record(start.elapsed().as_secs_f64());

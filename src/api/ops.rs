@@ -9,6 +9,7 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{Html, IntoResponse, Response};
 use serde_json::{Value, json};
 
+use crate::access::Role;
 use crate::error::ApiError;
 use crate::state::AppState;
 
@@ -110,7 +111,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "post",
         "/v1/scenes/{id}/bodies",
-        "Spawn a floating body (admin): {mass, hull, position, yaw?, drag?...} → 201 state",
+        "Spawn a floating body (game): {mass, hull, position, yaw?, drag?...} → 201 state",
     ),
     (
         "get",
@@ -120,17 +121,17 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "delete",
         "/v1/scenes/{id}/bodies/{bid}",
-        "Remove a body (admin)",
+        "Remove a body (game)",
     ),
     (
         "post",
         "/v1/scenes/{id}/bodies/{bid}/input",
-        "Force/torque in the body frame from a tick for some ticks (admin): {force, torque, from_tick?, ticks?}",
+        "Force/torque in the body frame from a tick for some ticks (game): {force, torque, from_tick?, ticks?}",
     ),
     (
         "post",
         "/v1/scenes/{id}/impacts",
-        "Add an impact that ripples on the scene's particle layer (admin; shared by every replica of a fleet): {position, t?, strength, radius} → 202 {tick, t}",
+        "Add an impact that ripples on the scene's particle layer (game; shared by every replica of a fleet): {position, t?, strength, radius} → 202 {tick, t}",
     ),
     (
         "get",
@@ -142,6 +143,23 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
         "/v1/scenes/{id}/stream",
         "WebSocket (subprotocols swell.v1.json, swell.v1.protobuf): ping/pong, sample, orientation, subscribe → tick frames",
     ),
+    (
+        "get",
+        "/v1/scenes/{id}/shader",
+        "The scene's generated shader code: ?lang=wgsl|glsl|hlsl|msl|godot|unity|unreal",
+    ),
+    (
+        "get",
+        "/v1/scenes/{id}/uniforms",
+        "The frame's shader uniforms (per-wave phase offsets in f64) at ?t= (default now)",
+    ),
+    (
+        "get",
+        "/v1/scenes/{id}/spectrum",
+        "An FFT layer's h0 and ω exactly as drawn: ?layer=",
+    ),
+    ("get", "/viewer", "The browser viewer"),
+    ("get", "/viewer/{scene}", "The browser viewer on one scene"),
     ("get", "/healthz", "Liveness"),
     ("get", "/readyz", "Readiness"),
     ("get", "/metrics", "Prometheus metrics"),
@@ -183,8 +201,27 @@ pub fn openapi_document() -> Value {
                 p.push(json!({"name": n, "in": "query", "required": req, "schema": {"type": "number"}}));
             }
         }
-        if matches!(*method, "put" | "delete") {
-            op["security"] = json!([{"bearer": []}]);
+        // Who may call it (crate::access): admin and game routes need their token; reads are
+        // public unless the server requires a reader token, so the token is optional there.
+        let upper = method.to_ascii_uppercase();
+        let m = axum::http::Method::from_bytes(upper.as_bytes()).unwrap_or(axum::http::Method::GET);
+        match super::admission::required_role(&m, Some(path), true, false) {
+            Some(role @ (Role::Admin | Role::Game)) => {
+                op["security"] = json!([{"bearer": []}]);
+                op["x-swell-role"] = json!(role.as_str());
+            }
+            Some(Role::Reader) if *path == "/metrics" => {}
+            Some(Role::Reader) => {
+                op["security"] = json!([{}, {"bearer": []}]);
+                op["x-swell-role"] = json!("reader");
+            }
+            None => {}
+        }
+        if *path == "/metrics" {
+            op["security"] = json!([{}, {"bearer": []}]);
+            op["description"] = json!(
+                "Public unless limits.metrics_public = false (then an admin token); also on --probe-bind."
+            );
         }
         let schema = match (*method, *path) {
             ("put", "/v1/scenes/{id}") => Some("SceneSpec"),

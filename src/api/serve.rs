@@ -11,6 +11,16 @@
 //!   keep-alive connection is closed after it, and so is a client that trickles a request's
 //!   headers (slowloris). An upgraded WebSocket is not subject to it.
 //!
+//! - **`per_peer`**: connections open at once from one client address (the TCP peer; peers in
+//!   the exempt list are not counted). One more is answered `429` with the JSON error and
+//!   closed at once, so one client cannot take every slot.
+//! - **`send_stall`**: how long a write to the client may make no progress. A client that stops
+//!   reading its answer is disconnected after it (`swell_http_send_stalls_total`), and the
+//!   answer's bytes are freed, instead of being held for as long as the client likes.
+//!
+//! Every request carries its TCP peer as a [`PeerAddr`] extension, for the per-client limits
+//! of [`super::admission`].
+//!
 //! Everything else is what `axum::serve` does: TCP_NODELAY, accept errors logged and retried,
 //! graceful shutdown (stop accepting, let every connection finish its request in flight, close
 //! idle ones at once). Open connections are published as `swell_http_connections`.
@@ -23,19 +33,28 @@ use std::task::{Context, Poll};
 use std::time::Duration;
 
 use axum::Router;
+use hyper::body::Incoming;
 use hyper_util::rt::{TokioIo, TokioTimer};
-use hyper_util::service::TowerToHyperService;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
+use tokio::time::Sleep;
+
+use crate::peers::{ConnCounts, ConnGuard, PeerAddr, PeerPolicy};
 
 /// The limits of [`serve`].
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct ConnectionLimits {
     /// Connections open at once (at least 1).
     pub max_connections: usize,
     /// Longest wait for a request's headers on an open connection; `None`: no limit.
     pub idle_timeout: Option<Duration>,
+    /// Connections open at once per client address.
+    pub per_peer: usize,
+    /// Longest a write may make no progress; `None`: no limit.
+    pub send_stall: Option<Duration>,
+    /// Who is exempt from `per_peer`.
+    pub policy: PeerPolicy,
 }
 
 /// Serves `app` on `listener` until `shutdown` completes, then stops accepting and waits for
@@ -60,6 +79,7 @@ pub async fn serve(
         drop(stop_rx);
     });
     let open = Arc::new(AtomicUsize::new(0));
+    let per_peer = Arc::new(ConnCounts::default());
     loop {
         let permit = tokio::select! {
             p = slots.clone().acquire_owned() => match p {
@@ -81,17 +101,38 @@ pub async fn serve(
         if let Err(e) = tcp.set_nodelay(true) {
             tracing::debug!(error = %e, "could not set TCP_NODELAY");
         }
-        let service = TowerToHyperService::new(app.clone());
+        let peer_slot = if limits.policy.exempt.contains(remote.ip()) {
+            None
+        } else {
+            match per_peer.open(remote.ip(), limits.per_peer.max(1)) {
+                Some(g) => Some(g),
+                None => {
+                    metrics::counter!("swell_http_peer_connections_refused_total").increment(1);
+                    tokio::spawn(refuse(tcp, permit, limits.per_peer));
+                    continue;
+                }
+            }
+        };
+        let app = app.clone();
+        let service = hyper::service::service_fn(move |mut req: hyper::Request<Incoming>| {
+            req.extensions_mut().insert(PeerAddr(remote));
+            // The router is always ready: `oneshot` polls readiness and calls.
+            tower::ServiceExt::oneshot(app.clone(), req)
+        });
         let (stop, done) = (stop_tx.clone(), done_rx.clone());
+        let idle_timeout = limits.idle_timeout;
         let tcp = Counted {
             tcp,
             _slot: Slot::take(permit, open.clone()),
+            _peer: peer_slot,
+            stall_after: limits.send_stall,
+            stall: None,
         };
         tokio::spawn(async move {
             let mut builder = hyper::server::conn::http1::Builder::new();
             builder
                 .timer(TokioTimer::new())
-                .header_read_timeout(limits.idle_timeout);
+                .header_read_timeout(idle_timeout);
             let conn = builder
                 .serve_connection(TokioIo::new(tcp), service)
                 .with_upgrades();
@@ -143,10 +184,71 @@ fn publish(open: usize) {
     metrics::gauge!("swell_http_connections").set(open as f64);
 }
 
-/// A TCP socket with its [`Slot`]; reads and writes go straight through.
+/// Answers a connection over its peer's limit with 429 and closes it. The write is bounded in
+/// time, so a peer that does not read cannot hold the slot.
+async fn refuse(mut tcp: TcpStream, permit: OwnedSemaphorePermit, per_peer: usize) {
+    use tokio::io::AsyncWriteExt as _;
+    let body = format!(
+        "{{\"error\":{{\"code\":\"too_many_connections\",\"message\":\"this address has {per_peer} connections open (max_connections_per_peer); close one first\"}}}}"
+    );
+    let head = format!(
+        "HTTP/1.1 429 Too Many Requests\r\ncontent-type: application/json\r\ncontent-length: {}\r\nretry-after: 1\r\nconnection: close\r\n\r\n",
+        body.len()
+    );
+    let write = async {
+        tcp.write_all(head.as_bytes()).await?;
+        tcp.write_all(body.as_bytes()).await?;
+        tcp.shutdown().await
+    };
+    let _ = tokio::time::timeout(Duration::from_secs(1), write).await;
+    drop(permit);
+}
+
+/// A TCP socket with its [`Slot`] and its place in the per-peer count; reads go straight
+/// through, writes too, unless one makes no progress for `stall_after`: then the connection
+/// fails with `TimedOut` and hyper drops it.
 struct Counted {
     tcp: TcpStream,
     _slot: Slot,
+    _peer: Option<ConnGuard>,
+    stall_after: Option<Duration>,
+    /// Armed while a write is pending; disarmed by any progress.
+    stall: Option<Pin<Box<Sleep>>>,
+}
+
+impl Counted {
+    /// Arms (or polls) the stall timer for a write that is pending.
+    fn stalled(&mut self, cx: &mut Context<'_>) -> Option<std::io::Error> {
+        let after = self.stall_after?;
+        let timer = self
+            .stall
+            .get_or_insert_with(|| Box::pin(tokio::time::sleep(after)));
+        if timer.as_mut().poll(cx).is_ready() {
+            metrics::counter!("swell_http_send_stalls_total").increment(1);
+            return Some(std::io::Error::new(
+                std::io::ErrorKind::TimedOut,
+                "the client did not read its answer (http_send_stall_ms)",
+            ));
+        }
+        None
+    }
+
+    fn progress<T>(
+        &mut self,
+        cx: &mut Context<'_>,
+        p: Poll<std::io::Result<T>>,
+    ) -> Poll<std::io::Result<T>> {
+        match p {
+            Poll::Pending => match self.stalled(cx) {
+                Some(e) => Poll::Ready(Err(e)),
+                None => Poll::Pending,
+            },
+            ready => {
+                self.stall = None;
+                ready
+            }
+        }
+    }
 }
 
 impl AsyncRead for Counted {
@@ -165,7 +267,9 @@ impl AsyncWrite for Counted {
         cx: &mut Context<'_>,
         buf: &[u8],
     ) -> Poll<std::io::Result<usize>> {
-        Pin::new(&mut self.get_mut().tcp).poll_write(cx, buf)
+        let this = self.get_mut();
+        let p = Pin::new(&mut this.tcp).poll_write(cx, buf);
+        this.progress(cx, p)
     }
 
     fn poll_write_vectored(
@@ -173,7 +277,9 @@ impl AsyncWrite for Counted {
         cx: &mut Context<'_>,
         bufs: &[std::io::IoSlice<'_>],
     ) -> Poll<std::io::Result<usize>> {
-        Pin::new(&mut self.get_mut().tcp).poll_write_vectored(cx, bufs)
+        let this = self.get_mut();
+        let p = Pin::new(&mut this.tcp).poll_write_vectored(cx, bufs);
+        this.progress(cx, p)
     }
 
     fn is_write_vectored(&self) -> bool {

@@ -222,13 +222,17 @@ impl Scene {
         spec.validate()?;
         let surface = Surface::new(&spec.surface).map_err(|e| ApiError::invalid_spec(&e))?;
         let spec_hash = fnv1a64_hex(spec.canonical_json().as_bytes());
+        let impacts = crate::impacts::SceneImpacts::default();
+        if let Some(layer) = surface.impact_layer() {
+            impacts.set_lifetime(layer.ripples().lifetime);
+        }
         Ok(Scene {
             id: id.to_owned(),
             spec,
             surface,
             spec_hash,
             uid: NEXT_UID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
-            impacts: Default::default(),
+            impacts,
         })
     }
 

@@ -144,6 +144,10 @@ pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
     Ok(o)
 }
 
+/// Points evaluated between two checks of a sample's deadline: ~1–10 ms of work on one core
+/// without impacts; a block bounds how far past its deadline a batch can run.
+const DEADLINE_BLOCK: usize = 8192;
+
 /// Answers a sample request at `at` (already resolved and checked). Blocking unless
 /// [`runs_inline`] said otherwise.
 ///
@@ -151,7 +155,8 @@ pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
 ///
 /// # Errors
 /// 413 too many points; 400 for an unknown field name, bad accuracy, or a non-finite or
-/// out-of-range coordinate.
+/// out-of-range coordinate; 503 `timeout` when the work runs past `request_timeout_ms`
+/// (checked every [`DEADLINE_BLOCK`] points).
 pub fn run_sample(
     frames: &FrameCache,
     limits: &Limits,
@@ -204,9 +209,26 @@ pub fn run_sample(
         1,
         std::thread::available_parallelism().map_or(1, |n| n.get()),
     );
-    let results = sea.map_or_else(Vec::new, |sea| {
-        sea.query_batch_parallel(&world, fields, threads)
-    });
+    // In blocks, with the request's deadline checked between them: a batch that runs past
+    // `request_timeout_ms` (the HTTP answer is a 503 by then) stops instead of running on.
+    let deadline = std::time::Instant::now() + limits.request_timeout();
+    let mut results = Vec::with_capacity(world.len());
+    if let Some(sea) = sea {
+        for block in world.chunks(DEADLINE_BLOCK) {
+            if std::time::Instant::now() > deadline {
+                metrics::counter!("swell_queries_abandoned_total").increment(1);
+                return Err(ApiError::new(
+                    axum::http::StatusCode::SERVICE_UNAVAILABLE,
+                    "timeout",
+                    format!(
+                        "the sample took longer than {} ms (request_timeout_ms); ask for fewer points",
+                        limits.request_timeout_ms
+                    ),
+                ));
+            }
+            results.extend(sea.query_batch_parallel(block, fields, threads));
+        }
+    }
     metrics::counter!("swell_points_sampled_total").increment(world.len() as u64);
     let mut out = SampleResponse {
         t,

@@ -27,6 +27,17 @@
 //! 1009 (message too big): tungstenite refuses it on read, and the session queues the Close
 //! frame before the socket drops.
 //!
+//! # Hygiene
+//! The handshake's `Sec-WebSocket-Key` must be base64 of 16 bytes (400 otherwise). A session
+//! that receives nothing for [`crate::Limits::ws_idle_timeout_ms`] is pinged at half of it and
+//! closed (1001) at the end. A client over [`crate::Limits::ws_messages_per_s`] gets a
+//! `rate_limited` error for each message over; one that keeps going past twice the burst is
+//! closed (1008). Protocol violations close with RFC 6455's codes: 1002 (unmasked frames,
+//! reserved bits or opcodes, bad control frames, stray continuations), 1007 (text that is not
+//! UTF-8), 1009 (too big). A client that stops reading is sent Close 1008 if the socket takes
+//! it, and its unread messages are drained for a moment first, so the connection ends with a
+//! FIN rather than a reset.
+//!
 //! # Shutdown
 //! Each session watches the server's shutdown token ([`shutdown`](crate::state::Inner::shutdown) field): when it
 //! fires, the session queues a Close frame (1001, going away), lets the writer flush it (up to
@@ -42,6 +53,7 @@ use std::sync::Arc;
 use std::task::Poll;
 use std::time::Duration;
 
+use axum::body::Bytes;
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
 use axum::extract::{Path, State};
@@ -68,6 +80,13 @@ const QUERIES_PER_SESSION: usize = 8;
 /// How long a closing session waits for its writer to flush the Close frame (a client that does
 /// not read may never let it through).
 pub const CLOSE_GRACE: Duration = Duration::from_secs(2);
+
+/// How long a writer tries to send Close 1008 to a client that stopped reading.
+const SLOW_CLOSE_TRY: Duration = Duration::from_millis(500);
+
+/// How long a session drains the messages of a client it drops for not reading, so the socket
+/// closes with a FIN, not a reset (closing with unread bytes makes the kernel send RST).
+const DRAIN_FOR: Duration = Duration::from_millis(500);
 
 /// Picks the subprotocol: the first the client offers that we speak, JSON when it offers none.
 ///
@@ -113,10 +132,17 @@ pub const WS_READ_BUFFER_BYTES: usize = 8 * 1024;
 pub async fn stream(
     State(state): State<AppState>,
     Path(id): Path<String>,
+    peer: Option<axum::Extension<crate::peers::PeerAddr>>,
     headers: HeaderMap,
     ws: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
 ) -> Result<Response, ApiError> {
     state.scene(&id)?;
+    check_key(&headers)?;
+    // Exempt clients (loopback by default: load tests, sidecars) have no message rate.
+    let exempt = peer.is_none_or(|p| {
+        let client = state.peer_policy.client(p.0.0.ip(), &headers);
+        state.peer_policy.exempt.contains(client)
+    });
     let ws = ws.map_err(|r| {
         ApiError::new(
             StatusCode::BAD_REQUEST,
@@ -148,9 +174,57 @@ pub async fn stream(
     Ok(ws.on_upgrade(move |socket: WebSocket| {
         tasks.track_future(async move {
             let (sink, stream) = socket.split();
-            session(state, id, codec, sink, stream).await;
+            session(state, id, codec, exempt, sink, stream).await;
         })
     }))
+}
+
+/// Checks `Sec-WebSocket-Key` (RFC 6455 §4.1: base64 of 16 random bytes), when the request is
+/// an upgrade at all (a plain GET is answered `websocket_required` by the upgrade extractor).
+///
+/// # Errors
+/// 400 `bad_websocket_key` naming what is wrong.
+fn check_key(headers: &HeaderMap) -> Result<(), ApiError> {
+    let Some(key) = headers.get(header::SEC_WEBSOCKET_KEY) else {
+        return Ok(());
+    };
+    if valid_key(key.as_bytes()) {
+        Ok(())
+    } else {
+        Err(ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "bad_websocket_key",
+            "Sec-WebSocket-Key must be the base64 of 16 bytes (24 characters ending in ==)",
+        )
+        .with_field("Sec-WebSocket-Key"))
+    }
+}
+
+/// Whether `key` is the canonical base64 of 16 bytes: 22 alphabet characters, `==`, and no
+/// bits set past the 128th in the last character.
+fn valid_key(key: &[u8]) -> bool {
+    fn value(c: u8) -> Option<u8> {
+        match c {
+            b'A'..=b'Z' => Some(c - b'A'),
+            b'a'..=b'z' => Some(c - b'a' + 26),
+            b'0'..=b'9' => Some(c - b'0' + 52),
+            b'+' => Some(62),
+            b'/' => Some(63),
+            _ => None,
+        }
+    }
+    if key.len() != 24 || &key[22..] != b"==" {
+        return false;
+    }
+    let Some(values) = key[..22]
+        .iter()
+        .map(|&c| value(c))
+        .collect::<Option<Vec<u8>>>()
+    else {
+        return false;
+    };
+    // 22 characters carry 132 bits; the last 4 must be zero for exactly 16 bytes.
+    values[21] & 0x0f == 0
 }
 
 /// Why a session ended.
@@ -165,6 +239,12 @@ enum End {
     SlowConsumer,
     /// The server is shutting down.
     Shutdown,
+    /// Nothing received for `ws_idle_timeout_ms`: Close 1001.
+    Idle,
+    /// A protocol violation: Close 1002, or 1007 for text that is not UTF-8.
+    Protocol(u16),
+    /// Kept sending past the message rate: Close 1008.
+    Flood,
 }
 
 /// What a session hands its writer, in order: a message to send, or a change of the tick
@@ -241,6 +321,8 @@ impl Writer {
             // Biased: answers and subscription changes before ticks, in the order queued.
             let msg = tokio::select! {
                 biased;
+                // The queue overflowed: the client is not reading.
+                () = self.slow.cancelled() => return self.not_reading(sink).await,
                 out = rx.recv() => match out {
                     None => break,
                     Some(Out::Message(m)) => m,
@@ -280,26 +362,40 @@ impl Writer {
             let is_close = matches!(msg, Message::Close(_));
             // Almost every send completes at once (the socket has room): the stall timer is
             // armed only for one that does not, not a thousand times a tick.
-            let mut send = sink.send(msg);
-            let first =
-                std::future::poll_fn(|cx| Poll::Ready(send.poll_unpin(cx).map(|r| r.is_ok())))
-                    .await;
-            let sent = match first {
-                Poll::Ready(ok) => Ok(ok),
-                Poll::Pending => tokio::time::timeout(self.stall, send)
-                    .await
-                    .map(|r| r.is_ok()),
+            let sent = {
+                let mut send = sink.send(msg);
+                let first =
+                    std::future::poll_fn(|cx| Poll::Ready(send.poll_unpin(cx).map(|r| r.is_ok())))
+                        .await;
+                match first {
+                    Poll::Ready(ok) => Ok(ok),
+                    Poll::Pending => tokio::select! {
+                        r = tokio::time::timeout(self.stall, send) => r.map(|r| r.is_ok()).map_err(|_| ()),
+                        () = self.slow.cancelled() => Err(()),
+                    },
+                }
             };
             match sent {
                 Ok(true) if !is_close => {}
                 Ok(_) => return,
-                Err(_) => {
-                    self.slow.cancel();
-                    return;
-                }
+                Err(()) => return self.not_reading(sink).await,
             }
         }
         let _ = sink.close().await;
+    }
+
+    /// The client stopped reading (a send stalled, or the queue overflowed): tells the session
+    /// and tries, briefly, to say so with Close 1008 (the socket may have no room for it).
+    async fn not_reading<W>(self, mut sink: W)
+    where
+        W: Sink<Message> + Unpin,
+    {
+        self.slow.cancel();
+        let close = Message::Close(Some(CloseFrame {
+            code: close_code::POLICY,
+            reason: "not reading: answers are waiting to be sent".into(),
+        }));
+        let _ = tokio::time::timeout(SLOW_CLOSE_TRY, sink.send(close)).await;
     }
 }
 
@@ -337,8 +433,15 @@ async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<SharedTick>> {
 }
 
 /// Runs one session over any message sink and stream (a real socket, or channels in tests).
-pub async fn session<W, R>(state: AppState, scene_id: String, codec: Codec, sink: W, mut stream: R)
-where
+/// An `exempt` client ([`crate::Limits::exempt_peers`]) has no message rate limit.
+pub async fn session<W, R>(
+    state: AppState,
+    scene_id: String,
+    codec: Codec,
+    exempt: bool,
+    sink: W,
+    mut stream: R,
+) where
     W: Sink<Message> + Unpin + Send + 'static,
     R: Stream<Item = Result<Message, axum::Error>> + Unpin,
 {
@@ -364,19 +467,59 @@ where
     );
     let permits = Arc::new(Semaphore::new(QUERIES_PER_SESSION));
     let mut subscribed = false;
+    let idle = state.limits.ws_idle_timeout();
+    let mut last_heard = tokio::time::Instant::now();
+    let mut pinged = false;
+    let mut rate = MessageRate::new(
+        if exempt {
+            0.0
+        } else {
+            state.limits.ws_messages_per_s
+        },
+        state.limits.ws_messages_burst,
+    );
     let end = loop {
+        // Pinged at half the idle timeout, closed at the end of it.
+        let wake = idle.map(|d| last_heard + if pinged { d } else { d / 2 });
         // Biased: shutdown and overflow win over more work. (Ticks are the writer's: see
         // `Writer::run`.)
         tokio::select! {
             biased;
             () = shutdown.cancelled() => break End::Shutdown,
             () = slow.cancelled() => break End::SlowConsumer,
+            () = sleep_until(wake) => {
+                if pinged {
+                    break End::Idle;
+                }
+                pinged = true;
+                queue.push_out(Out::Message(Message::Ping(Bytes::from_static(b"swell"))));
+            }
             msg = stream.next() => {
+                last_heard = tokio::time::Instant::now();
+                pinged = false;
                 let decoded = match msg {
                     Some(Err(e)) if too_big(&e) => break End::TooBig,
+                    Some(Err(e)) if violation(&e).is_some() => {
+                        break End::Protocol(violation(&e).unwrap_or(close_code::PROTOCOL));
+                    }
                     None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break End::Client,
                     // Control frames: tungstenite answers pings itself.
                     Some(Ok(Message::Ping(_) | Message::Pong(_))) => continue,
+                    Some(Ok(_)) if !rate.allow(std::time::Instant::now()) => {
+                        if rate.flooding() {
+                            break End::Flood;
+                        }
+                        metrics::counter!("swell_ws_rate_limited_total").increment(1);
+                        queue.error(None, ApiError::new(
+                            StatusCode::TOO_MANY_REQUESTS,
+                            "rate_limited",
+                            format!(
+                                "more than {} messages a second on this socket (ws_messages_per_s); this one was dropped",
+                                state.limits.ws_messages_per_s
+                            ),
+                        ));
+                        continue;
+                    }
                     Some(Ok(Message::Text(t))) => match codec {
                         Codec::Json => messages::decode_json(t.as_str()),
                         Codec::Protobuf => Err(wrong_frame("text", PROTOBUF_PROTOCOL, "binary")),
@@ -400,12 +543,56 @@ where
     }
     match end {
         End::SlowConsumer => {
-            // The socket is not draining: no Close frame would get through. Drop it.
+            // The writer tries Close 1008 (the socket may have no room). Meanwhile read and
+            // drop what the client sent, so the socket closes with a FIN rather than a reset.
             metrics::counter!("swell_ws_slow_consumer_disconnects_total").increment(1);
             tracing::info!(scene = %scene_id, "disconnecting a WebSocket client that stopped reading");
+            drop(queue);
+            let drain = async {
+                while let Ok(Some(Ok(_))) = tokio::time::timeout(DRAIN_FOR, stream.next()).await {}
+            };
+            let _ = tokio::time::timeout(CLOSE_GRACE, async {
+                let _ = tokio::join!(drain, &mut writer);
+            })
+            .await;
             writer.abort();
         }
-        End::Shutdown | End::Client | End::TooBig => {
+        End::Shutdown | End::Client | End::TooBig | End::Idle | End::Protocol(_) | End::Flood => {
+            let close = |code: u16, reason: String| {
+                Out::Message(Message::Close(Some(CloseFrame {
+                    code,
+                    reason: reason.into(),
+                })))
+            };
+            match end {
+                End::Idle => {
+                    metrics::counter!("swell_ws_idle_disconnects_total").increment(1);
+                    let _ = queue.tx.try_send(close(
+                        close_code::AWAY,
+                        "idle: nothing received (ws_idle_timeout_ms)".into(),
+                    ));
+                }
+                End::Protocol(code) => {
+                    metrics::counter!("swell_ws_protocol_errors_total").increment(1);
+                    let why = if code == close_code::INVALID {
+                        "a text message that is not UTF-8"
+                    } else {
+                        "a WebSocket protocol violation"
+                    };
+                    let _ = queue.tx.try_send(close(code, why.into()));
+                }
+                End::Flood => {
+                    metrics::counter!("swell_ws_flood_disconnects_total").increment(1);
+                    let _ = queue.tx.try_send(close(
+                        close_code::POLICY,
+                        format!(
+                            "kept sending over {} messages a second (ws_messages_per_s)",
+                            state.limits.ws_messages_per_s
+                        ),
+                    ));
+                }
+                _ => {}
+            }
             if end == End::Shutdown {
                 let _ = queue
                     .tx
@@ -442,6 +629,76 @@ where
         }
     }
     metrics::gauge!("swell_ws_sessions").decrement(1.0);
+}
+
+/// Sleeps until `at`; forever without one.
+async fn sleep_until(at: Option<tokio::time::Instant>) {
+    match at {
+        Some(at) => tokio::time::sleep_until(at).await,
+        None => std::future::pending().await,
+    }
+}
+
+/// A socket's message rate: a token bucket, and a count of messages refused in a row.
+struct MessageRate {
+    rate: f64,
+    burst: f64,
+    tokens: f64,
+    at: std::time::Instant,
+    refused: u32,
+}
+
+impl MessageRate {
+    fn new(rate: f64, burst: f64) -> Self {
+        let burst = burst.max(1.0);
+        Self {
+            rate,
+            burst,
+            tokens: burst,
+            at: std::time::Instant::now(),
+            refused: 0,
+        }
+    }
+
+    /// Takes one message at `now`; false when over the rate.
+    fn allow(&mut self, now: std::time::Instant) -> bool {
+        if self.rate <= 0.0 {
+            return true;
+        }
+        let dt = now.saturating_duration_since(self.at).as_secs_f64();
+        self.tokens = (self.tokens + dt * self.rate).min(self.burst);
+        self.at = now;
+        if self.tokens >= 1.0 {
+            self.tokens -= 1.0;
+            self.refused = 0;
+            true
+        } else {
+            self.refused += 1;
+            false
+        }
+    }
+
+    /// Whether the client kept going after being told: more refused in a row than twice the
+    /// burst.
+    fn flooding(&self) -> bool {
+        f64::from(self.refused) > 2.0 * self.burst
+    }
+}
+
+/// The RFC 6455 close code for a read error that is the client's protocol violation: 1007 for
+/// text that is not UTF-8, 1002 for the rest (unmasked or reserved frames, bad control frames,
+/// stray continuations). `None` for I/O errors and the like (the connection is gone).
+fn violation(e: &axum::Error) -> Option<u16> {
+    let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    while let Some(err) = cur {
+        match err.downcast_ref::<tungstenite::Error>() {
+            Some(tungstenite::Error::Utf8(_)) => return Some(close_code::INVALID),
+            Some(tungstenite::Error::Protocol(_)) => return Some(close_code::PROTOCOL),
+            _ => {}
+        }
+        cur = err.source();
+    }
+    None
 }
 
 /// Whether a read error is tungstenite refusing a message or a frame over the size limit

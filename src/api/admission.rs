@@ -1,0 +1,429 @@
+//! Admission: what a request must get past before a handler works on it, in this order.
+//!
+//! 1. **Rate** — requests per second per client address ([`crate::Limits::peer_requests_per_s`])
+//!    and per token ([`crate::Limits::token_requests_per_s`]): 429 `rate_limited` with
+//!    `Retry-After`.
+//! 2. **Role** — the route's role ([`required_role`]) against the bearer token: 401/403 before a
+//!    byte of the body is read (and before `100 Continue` is sent).
+//! 3. **Size** — a `Content-Length` over `max_body_bytes`: 413 at once, again without reading.
+//! 4. **Body** — read whole, within [`crate::Limits::body_timeout_ms`] and at no less than
+//!    [`crate::Limits::body_min_bytes_per_s`] after a short grace: 408 otherwise. The bytes are
+//!    charged to the buffer budget (in total and per client) while held: 503 beyond it.
+//! 5. **Work** — only now does the request take one of `max_in_flight` slots (503 beyond), so
+//!    clients that trickle bodies cannot fill them; the handler runs under the request timeout.
+//! 6. **Answer** — the answer's bytes are charged to the same budget until hyper has written them
+//!    (a client that stops reading holds them only until the connection's send stall timeout).
+//!
+//! Health probes (`/healthz`, `/readyz`) are routed outside all of this (see [`super::router`]),
+//! so no amount of client traffic makes them wait or fail.
+
+use std::net::IpAddr;
+use std::pin::Pin;
+use std::sync::Arc;
+use std::task::{Context, Poll};
+use std::time::{Duration, Instant};
+
+use axum::body::{Body, Bytes};
+use axum::extract::{MatchedPath, Request, State};
+use axum::http::{HeaderValue, Method, StatusCode, header};
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use http_body::{Body as _, Frame, SizeHint};
+use http_body_util::BodyExt as _;
+use tokio::sync::Semaphore;
+
+use crate::access::{Access, Presented, Role};
+use crate::config::Limits;
+use crate::error::ApiError;
+use crate::peers::{Budget, Charge, OverBudget, PeerAddr, PeerPolicy, RateLimiter};
+use crate::state::AppState;
+
+/// How long a body may take before the minimum rate applies, s: a small body arrives in one
+/// packet well within it, and a client on a slow link gets a moment to start.
+pub const BODY_RATE_GRACE: Duration = Duration::from_secs(2);
+
+/// How often a body read checks its deadline and rate while no bytes arrive.
+const BODY_CHECK_EVERY: Duration = Duration::from_millis(250);
+
+/// The shared state of [`admit`].
+#[derive(Debug)]
+pub struct Gate {
+    state: AppState,
+    in_flight: Semaphore,
+    budget: Arc<Budget>,
+    policy: PeerPolicy,
+    per_peer: RateLimiter<IpAddr>,
+    per_token: RateLimiter<u64>,
+    metrics_public: bool,
+}
+
+impl Gate {
+    /// The gate for `state`'s limits and access.
+    pub fn new(state: AppState, policy: PeerPolicy, budget: Arc<Budget>) -> Arc<Gate> {
+        let l = &state.limits;
+        Arc::new(Gate {
+            in_flight: Semaphore::new(l.max_in_flight.max(1)),
+            per_peer: RateLimiter::new(l.peer_requests_per_s, l.peer_requests_burst),
+            per_token: RateLimiter::new(l.token_requests_per_s, l.token_requests_burst),
+            metrics_public: l.metrics_public,
+            budget,
+            policy,
+            state,
+        })
+    }
+}
+
+/// The role a route needs: `None` for public ones. Reads are public unless
+/// `reads_need_token`; `/metrics` needs an admin token unless `metrics_public`.
+pub fn required_role(
+    method: &Method,
+    route: Option<&str>,
+    reads_need_token: bool,
+    metrics_public: bool,
+) -> Option<Role> {
+    let route = route?;
+    let read = reads_need_token.then_some(Role::Reader);
+    match (method.as_str(), route) {
+        (_, "/healthz" | "/readyz" | "/openapi.json" | "/docs") => None,
+        (_, r) if r == "/viewer" || r.starts_with("/viewer/") => None,
+        (_, "/metrics") => (!metrics_public).then_some(Role::Admin),
+        ("PUT" | "DELETE", "/v1/scenes/{id}") | ("PUT", "/v1/scenes/{id}/clock") => {
+            Some(Role::Admin)
+        }
+        ("POST", "/v1/scenes/{id}/bodies" | "/v1/scenes/{id}/bodies/{bid}/input")
+        | ("DELETE", "/v1/scenes/{id}/bodies/{bid}")
+        | ("POST", "/v1/scenes/{id}/impacts") => Some(Role::Game),
+        _ => read,
+    }
+}
+
+/// The bearer token of a request, if it has one.
+pub fn bearer(headers: &axum::http::HeaderMap) -> Option<&str> {
+    headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| {
+            let (scheme, rest) = v.split_once(' ')?;
+            scheme.eq_ignore_ascii_case("bearer").then(|| rest.trim())
+        })
+}
+
+/// Checks a request's token against the role its route needs.
+///
+/// # Errors
+/// 401 `unauthorized` without a token; 403 `forbidden` for a token that is not ours or whose
+/// role is below the one needed.
+pub fn authorize(need: Option<Role>, presented: Presented) -> Result<(), ApiError> {
+    let Some(need) = need else {
+        return Ok(());
+    };
+    match presented {
+        Presented::None => Err(ApiError::new(
+            StatusCode::UNAUTHORIZED,
+            "unauthorized",
+            format!(
+                "this endpoint needs a {} token: Authorization: Bearer <token>",
+                need.as_str()
+            ),
+        )),
+        Presented::Unknown => Err(ApiError::new(
+            StatusCode::FORBIDDEN,
+            "forbidden",
+            "the token is not valid",
+        )),
+        Presented::Valid(r) if r >= need => Ok(()),
+        Presented::Valid(r) => Err(ApiError::new(
+            StatusCode::FORBIDDEN,
+            "forbidden",
+            format!(
+                "this endpoint needs a {} token; this one is a {} token",
+                need.as_str(),
+                r.as_str()
+            ),
+        )),
+    }
+}
+
+fn rate_limited(what: &str, retry_after: f64) -> Response {
+    metrics::counter!("swell_http_rate_limited_total", "key" => what.to_owned()).increment(1);
+    let secs = retry_after.ceil().clamp(1.0, 3600.0);
+    let mut r = ApiError::new(
+        StatusCode::TOO_MANY_REQUESTS,
+        "rate_limited",
+        format!("too many requests from this {what}; retry after {secs} s"),
+    )
+    .into_response();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    r.headers_mut()
+        .insert(header::RETRY_AFTER, HeaderValue::from(secs as u64));
+    r
+}
+
+fn over_budget(which: OverBudget) -> Response {
+    metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
+    let msg = match which {
+        OverBudget::Total => {
+            "the server holds as many request and answer bytes as it allows (max_buffered_bytes); retry shortly"
+        }
+        OverBudget::Peer => {
+            "this client holds as many request and answer bytes as it may (max_buffered_bytes_per_peer); read your answers, then retry"
+        }
+    };
+    let mut r = ApiError::overloaded(msg).into_response();
+    r.headers_mut()
+        .insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
+    r
+}
+
+/// The admission middleware (see the module docs for the order of checks).
+pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> Response {
+    let limits = &gate.state.limits;
+    let peer = req.extensions().get::<PeerAddr>().map(|p| p.0.ip());
+    // The client (through trusted proxies); `None` for an exempt one.
+    let client = peer
+        .map(|p| gate.policy.client(p, req.headers()))
+        .filter(|c| !gate.policy.exempt.contains(*c));
+    let now = Instant::now();
+    if let Some(c) = client
+        && let Err(wait) = gate.per_peer.check(c, now)
+    {
+        return rate_limited("address", wait);
+    }
+    let route = req.extensions().get::<MatchedPath>().map(|m| m.as_str());
+    let access = &gate.state.access;
+    let need = required_role(
+        req.method(),
+        route,
+        access.reads_need_token(),
+        gate.metrics_public,
+    );
+    let token = bearer(req.headers());
+    let presented = access.check(token);
+    if let Err(e) = authorize(need, presented) {
+        return e.into_response();
+    }
+    if let (Some(t), Presented::Valid(_)) = (token, presented)
+        && let Err(wait) = gate.per_token.check(Access::token_key(t), now)
+    {
+        return rate_limited("token", wait);
+    }
+
+    let (parts, body) = req.into_parts();
+    let declared = parts
+        .headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok());
+    let has_body =
+        declared.is_some_and(|n| n > 0) || parts.headers.contains_key(header::TRANSFER_ENCODING);
+    if declared.is_some_and(|n| n > limits.max_body_bytes as u64) {
+        return too_large(limits).into_response();
+    }
+    let mut charge = gate.budget.charge(client);
+    let body = if has_body {
+        match read_body(body, declared, limits, &mut charge).await {
+            Ok(bytes) => Body::from(bytes),
+            Err(r) => return r,
+        }
+    } else {
+        body
+    };
+    let req = Request::from_parts(parts, body);
+
+    let Ok(_permit) = gate.in_flight.try_acquire() else {
+        metrics::counter!("swell_http_shed_total").increment(1);
+        return ApiError::overloaded("too many requests in flight; retry shortly").into_response();
+    };
+    let timeout = limits.request_timeout();
+    let resp = match tokio::time::timeout(timeout, next.run(req)).await {
+        Ok(r) => r,
+        Err(_) => {
+            return ApiError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "timeout",
+                format!("the request took longer than {} ms", timeout.as_millis()),
+            )
+            .into_response();
+        }
+    };
+    // The request body is gone; the answer takes its place in the budget until written.
+    drop(charge);
+    charge_answer(&gate.budget, client, resp)
+}
+
+fn too_large(limits: &Limits) -> ApiError {
+    ApiError::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "body_too_large",
+        format!(
+            "request body is larger than the server's limit of {} bytes (max_body_bytes)",
+            limits.max_body_bytes
+        ),
+    )
+}
+
+fn request_timeout(message: String) -> Response {
+    metrics::counter!("swell_http_body_timeouts_total").increment(1);
+    let mut r =
+        ApiError::new(StatusCode::REQUEST_TIMEOUT, "request_timeout", message).into_response();
+    // The rest of the body may still come: the connection cannot carry another request.
+    r.headers_mut()
+        .insert(header::CONNECTION, HeaderValue::from_static("close"));
+    r
+}
+
+/// Reads a whole body within the size limit, the deadline and the minimum rate, charging its
+/// bytes to `charge` as they arrive.
+async fn read_body(
+    mut body: Body,
+    declared: Option<u64>,
+    limits: &Limits,
+    charge: &mut Charge,
+) -> Result<Bytes, Response> {
+    let start = Instant::now();
+    let deadline = start + limits.body_timeout();
+    let rate = limits.body_min_bytes_per_s as f64;
+    if let Some(n) = declared {
+        // Charged up front: a client cannot make the server start reading what it cannot hold.
+        #[allow(clippy::cast_possible_truncation)]
+        charge.grow(n as usize).map_err(over_budget)?;
+    }
+    let mut charged = declared.unwrap_or(0) as usize;
+    let mut buf = bytes::BytesMut::with_capacity(charged.min(limits.max_body_bytes));
+    let mut tick = tokio::time::interval_at(
+        tokio::time::Instant::now() + BODY_CHECK_EVERY,
+        BODY_CHECK_EVERY,
+    );
+    loop {
+        let frame = tokio::select! {
+            f = body.frame() => Some(f),
+            _ = tick.tick() => None,
+        };
+        let elapsed = start.elapsed();
+        match frame {
+            Some(Some(Ok(f))) => {
+                if let Ok(data) = f.into_data() {
+                    let total = buf.len() + data.len();
+                    if total > limits.max_body_bytes {
+                        return Err(too_large(limits).into_response());
+                    }
+                    if total > charged {
+                        charge.grow(total - charged).map_err(over_budget)?;
+                        charged = total;
+                    }
+                    buf.extend_from_slice(&data);
+                }
+            }
+            Some(Some(Err(e))) => {
+                return Err(ApiError::new(
+                    StatusCode::BAD_REQUEST,
+                    "bad_body",
+                    format!("the request body could not be read: {e}"),
+                )
+                .into_response());
+            }
+            Some(None) => return Ok(buf.freeze()),
+            None => {} // a check while waiting
+        }
+        if Instant::now() >= deadline {
+            return Err(request_timeout(format!(
+                "the request body did not arrive within {} ms (body_timeout_ms)",
+                limits.body_timeout_ms
+            )));
+        }
+        if elapsed > BODY_RATE_GRACE && rate > 0.0 {
+            let due = rate * (elapsed - BODY_RATE_GRACE).as_secs_f64();
+            let due = declared.map_or(due, |n| due.min(n as f64));
+            if (buf.len() as f64) < due {
+                return Err(request_timeout(format!(
+                    "the request body arrives slower than {} bytes/s (body_min_bytes_per_s)",
+                    limits.body_min_bytes_per_s
+                )));
+            }
+        }
+    }
+}
+
+/// Wraps the answer's body so its bytes count against the budget until it is written (or the
+/// connection drops it). An answer that would exceed the budget is replaced by a 503.
+fn charge_answer(budget: &Arc<Budget>, client: Option<IpAddr>, resp: Response) -> Response {
+    let size = resp.body().size_hint().upper().unwrap_or(0);
+    // Small answers (most of them) are not worth the bookkeeping.
+    if size < 64 * 1024 {
+        return resp;
+    }
+    let mut charge = budget.charge(client);
+    #[allow(clippy::cast_possible_truncation)]
+    if let Err(which) = charge.grow(size as usize) {
+        return over_budget(which);
+    }
+    let (parts, body) = resp.into_parts();
+    Response::from_parts(
+        parts,
+        Body::new(Charged {
+            body,
+            _charge: charge,
+        }),
+    )
+}
+
+/// A body that holds its [`Charge`] until dropped.
+struct Charged {
+    body: Body,
+    _charge: Charge,
+}
+
+impl http_body::Body for Charged {
+    type Data = Bytes;
+    type Error = axum::Error;
+
+    fn poll_frame(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+    ) -> Poll<Option<Result<Frame<Bytes>, axum::Error>>> {
+        Pin::new(&mut self.body).poll_frame(cx)
+    }
+
+    fn is_end_stream(&self) -> bool {
+        self.body.is_end_stream()
+    }
+
+    fn size_hint(&self) -> SizeHint {
+        self.body.size_hint()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn routes_and_roles() {
+        let get = Method::GET;
+        let r = |m: &Method, p: &str| required_role(m, Some(p), false, true);
+        assert_eq!(r(&Method::PUT, "/v1/scenes/{id}"), Some(Role::Admin));
+        assert_eq!(r(&Method::DELETE, "/v1/scenes/{id}"), Some(Role::Admin));
+        assert_eq!(r(&Method::PUT, "/v1/scenes/{id}/clock"), Some(Role::Admin));
+        assert_eq!(r(&Method::POST, "/v1/scenes/{id}/bodies"), Some(Role::Game));
+        assert_eq!(
+            r(&Method::POST, "/v1/scenes/{id}/bodies/{bid}/input"),
+            Some(Role::Game)
+        );
+        assert_eq!(
+            r(&Method::POST, "/v1/scenes/{id}/impacts"),
+            Some(Role::Game)
+        );
+        assert_eq!(r(&get, "/v1/scenes/{id}/impacts"), None);
+        assert_eq!(r(&Method::POST, "/v1/scenes/{id}/sample"), None);
+        assert_eq!(
+            required_role(&Method::POST, Some("/v1/scenes/{id}/sample"), true, true),
+            Some(Role::Reader)
+        );
+        assert_eq!(required_role(&get, Some("/healthz"), true, false), None);
+        assert_eq!(
+            required_role(&get, Some("/metrics"), false, false),
+            Some(Role::Admin)
+        );
+        assert_eq!(required_role(&get, None, true, false), None);
+    }
+}

@@ -1,0 +1,76 @@
+//! One error shape everywhere: [`json_errors`] turns a rejection that an extractor or a layer
+//! wrote as plain text (a path segment that is not UTF-8, a malformed query string, a body limit)
+//! into the JSON error every other rejection is, with a code that fits its status.
+
+use axum::extract::Request;
+use axum::http::{StatusCode, header};
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use http_body_util::BodyExt as _;
+
+use crate::error::ApiError;
+
+/// Longest plain-text rejection kept as the JSON error's message, bytes.
+const MAX_MESSAGE: usize = 1024;
+
+/// The code of a rejection nobody gave a code, by status.
+pub fn code_for(status: StatusCode) -> &'static str {
+    match status.as_u16() {
+        400 => "bad_request",
+        401 => "unauthorized",
+        403 => "forbidden",
+        404 => "not_found",
+        405 => "method_not_allowed",
+        408 => "request_timeout",
+        413 => "body_too_large",
+        414 => "uri_too_long",
+        415 => "unsupported_media_type",
+        422 => "invalid_value",
+        429 => "rate_limited",
+        431 => "headers_too_large",
+        503 => "overloaded",
+        s if s >= 500 => "internal",
+        _ => "bad_request",
+    }
+}
+
+/// Rewrites 4xx/5xx answers that are not JSON (nor protobuf) as the JSON error.
+pub async fn json_errors(req: Request, next: Next) -> Response {
+    let resp = next.run(req).await;
+    let status = resp.status();
+    if !(status.is_client_error() || status.is_server_error()) {
+        return resp;
+    }
+    let typed = resp
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|ct| {
+            ct.starts_with("application/json") || ct.starts_with("application/x-protobuf")
+        });
+    if typed {
+        return resp;
+    }
+    let (parts, body) = resp.into_parts();
+    // Rejection texts are short; a long body is cut rather than read whole.
+    let limited = http_body_util::Limited::new(body, MAX_MESSAGE * 4);
+    let text = match limited.collect().await {
+        Ok(b) => String::from_utf8_lossy(&b.to_bytes()).into_owned(),
+        Err(_) => String::new(),
+    };
+    let mut message: String = text.trim().chars().take(MAX_MESSAGE).collect();
+    if message.is_empty() {
+        message = status
+            .canonical_reason()
+            .unwrap_or("request rejected")
+            .to_owned();
+    }
+    let mut out = ApiError::new(status, code_for(status), message).into_response();
+    // Headers that say how to retry or what is allowed survive the rewrite.
+    for name in [header::RETRY_AFTER, header::ALLOW, header::CONNECTION] {
+        if let Some(v) = parts.headers.get(&name) {
+            out.headers_mut().insert(name, v.clone());
+        }
+    }
+    out
+}

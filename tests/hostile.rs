@@ -1,0 +1,568 @@
+//! Issue 27: clients that are slow or hostile cannot take the server down or starve others.
+//! Each test starts a real server on loopback and speaks raw TCP where a well-behaved HTTP
+//! client would hide the behaviour. Attackers bind their own loopback source addresses
+//! (127.0.x.y), so per-peer limits see distinct clients; the servers here exempt nobody.
+
+mod common;
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::time::{Duration, Instant};
+
+use common::{TOKEN, TestServer, code, config, into_json};
+use futures_util::{SinkExt, StreamExt};
+use reqwest::Method;
+use serde_json::{Value, json};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpSocket, TcpStream};
+use tokio_tungstenite::tungstenite::Message;
+
+/// A config whose per-peer limits apply to loopback clients too.
+fn hostile_config() -> swell::Config {
+    let mut c = config();
+    c.limits.exempt_peers = vec![];
+    c.limits.trusted_proxies = vec![];
+    c
+}
+
+async fn connect_from(src: [u8; 4], to: SocketAddr) -> TcpStream {
+    let s = TcpSocket::new_v4().unwrap();
+    s.bind(SocketAddr::new(IpAddr::V4(Ipv4Addr::from(src)), 0))
+        .unwrap();
+    s.connect(to).await.unwrap()
+}
+
+/// Reads until the peer closes or `timeout`; what arrived.
+async fn read_bytes(s: &mut TcpStream, timeout: Duration) -> Vec<u8> {
+    let mut out = Vec::new();
+    let _ = tokio::time::timeout(timeout, s.read_to_end(&mut out)).await;
+    out
+}
+
+/// [`read_bytes`] as text.
+async fn read_all(s: &mut TcpStream, timeout: Duration) -> String {
+    String::from_utf8_lossy(&read_bytes(s, timeout).await).into_owned()
+}
+
+/// The code of the first Close frame (`0x88`, a length under 126, then the code) in `bytes`.
+fn close_code_in(bytes: &[u8]) -> Option<u16> {
+    let at = bytes
+        .windows(2)
+        .position(|w| w[0] == 0x88 && w[1] >= 2 && w[1] < 126)?;
+    Some(u16::from_be_bytes([
+        *bytes.get(at + 2)?,
+        *bytes.get(at + 3)?,
+    ]))
+}
+
+/// Issue 27: ~530 sockets trickling a POST body made every request — probes included — answer
+/// 503 for 30 s, because requests still reading their body held `max_in_flight` slots. Now the
+/// slots are taken only once a body is read, probes sit outside admission, and a trickled body
+/// gets 408 once it falls below the minimum rate.
+#[tokio::test]
+async fn slow_bodies_neither_fill_the_slots_nor_delay_the_probes() {
+    let mut c = hostile_config();
+    c.limits.max_in_flight = 16;
+    c.limits.max_connections_per_peer = 1000;
+    let s = TestServer::start(c).await;
+    let mut slow = Vec::new();
+    for i in 0..200u32 {
+        let mut t = connect_from([127, 0, 2, 1 + (i % 4) as u8], s.addr).await;
+        t.write_all(
+            b"POST /v1/scenes/calm/sample HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\ncontent-length: 100\r\n\r\n{",
+        )
+        .await
+        .unwrap();
+        slow.push(t);
+    }
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // Far more sockets than slots, yet queries and probes are answered at once.
+    for path in ["/healthz", "/readyz", "/v1/scenes/calm/height?x=1&z=2"] {
+        let t0 = Instant::now();
+        let r = s.get(path).await;
+        assert_eq!(r.status(), 200, "{path}");
+        assert!(
+            t0.elapsed() < Duration::from_millis(500),
+            "{path} took {:?}",
+            t0.elapsed()
+        );
+    }
+    // Past the 2 s grace the trickle is far below 4 KiB/s: 408 with the JSON error.
+    let answer = read_all(&mut slow[0], Duration::from_secs(6)).await;
+    assert!(answer.starts_with("HTTP/1.1 408"), "{answer}");
+    assert!(answer.contains("\"request_timeout\""), "{answer}");
+    s.stop().await;
+}
+
+/// Issue 27: an upload without a token was read (up to 8 MB) before the token was checked, and
+/// `Expect: 100-continue` got `100 Continue` before the 413. Now both are answered from the
+/// headers alone.
+#[tokio::test]
+async fn auth_and_size_are_answered_before_the_body_is_read() {
+    let s = TestServer::start(hostile_config()).await;
+    for (auth, len, want) in [
+        ("", 5_000_000usize, "401"),
+        ("authorization: Bearer wrong-token\r\n", 5_000_000, "403"),
+        ("authorization: Bearer test-token\r\n", 9_000_000, "413"),
+    ] {
+        let mut t = TcpStream::connect(s.addr).await.unwrap();
+        let head = format!(
+            "PUT /v1/scenes/x HTTP/1.1\r\nhost: x\r\n{auth}content-type: application/json\r\ncontent-length: {len}\r\nexpect: 100-continue\r\n\r\n"
+        );
+        t.write_all(head.as_bytes()).await.unwrap();
+        let mut buf = vec![0u8; 4096];
+        let n = tokio::time::timeout(Duration::from_secs(5), t.read(&mut buf))
+            .await
+            .expect("answered without the body")
+            .unwrap();
+        let text = String::from_utf8_lossy(&buf[..n]);
+        assert!(
+            text.starts_with(&format!("HTTP/1.1 {want}")),
+            "{want}: got {text}"
+        );
+        assert!(!text.contains("100 Continue"), "{text}");
+        assert!(text.contains("application/json"), "{text}");
+    }
+    s.stop().await;
+}
+
+/// Issue 27: one token could do everything. Roles: a game token relays bodies, inputs and
+/// impacts but cannot touch scenes or clocks; a reader token reads (when reads need one).
+#[tokio::test]
+async fn game_tokens_relay_players_and_cannot_administer() {
+    let mut c = hostile_config();
+    c.env_tokens = vec![
+        (swell::access::Role::Game, "game-token-0000000001".into()),
+        (swell::access::Role::Reader, "reader-token-000000001".into()),
+    ];
+    c.reads_need_token = true;
+    let s = TestServer::start(c).await;
+    let game = Some("game-token-0000000001");
+    let reader = Some("reader-token-000000001");
+    let spawn = json!({"mass": 500, "hull": {"kind": "box", "length": 4, "beam": 2, "height": 1}, "position": [0, 0, 0]});
+    let (st, b) = s
+        .admin(Method::POST, "/v1/scenes/calm/bodies", Some(&spawn), game)
+        .await;
+    assert_eq!(st, 201, "{b}");
+    let (st, b) = s
+        .admin(Method::POST, "/v1/scenes/calm/bodies", Some(&spawn), reader)
+        .await;
+    assert_eq!((st, code(&b)), (403, "forbidden"), "{b}");
+    assert!(
+        b["error"]["message"].as_str().unwrap().contains("game"),
+        "{b}"
+    );
+    let (st, b) = s.admin(Method::DELETE, "/v1/scenes/calm", None, game).await;
+    assert_eq!((st, code(&b)), (403, "forbidden"), "{b}");
+    let (st, _) = s
+        .admin(
+            Method::PUT,
+            "/v1/scenes/calm/clock",
+            Some(&json!({"rate": 2})),
+            game,
+        )
+        .await;
+    assert_eq!(st, 403);
+    // Reads need a token here: none → 401, a reader's → 200, the admin's → 200.
+    let (st, _) = s
+        .admin(Method::GET, "/v1/scenes/calm/height?x=0&z=0", None, None)
+        .await;
+    assert_eq!(st, 401);
+    for t in [reader, game, Some(TOKEN)] {
+        let (st, _) = s
+            .admin(Method::GET, "/v1/scenes/calm/height?x=0&z=0", None, t)
+            .await;
+        assert_eq!(st, 200);
+    }
+    // Probes never need one.
+    assert_eq!(s.get("/healthz").await.status(), 200);
+    s.stop().await;
+}
+
+/// Issue 27: 10,050 idle connections from one client made a fresh `GET /healthz` time out. Now
+/// one address holds at most `max_connections_per_peer`; the next is answered 429 and closed,
+/// and everyone else is served.
+#[tokio::test]
+async fn one_address_cannot_take_every_connection() {
+    let mut c = hostile_config();
+    c.limits.max_connections_per_peer = 20;
+    c.limits.max_connections = 64;
+    let s = TestServer::start(c).await;
+    let mut held = Vec::new();
+    for _ in 0..20 {
+        held.push(connect_from([127, 0, 5, 1], s.addr).await);
+    }
+    let mut extra = connect_from([127, 0, 5, 1], s.addr).await;
+    let answer = read_all(&mut extra, Duration::from_secs(3)).await;
+    assert!(answer.starts_with("HTTP/1.1 429"), "{answer}");
+    assert!(answer.contains("too_many_connections"), "{answer}");
+    // Another address is served.
+    let mut other = connect_from([127, 0, 5, 2], s.addr).await;
+    other
+        .write_all(b"GET /healthz HTTP/1.1\r\nhost: x\r\nconnection: close\r\n\r\n")
+        .await
+        .unwrap();
+    let answer = read_all(&mut other, Duration::from_secs(3)).await;
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    drop(held);
+    s.stop().await;
+}
+
+/// A flood from one address gets 429 with `Retry-After`; another address is not affected, and
+/// forwarded addresses count only from a trusted proxy.
+#[tokio::test]
+async fn a_flood_from_one_address_is_rate_limited() {
+    let mut c = hostile_config();
+    c.limits.peer_requests_per_s = 20.0;
+    c.limits.peer_requests_burst = 10.0;
+    let s = TestServer::start(c).await;
+    let client = |ip: [u8; 4]| {
+        reqwest::Client::builder()
+            .no_proxy()
+            .local_address(IpAddr::V4(Ipv4Addr::from(ip)))
+            .build()
+            .unwrap()
+    };
+    let flood = client([127, 0, 4, 1]);
+    let url = s.url("/v1/scenes/calm/height?x=1&z=1");
+    let mut limited = None;
+    for _ in 0..40 {
+        let r = flood.get(&url).send().await.unwrap();
+        if r.status() == 429 {
+            limited = Some(r);
+            break;
+        }
+    }
+    let r = limited.expect("429 within 40 requests at a burst of 10");
+    assert!(r.headers().contains_key("retry-after"));
+    let (_, b) = into_json(r).await;
+    assert_eq!(code(&b), "rate_limited");
+    // Another client is served; so are the flooder's probes.
+    assert_eq!(
+        client([127, 0, 4, 2])
+            .get(&url)
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        200
+    );
+    assert_eq!(
+        flood.get(s.url("/healthz")).send().await.unwrap().status(),
+        200
+    );
+    // Forging X-Forwarded-For from an untrusted peer changes nothing.
+    let r = flood
+        .get(&url)
+        .header("x-forwarded-for", "203.0.113.7")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 429);
+    s.stop().await;
+}
+
+/// Issue 27: 1,000 requests with made-up method names grew `/metrics` from 131 KiB to 21.5 MB.
+/// The method label now takes a fixed set of values.
+#[tokio::test]
+async fn made_up_methods_do_not_grow_the_metrics() {
+    let s = TestServer::start(hostile_config()).await;
+    for i in 0..50 {
+        let m = Method::from_bytes(format!("X{i:0>40}").as_bytes()).unwrap();
+        let _ = s
+            .client
+            .request(m, s.url("/v1/scenes"))
+            .send()
+            .await
+            .unwrap();
+    }
+    let page = s.get("/metrics").await.text().await.unwrap();
+    assert!(!page.contains("X0000"), "a client's method became a label");
+    assert!(page.contains(r#"method="other""#));
+    s.stop().await;
+}
+
+/// Issue 27: some rejections were `text/plain` (a path id that is not UTF-8, a bad query string
+/// on `GET …/impacts`). Every rejection is the JSON error.
+#[tokio::test]
+async fn every_rejection_is_the_json_error() {
+    let s = TestServer::start(hostile_config()).await;
+    for path in [
+        "/v1/scenes/%FF%FE/height?x=1&z=1",
+        "/v1/scenes/calm/impacts?t=banana",
+        "/v1/scenes/calm/height?x=one&z=2",
+    ] {
+        let r = s.get(path).await;
+        let st = r.status().as_u16();
+        let ct = r.headers()["content-type"].to_str().unwrap().to_owned();
+        assert!((400..500).contains(&st), "{path}: {st}");
+        assert!(ct.starts_with("application/json"), "{path}: {ct}");
+        let (_, b) = into_json(r).await;
+        assert!(b["error"]["code"].is_string(), "{path}: {b}");
+    }
+    s.stop().await;
+}
+
+/// Issue 27: the handshake accepted a `Sec-WebSocket-Key` that is not base64.
+#[tokio::test]
+async fn a_websocket_key_must_be_base64_of_16_bytes() {
+    let s = TestServer::start(hostile_config()).await;
+    for (key, want) in [
+        ("not base64 at all!!!!!==", "400"),
+        ("dGhlIHNhbXBsZSBub25jZQ==", "101"),
+        ("dGhlIHNhbXBsZSBub25jZR==", "400"), // bits past the 16th byte
+    ] {
+        let mut t = TcpStream::connect(s.addr).await.unwrap();
+        let head = format!(
+            "GET /v1/scenes/calm/stream HTTP/1.1\r\nhost: x\r\nupgrade: websocket\r\nconnection: upgrade\r\nsec-websocket-version: 13\r\nsec-websocket-key: {key}\r\n\r\n"
+        );
+        t.write_all(head.as_bytes()).await.unwrap();
+        let mut buf = vec![0u8; 2048];
+        let n = tokio::time::timeout(Duration::from_secs(3), t.read(&mut buf))
+            .await
+            .unwrap()
+            .unwrap();
+        let text = String::from_utf8_lossy(&buf[..n]);
+        assert!(
+            text.starts_with(&format!("HTTP/1.1 {want}")),
+            "{key}: {text}"
+        );
+    }
+    s.stop().await;
+}
+
+/// Issue 27: a WebSocket that sent nothing for 94 s was never pinged or closed.
+#[tokio::test]
+async fn a_silent_websocket_is_pinged_then_closed() {
+    let mut c = hostile_config();
+    c.limits.ws_idle_timeout_ms = 800;
+    let s = TestServer::start(c).await;
+    let (mut ws, _) =
+        tokio_tungstenite::connect_async(format!("ws://{}/v1/scenes/calm/stream", s.addr))
+            .await
+            .unwrap();
+    // The ping comes at half the timeout (tungstenite answers it, which counts as traffic, so
+    // read without answering: the client only replies when it is polled — it is polled here,
+    // so its pong keeps the session alive).
+    let first = tokio::time::timeout(Duration::from_secs(2), ws.next())
+        .await
+        .expect("a ping")
+        .unwrap()
+        .unwrap();
+    assert!(matches!(first, Message::Ping(_)), "{first:?}");
+    // A raw socket that never answers is closed with 1001.
+    let mut t = TcpStream::connect(s.addr).await.unwrap();
+    t.write_all(
+        b"GET /v1/scenes/calm/stream HTTP/1.1\r\nhost: x\r\nupgrade: websocket\r\nconnection: upgrade\r\nsec-websocket-version: 13\r\nsec-websocket-key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n",
+    )
+    .await
+    .unwrap();
+    let got = read_bytes(&mut t, Duration::from_secs(4)).await;
+    assert!(String::from_utf8_lossy(&got).contains("101 Switching Protocols"));
+    assert_eq!(close_code_in(&got), Some(1001), "{got:?}");
+    drop(ws);
+    s.stop().await;
+}
+
+/// Issue 27: invalid UTF-8, unmasked frames and reserved opcodes closed without a code.
+#[tokio::test]
+async fn protocol_violations_close_with_rfc_6455_codes() {
+    let s = TestServer::start(hostile_config()).await;
+    // (frame bytes, expected close code)
+    let bad_utf8 = vec![0x81, 0x82, 1, 2, 3, 4, 0xC3 ^ 1, 0x28 ^ 2];
+    let unmasked = vec![0x81, 0x02, b'h', b'i'];
+    let reserved_opcode = vec![0x83, 0x80, 0, 0, 0, 0];
+    for (frame, want) in [
+        (bad_utf8, 1007u16),
+        (unmasked, 1002),
+        (reserved_opcode, 1002),
+    ] {
+        let mut t = TcpStream::connect(s.addr).await.unwrap();
+        t.write_all(
+            b"GET /v1/scenes/calm/stream HTTP/1.1\r\nhost: x\r\nupgrade: websocket\r\nconnection: upgrade\r\nsec-websocket-version: 13\r\nsec-websocket-key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n",
+        )
+        .await
+        .unwrap();
+        let mut buf = vec![0u8; 1024];
+        let _ = t.read(&mut buf).await.unwrap();
+        t.write_all(&frame).await.unwrap();
+        let got = read_bytes(&mut t, Duration::from_secs(3)).await;
+        assert_eq!(close_code_in(&got), Some(want), "{got:?}");
+    }
+    s.stop().await;
+}
+
+/// A socket over `ws_messages_per_s` gets `rate_limited` errors, then Close 1008.
+#[tokio::test]
+async fn a_websocket_flood_is_told_then_closed() {
+    let mut c = hostile_config();
+    c.limits.ws_messages_per_s = 5.0;
+    c.limits.ws_messages_burst = 5.0;
+    let s = TestServer::start(c).await;
+    let (mut ws, _) =
+        tokio_tungstenite::connect_async(format!("ws://{}/v1/scenes/calm/stream", s.addr))
+            .await
+            .unwrap();
+    for i in 0..40 {
+        let ping = json!({"type": "ping", "id": i, "client_time": 1.0}).to_string();
+        if ws.send(Message::text(ping)).await.is_err() {
+            break;
+        }
+    }
+    let mut saw_limited = false;
+    let mut close = None;
+    while let Ok(Some(Ok(m))) = tokio::time::timeout(Duration::from_secs(3), ws.next()).await {
+        match m {
+            Message::Text(t) => {
+                let v: Value = serde_json::from_str(&t).unwrap();
+                saw_limited |= v["code"] == "rate_limited";
+            }
+            Message::Close(f) => {
+                close = f.map(|f| u16::from(f.code));
+                break;
+            }
+            _ => {}
+        }
+    }
+    assert!(saw_limited);
+    assert_eq!(close, Some(1008));
+    s.stop().await;
+}
+
+/// Issue 27: an impact at t = −1e9 was accepted, and impacts never expired (after 100,000 per
+/// scene every new splash got 409).
+#[tokio::test]
+async fn impacts_are_dated_near_now_and_expire() {
+    let s = TestServer::start(hostile_config()).await;
+    let spec = json!({"tick_hz": 30, "seed": 1, "layers": [
+        {"kind": "sine", "waves": [{"amplitude": 0.1, "wavelength": 8, "direction": [1, 0]}]},
+        {"kind": "particles", "ripples": {"lifetime": 5}}]});
+    let (st, b) = s.put_scene("pond", &spec).await;
+    assert!(st == 201, "{b}");
+    let post = |t: f64| {
+        let s = &s;
+        async move {
+            let body = json!({"position": [0, 0], "t": t, "strength": 0.1, "radius": 1});
+            s.admin(
+                Method::POST,
+                "/v1/scenes/pond/impacts",
+                Some(&body),
+                Some(TOKEN),
+            )
+            .await
+        }
+    };
+    let (st, b) = post(-1e9).await;
+    assert_eq!((st, code(&b)), (422, "impact_out_of_window"), "{b}");
+    assert_eq!(b["error"]["field"], "t");
+    let (st, _) = post(1e7).await;
+    assert_eq!(st, 422);
+    let now = s.get_json("/v1/scenes/pond/clock").await.1["t"]
+        .as_f64()
+        .unwrap();
+    assert_eq!(post(now).await.0, 202);
+    assert_eq!(post(now + 10.0).await.0, 202);
+    // The first is more than a lifetime (5 s) older than the newest: gone from the set.
+    let entry = s.state.scene("pond").unwrap();
+    let times: Vec<f64> = entry
+        .scene
+        .impacts
+        .api()
+        .events()
+        .iter()
+        .map(|e| e.t)
+        .collect();
+    assert_eq!(times, vec![now + 10.0]);
+    s.stop().await;
+}
+
+/// Issue 27: 10,000 scene PUTs all succeeded, and three 1024² FFT scenes took 1.58 GB.
+#[tokio::test]
+async fn scenes_are_counted_and_fft_memory_is_budgeted() {
+    let mut c = hostile_config();
+    c.limits.max_scenes = swell::scene::builtin::specs().len() + 2;
+    c.limits.max_fft_bytes = 600 << 20;
+    let s = TestServer::start(c).await;
+    let fft = |res: u32| {
+        json!({"seed": 1, "layers": [{"kind": "fft", "resolution": res, "tile_size": 64,
+            "repeat_period": 100, "wind_direction": [1, 0], "spectrum": {"kind": "jonswap", "wind_speed": 8, "fetch": 50000}}]})
+    };
+    // The built-ins' FFT layers are charged too; a 1024² scene (832 MiB of near frames) is not
+    // within 600 MiB.
+    let (st, b) = s.put_scene("big", &fft(1024)).await;
+    assert_eq!((st, code(&b)), (422, "fft_budget"), "{b}");
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("max_fft_bytes")
+    );
+    assert_eq!(s.put_scene("a", &common::small_spec()).await.0, 201);
+    assert_eq!(s.put_scene("b", &common::small_spec()).await.0, 201);
+    let (st, b) = s.put_scene("c", &common::small_spec()).await;
+    assert_eq!((st, code(&b)), (409, "too_many_scenes"), "{b}");
+    // Replacing an existing one is not a new scene.
+    assert_eq!(s.put_scene("b", &common::small_spec()).await.0, 200);
+    s.stop().await;
+}
+
+/// A deleted scene's FFT frames are dropped at once, not when they would have aged out.
+#[tokio::test]
+async fn a_deleted_scenes_frames_are_freed_at_once() {
+    let s = TestServer::start(hostile_config()).await;
+    assert_eq!(s.put_scene("f", &common::fft_spec()).await.0, 201);
+    let (st, _) = s.get_json("/v1/scenes/f/height?x=1&z=1").await;
+    assert_eq!(st, 200);
+    assert!(!s.state.frames.is_empty());
+    let (st, _) = s
+        .admin(Method::DELETE, "/v1/scenes/f", None, Some(TOKEN))
+        .await;
+    assert_eq!(st, 204);
+    assert_eq!(
+        s.state.frames.len(),
+        0,
+        "frames of the deleted scene are held"
+    );
+    s.stop().await;
+}
+
+/// Issue 27: a client that posts a large sample and never reads held ~11 MB for as long as it
+/// liked. Now its writes stall, it is cut off after `http_send_stall_ms`, and the answer's
+/// bytes, charged to the buffer budget meanwhile, are given back.
+#[tokio::test]
+async fn a_client_that_never_reads_is_cut_off_and_its_answer_freed() {
+    let mut c = hostile_config();
+    c.limits.http_send_stall_ms = 500;
+    let s = TestServer::start(c).await;
+    let points: Vec<Value> = (0..65_536).map(|i| json!([i as f64 * 0.5, 1.0])).collect();
+    let body =
+        json!({"points": points, "fields": ["height", "normal", "displacement"]}).to_string();
+    // A small receive window, so the ~10 MB answer cannot hide in the kernel's buffers.
+    let sock = TcpSocket::new_v4().unwrap();
+    sock.set_recv_buffer_size(4096).unwrap();
+    sock.bind("127.0.3.1:0".parse().unwrap()).unwrap();
+    let mut t = sock.connect(s.addr).await.unwrap();
+    let head = format!(
+        "POST /v1/scenes/calm/sample HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\ncontent-length: {}\r\n\r\n",
+        body.len()
+    );
+    t.write_all(head.as_bytes()).await.unwrap();
+    t.write_all(body.as_bytes()).await.unwrap();
+    // Never read; the kernel's loopback buffers are far smaller than the ~5 MB answer, so the
+    // server's writes stall once they fill. Wait for it to give up.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let page = loop {
+        tokio::time::sleep(Duration::from_millis(250)).await;
+        let page = s.get("/metrics").await.text().await.unwrap();
+        if common::metric(&page, "swell_http_send_stalls_total").unwrap_or(0.0) >= 1.0
+            || Instant::now() > deadline
+        {
+            break page;
+        }
+    };
+    assert!(
+        common::metric(&page, "swell_http_send_stalls_total").unwrap_or(0.0) >= 1.0,
+        "the stalled answer was not cut off"
+    );
+    drop(t);
+    s.stop().await;
+}
