@@ -180,10 +180,12 @@ def main():
             check(k in serve_envs, f"Deployment env {k} is a `swell serve` variable")
     kport = port_of(kenv.get("SWELL_BIND", {}).get("value", ":0"))
     ports = {p.get("name"): p["containerPort"] for p in c.get("ports", [])}
-    check(list(ports.values()) == [kport] == [port], f"containerPort {ports} is SWELL_BIND's and the image's port")
+    check(ports.get("http") == kport == port, f"containerPort http {ports} is SWELL_BIND's and the image's port")
+    pport = port_of(kenv.get("SWELL_PROBE_BIND", {}).get("value", ":0"))
+    check(ports.get("probes") == pport and pport != kport, f"containerPort probes {ports} is SWELL_PROBE_BIND's, apart from the served port")
     for probe, path in [("readinessProbe", "/readyz"), ("livenessProbe", "/healthz")]:
         g = c.get(probe, {}).get("httpGet", {})
-        check(g.get("path") == path and ports.get(g.get("port"), g.get("port")) == kport, f"{probe} is GET {path} on the served port")
+        check(g.get("path") == path and ports.get(g.get("port"), g.get("port")) == pport, f"{probe} is GET {path} on the probe port (outside client limits)")
     routes = (ROOT / "src/api/mod.rs").read_text()
     check('"/readyz"' in routes and '"/healthz"' in routes, "the router serves /readyz and /healthz")
     check("requests" in c.get("resources", {}) and "limits" in c.get("resources", {}), "the container has resource requests and limits")

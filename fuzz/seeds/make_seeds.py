@@ -155,3 +155,17 @@ admin = [
 ]
 for i, (which, body) in enumerate(admin):
     write("admin_json", f"seed-{i}.bin", bytes([which]) + json.dumps(body).encode())
+
+# --- http_request: one selector byte (0 height query, 1 impacts query, 2 impact body,
+# 3 WebSocket handshake), then `a` [0xFF `b`] ---
+http = [
+    (0, b"x=1.5&z=-2&t=3"),
+    (0, b"x=one&z=%FF"),
+    (1, b"t=banana"),
+    (2, json.dumps({"position": [1, 2], "strength": 0.1, "radius": 1}).encode()),
+    (2, json.dumps({"position": [1, 2], "t": -1e9, "strength": 0.1, "radius": 1}).encode()),
+    (3, b"dGhlIHNhbXBsZSBub25jZQ==\xffswell.v1.json"),
+    (3, b"not base64!\xffnope"),
+]
+for i, (which, rest) in enumerate(http):
+    write("http_request", f"seed-{i}.bin", bytes([which]) + rest)

@@ -43,6 +43,7 @@
 
 pub mod cli;
 pub mod driver;
+pub mod hostile;
 pub mod http;
 pub mod report;
 pub mod run;

@@ -8,6 +8,31 @@ use tokio_util::sync::CancellationToken;
 
 #[tokio::main]
 async fn main() -> ExitCode {
+    // `swell-load hostile …`: the hostile-client battery, with its own arguments.
+    if std::env::args().nth(1).as_deref() == Some("hostile") {
+        let args = swell_load::hostile::HostileArgs::parse_from(std::env::args().skip(1));
+        return match swell_load::hostile::run(&args).await {
+            Ok(report) => {
+                if args.json {
+                    println!(
+                        "{}",
+                        serde_json::to_string(&report).expect("a report serialises")
+                    );
+                } else {
+                    print!("{report}");
+                }
+                if report.failures.is_empty() {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::from(1)
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(1)
+            }
+        };
+    }
     let args = swell_load::Args::parse();
     let fail_on_errors = args.fail_on_errors;
     let json = args.json;

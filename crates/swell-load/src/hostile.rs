@@ -1,0 +1,632 @@
+//! `swell-load hostile`: a bounded battery of slow and hostile clients against a server on
+//! loopback, beside a well-behaved client and a health prober, to measure what the hostile ones
+//! cost everyone else.
+//!
+//! Every attacker binds its own loopback source address (127.0.2.x, 127.0.3.x, …), so the
+//! server sees distinct peers and its per-peer limits apply as they would on the internet; the
+//! well-behaved client is 127.0.0.1. The server under test must not exempt loopback from its
+//! per-peer limits (`[limits] exempt_peers = []`, `trusted_proxies = []`): `.ci/hostile` writes
+//! that config.
+//!
+//! Phases: a baseline of the good client alone, then the attack for `--duration`, then a
+//! settle time with the attackers gone. The attack:
+//! - `--slow-bodies` sockets that send a POST's headers and then one body byte a second
+//!   (reconnecting when the server gives up on them), over 8 addresses;
+//! - `--non-readers` HTTP clients that post a large sample and never read the answer, and as many
+//!   WebSocket clients that subscribe and send queries but never read, each from its own address;
+//! - a flood: `--flood-connections` connections from one address asking for heights as fast as
+//!   they are answered;
+//! - `--idle` connections from one address that send nothing.
+//!
+//! Only loopback targets are accepted, and every count has a ceiling.
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use futures_util::SinkExt as _;
+use serde::Serialize;
+use tokio::io::{AsyncReadExt as _, AsyncWriteExt as _};
+use tokio::net::{TcpSocket, TcpStream};
+use tokio_util::sync::CancellationToken;
+
+/// Ceilings on every count, so the tool cannot be turned into a real flood.
+const MAX_SOCKETS: usize = 12_000;
+
+/// `swell-load hostile` arguments.
+#[derive(Debug, Clone, clap::Parser)]
+#[command(name = "swell-load hostile")]
+pub struct HostileArgs {
+    /// The server, `http://127.0.0.1:PORT` (loopback only).
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    pub url: String,
+    /// The scene the clients query.
+    #[arg(long, default_value = "calm")]
+    pub scene: String,
+    /// The server's pid, to read its resident memory (`/proc/PID/statm`).
+    #[arg(long)]
+    pub server_pid: Option<u32>,
+    /// How long the attack lasts, s.
+    #[arg(long, default_value_t = 20.0)]
+    pub duration: f64,
+    /// Sockets trickling a request body.
+    #[arg(long, default_value_t = 1000)]
+    pub slow_bodies: usize,
+    /// HTTP clients (and as many WebSocket clients) that never read their answers.
+    #[arg(long, default_value_t = 100)]
+    pub non_readers: usize,
+    /// Points in each non-reader's sample request.
+    #[arg(long, default_value_t = 20_000)]
+    pub non_reader_points: usize,
+    /// Connections of the flood, all from one address.
+    #[arg(long, default_value_t = 8)]
+    pub flood_connections: usize,
+    /// Idle connections from one address.
+    #[arg(long, default_value_t = 10_000)]
+    pub idle: usize,
+    /// Requests a second of the well-behaved client.
+    #[arg(long, default_value_t = 50.0)]
+    pub good_rate: f64,
+    /// Fail (exit 1) unless: probes p99 < 50 ms, every good request answered 2xx, good p99 ≤
+    /// `--p99-factor` × its baseline (or ≤ `--p99-floor-ms`), and resident memory within
+    /// `--rss-budget-mb` of the start during the attack and within `--rss-settle-mb` after.
+    #[arg(long)]
+    pub assert: bool,
+    /// See `--assert`.
+    #[arg(long, default_value_t = 3.0)]
+    pub p99_factor: f64,
+    /// A p99 this low passes whatever the baseline (timer and scheduler noise on loopback), ms.
+    #[arg(long, default_value_t = 5.0)]
+    pub p99_floor_ms: f64,
+    /// See `--assert`, MiB.
+    #[arg(long, default_value_t = 320.0)]
+    pub rss_budget_mb: f64,
+    /// See `--assert`, MiB.
+    #[arg(long, default_value_t = 64.0)]
+    pub rss_settle_mb: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Latencies of one client, ms.
+#[derive(Debug, Default, Clone, Serialize)]
+pub struct Latency {
+    /// Requests sent.
+    pub sent: u64,
+    /// Answered 2xx.
+    pub ok: u64,
+    /// Any other outcome (status or transport error).
+    pub failed: u64,
+    /// Median, ms.
+    pub p50_ms: f64,
+    /// 99th percentile, ms.
+    pub p99_ms: f64,
+    /// Slowest, ms.
+    pub max_ms: f64,
+}
+
+impl Latency {
+    fn from(samples: &mut [f64], ok: u64, failed: u64) -> Latency {
+        samples.sort_by(f64::total_cmp);
+        let q = |p: f64| {
+            if samples.is_empty() {
+                return 0.0;
+            }
+            let i = ((samples.len() as f64 - 1.0) * p).round() as usize;
+            samples[i.min(samples.len() - 1)]
+        };
+        Latency {
+            sent: ok + failed,
+            ok,
+            failed,
+            p50_ms: q(0.5),
+            p99_ms: q(0.99),
+            max_ms: samples.last().copied().unwrap_or(0.0),
+        }
+    }
+}
+
+/// What the battery measured.
+#[derive(Debug, Default, Clone, Serialize)]
+pub struct HostileReport {
+    /// The good client alone.
+    pub baseline: Latency,
+    /// The good client during the attack.
+    pub during: Latency,
+    /// `/healthz` and `/readyz` during the attack.
+    pub probes: Latency,
+    /// Slow-body sockets opened (reconnections included).
+    pub slow_body_sockets: u64,
+    /// Slow-body sockets the server answered 408.
+    pub slow_body_408: u64,
+    /// Non-reading clients (HTTP, WebSocket) the server disconnected during the attack.
+    pub non_readers_cut: u64,
+    /// Flood requests answered 429.
+    pub flood_429: u64,
+    /// Flood requests answered 2xx.
+    pub flood_ok: u64,
+    /// Idle connections refused at once (429 and closed).
+    pub idle_refused: u64,
+    /// Idle connections still open at the end of the attack.
+    pub idle_held: u64,
+    /// Server resident memory at the start, MiB.
+    pub rss_start_mb: f64,
+    /// Highest resident memory seen during the attack, MiB.
+    pub rss_peak_mb: f64,
+    /// Resident memory after the settle time, MiB.
+    pub rss_after_mb: f64,
+    /// Failed checks (with `--assert`).
+    pub failures: Vec<String>,
+}
+
+fn rss_mb(pid: Option<u32>) -> f64 {
+    let Some(pid) = pid else { return 0.0 };
+    std::fs::read_to_string(format!("/proc/{pid}/statm"))
+        .ok()
+        .and_then(|s| s.split_whitespace().nth(1)?.parse::<f64>().ok())
+        .map_or(0.0, |pages| pages * 4096.0 / 1048576.0)
+}
+
+/// Raises this process's open-file limit to its hard limit (thousands of sockets).
+fn raise_nofile() {
+    let mut lim = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit/setrlimit read and write the plain struct passed by pointer.
+    unsafe {
+        if libc::getrlimit(libc::RLIMIT_NOFILE, &mut lim) == 0 && lim.rlim_cur < lim.rlim_max {
+            lim.rlim_cur = lim.rlim_max;
+            let _ = libc::setrlimit(libc::RLIMIT_NOFILE, &lim);
+        }
+    }
+}
+
+async fn connect_from(src: Ipv4Addr, to: SocketAddr) -> std::io::Result<TcpStream> {
+    let s = TcpSocket::new_v4()?;
+    s.bind(SocketAddr::new(IpAddr::V4(src), 0))?;
+    s.connect(to).await
+}
+
+/// Runs the battery.
+///
+/// # Errors
+/// A target that is not loopback, counts over the ceiling, or a server that does not answer.
+pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
+    let addr: SocketAddr = args
+        .url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--url must be http://127.x.x.x:PORT"))?;
+    anyhow::ensure!(
+        addr.ip().is_loopback(),
+        "--url must be a loopback address: the battery never targets another host"
+    );
+    let total = args.slow_bodies + 2 * args.non_readers + args.flood_connections + args.idle;
+    anyhow::ensure!(
+        total <= MAX_SOCKETS,
+        "{total} sockets asked for; at most {MAX_SOCKETS}"
+    );
+    raise_nofile();
+    let base = format!("http://{addr}");
+    let good = reqwest::Client::builder()
+        .no_proxy()
+        .local_address(IpAddr::V4(Ipv4Addr::LOCALHOST))
+        .timeout(Duration::from_secs(10))
+        .build()?;
+    let height = format!("{base}/v1/scenes/{}/height?x=1.5&z=-2.25", args.scene);
+    anyhow::ensure!(
+        good.get(&height).send().await?.status().is_success(),
+        "the server does not answer {height}"
+    );
+    let mut report = HostileReport {
+        rss_start_mb: rss_mb(args.server_pid),
+        ..Default::default()
+    };
+
+    eprintln!("hostile: baseline, 3 s of the good client alone");
+    report.baseline = good_client(&good, &height, args.good_rate, Duration::from_secs(3)).await;
+
+    eprintln!(
+        "hostile: attack for {} s ({} slow bodies, {} non-readers x2, flood x{}, {} idle)",
+        args.duration, args.slow_bodies, args.non_readers, args.flood_connections, args.idle
+    );
+    let stop = CancellationToken::new();
+    let counters = Arc::new(Counters::default());
+    let mut tasks = tokio::task::JoinSet::new();
+    for i in 0..args.slow_bodies {
+        let src = Ipv4Addr::new(127, 0, 2, 1 + (i % 8) as u8);
+        tasks.spawn(slow_body(
+            src,
+            addr,
+            args.scene.clone(),
+            stop.clone(),
+            counters.clone(),
+        ));
+    }
+    let big = Arc::new(sample_body(args.non_reader_points));
+    for i in 0..args.non_readers {
+        let src = Ipv4Addr::new(127, 0, 3 + (i / 250) as u8, 1 + (i % 250) as u8);
+        tasks.spawn(http_non_reader(
+            src,
+            addr,
+            args.scene.clone(),
+            big.clone(),
+            stop.clone(),
+            counters.clone(),
+        ));
+        let src = Ipv4Addr::new(127, 0, 6 + (i / 250) as u8, 1 + (i % 250) as u8);
+        tasks.spawn(ws_non_reader(
+            src,
+            addr,
+            args.scene.clone(),
+            stop.clone(),
+            counters.clone(),
+        ));
+    }
+    for _ in 0..args.flood_connections {
+        tasks.spawn(flood(addr, height.clone(), stop.clone(), counters.clone()));
+    }
+    {
+        let (stop, counters, n) = (stop.clone(), counters.clone(), args.idle);
+        tasks.spawn(idle(addr, n, stop, counters));
+    }
+    // Let the attackers connect, then measure.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let pid = args.server_pid;
+    let peak = Arc::new(AtomicU64::new(0));
+    let watcher = {
+        let (peak, stop) = (peak.clone(), stop.clone());
+        tokio::spawn(async move {
+            while !stop.is_cancelled() {
+                let mb = (rss_mb(pid) * 1024.0) as u64;
+                peak.fetch_max(mb, Ordering::Relaxed);
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        })
+    };
+    let attack = Duration::from_secs_f64(args.duration.clamp(1.0, 600.0));
+    let probes = tokio::spawn(probe(base.clone(), attack));
+    report.during = good_client(&good, &height, args.good_rate, attack).await;
+    report.probes = probes.await.unwrap_or_default();
+    stop.cancel();
+    let _ = watcher.await;
+    report.rss_peak_mb = peak.load(Ordering::Relaxed) as f64 / 1024.0;
+    report.idle_held = counters.idle_held.load(Ordering::Relaxed);
+    // Give every attacker a moment to hang up, then settle.
+    let _ = tokio::time::timeout(Duration::from_secs(5), async {
+        while tasks.join_next().await.is_some() {}
+    })
+    .await;
+    tasks.abort_all();
+    eprintln!("hostile: attackers gone; settling 6 s");
+    tokio::time::sleep(Duration::from_secs(6)).await;
+    report.rss_after_mb = rss_mb(args.server_pid);
+    let c = &counters;
+    report.slow_body_sockets = c.slow_sockets.load(Ordering::Relaxed);
+    report.slow_body_408 = c.slow_408.load(Ordering::Relaxed);
+    report.non_readers_cut = c.non_readers_cut.load(Ordering::Relaxed);
+    report.flood_429 = c.flood_429.load(Ordering::Relaxed);
+    report.flood_ok = c.flood_ok.load(Ordering::Relaxed);
+    report.idle_refused = c.idle_refused.load(Ordering::Relaxed);
+
+    if args.assert {
+        let r = &mut report;
+        let mut fail = |m: String| r.failures.push(m);
+        if r.probes.p99_ms >= 50.0 || r.probes.failed > 0 {
+            fail(format!(
+                "probes: p99 {:.1} ms, {} failed (want < 50 ms, none)",
+                r.probes.p99_ms, r.probes.failed
+            ));
+        }
+        if r.during.failed > 0 || r.during.ok == 0 {
+            fail(format!(
+                "good client: {} of {} requests failed",
+                r.during.failed, r.during.sent
+            ));
+        }
+        let bound = (args.p99_factor * r.baseline.p99_ms).max(args.p99_floor_ms);
+        if r.during.p99_ms > bound {
+            fail(format!(
+                "good client p99 {:.2} ms > {bound:.2} ms ({}x its baseline {:.2} ms, floor {} ms)",
+                r.during.p99_ms, args.p99_factor, r.baseline.p99_ms, args.p99_floor_ms
+            ));
+        }
+        if pid.is_some() {
+            if r.rss_peak_mb > r.rss_start_mb + args.rss_budget_mb {
+                fail(format!(
+                    "RSS peaked at {:.0} MiB from {:.0} MiB (budget +{} MiB)",
+                    r.rss_peak_mb, r.rss_start_mb, args.rss_budget_mb
+                ));
+            }
+            if r.rss_after_mb > r.rss_start_mb + args.rss_settle_mb {
+                fail(format!(
+                    "RSS {:.0} MiB after the attack, from {:.0} MiB (want within +{} MiB)",
+                    r.rss_after_mb, r.rss_start_mb, args.rss_settle_mb
+                ));
+            }
+        }
+    }
+    Ok(report)
+}
+
+#[derive(Debug, Default)]
+struct Counters {
+    slow_sockets: AtomicU64,
+    slow_408: AtomicU64,
+    non_readers_cut: AtomicU64,
+    flood_429: AtomicU64,
+    flood_ok: AtomicU64,
+    idle_refused: AtomicU64,
+    idle_held: AtomicU64,
+}
+
+/// The good client: `rate` sequential-ish requests a second for `dur`.
+async fn good_client(client: &reqwest::Client, url: &str, rate: f64, dur: Duration) -> Latency {
+    let start = Instant::now();
+    let every = Duration::from_secs_f64(1.0 / rate.clamp(1.0, 1000.0));
+    let (mut ms, mut ok, mut failed) = (Vec::new(), 0, 0);
+    let mut next = tokio::time::Instant::now();
+    while start.elapsed() < dur {
+        tokio::time::sleep_until(next).await;
+        next += every;
+        let t0 = Instant::now();
+        match client.get(url).send().await {
+            Ok(r) if r.status().is_success() => {
+                let _ = r.bytes().await;
+                ok += 1;
+            }
+            _ => failed += 1,
+        }
+        ms.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    Latency::from(&mut ms, ok, failed)
+}
+
+/// `/healthz` and `/readyz` alternately every 20 ms for `dur`.
+async fn probe(base: String, dur: Duration) -> Latency {
+    let Ok(client) = reqwest::Client::builder()
+        .no_proxy()
+        .timeout(Duration::from_secs(5))
+        .build()
+    else {
+        return Latency::default();
+    };
+    let start = Instant::now();
+    let (mut ms, mut ok, mut failed) = (Vec::new(), 0, 0);
+    let mut i = 0u64;
+    while start.elapsed() < dur {
+        let path = if i % 2 == 0 { "/healthz" } else { "/readyz" };
+        i += 1;
+        let t0 = Instant::now();
+        match client.get(format!("{base}{path}")).send().await {
+            Ok(r) if r.status().is_success() => ok += 1,
+            _ => failed += 1,
+        }
+        ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    Latency::from(&mut ms, ok, failed)
+}
+
+async fn slow_body(
+    src: Ipv4Addr,
+    to: SocketAddr,
+    scene: String,
+    stop: CancellationToken,
+    c: Arc<Counters>,
+) {
+    while !stop.is_cancelled() {
+        let Ok(mut s) = connect_from(src, to).await else {
+            tokio::time::sleep(Duration::from_millis(200)).await;
+            continue;
+        };
+        c.slow_sockets.fetch_add(1, Ordering::Relaxed);
+        let head = format!(
+            "POST /v1/scenes/{scene}/sample HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\ncontent-length: 100\r\n\r\n{{"
+        );
+        if s.write_all(head.as_bytes()).await.is_err() {
+            continue;
+        }
+        let mut buf = [0u8; 512];
+        loop {
+            tokio::select! {
+                () = stop.cancelled() => return,
+                r = s.read(&mut buf) => {
+                    if let Ok(n) = r && n > 0 && buf[..n].starts_with(b"HTTP/1.1 408") {
+                        c.slow_408.fetch_add(1, Ordering::Relaxed);
+                    }
+                    break; // answered or closed: reconnect
+                }
+                () = tokio::time::sleep(Duration::from_secs(1)) => {
+                    if s.write_all(b" ").await.is_err() {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn sample_body(points: usize) -> String {
+    let mut s = String::from("{\"points\":[");
+    for i in 0..points {
+        if i > 0 {
+            s.push(',');
+        }
+        let x = (i % 200) as f64 * 1.25;
+        let z = (i / 200) as f64 * 0.75;
+        s.push_str(&format!("[{x},{z}]"));
+    }
+    s.push_str("],\"fields\":[\"height\",\"normal\",\"displacement\"]}");
+    s
+}
+
+async fn http_non_reader(
+    src: Ipv4Addr,
+    to: SocketAddr,
+    scene: String,
+    body: Arc<String>,
+    stop: CancellationToken,
+    c: Arc<Counters>,
+) {
+    let Ok(mut s) = connect_from(src, to).await else {
+        return;
+    };
+    let head = format!(
+        "POST /v1/scenes/{scene}/sample HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\ncontent-length: {}\r\n\r\n",
+        body.len()
+    );
+    if s.write_all(head.as_bytes()).await.is_err() || s.write_all(body.as_bytes()).await.is_err() {
+        return;
+    }
+    // Never read; notice when the server gives up (a write of ours then fails).
+    loop {
+        tokio::select! {
+            () = stop.cancelled() => return,
+            () = tokio::time::sleep(Duration::from_millis(500)) => {
+                // Peek at the socket's state without reading its data: a reset or FIN shows as
+                // a failed zero-length check via `peer_addr` after the server closes.
+                if s.write_all(b"\r\n").await.is_err() {
+                    c.non_readers_cut.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+            }
+        }
+    }
+}
+
+async fn ws_non_reader(
+    src: Ipv4Addr,
+    to: SocketAddr,
+    scene: String,
+    stop: CancellationToken,
+    c: Arc<Counters>,
+) {
+    let Ok(tcp) = connect_from(src, to).await else {
+        return;
+    };
+    let url = format!("ws://{to}/v1/scenes/{scene}/stream");
+    let Ok((mut ws, _)) = tokio_tungstenite::client_async(url, tcp).await else {
+        return;
+    };
+    use tokio_tungstenite::tungstenite::Message;
+    let sub = r#"{"type":"subscribe","ticks":true}"#;
+    if ws.send(Message::text(sub)).await.is_err() {
+        return;
+    }
+    let sample = r#"{"type":"sample","id":1,"points":[[0,0],[1,1],[2,2],[3,3],[4,4],[5,5],[6,6],[7,7]],"fields":["height","normal","displacement"]}"#;
+    loop {
+        tokio::select! {
+            () = stop.cancelled() => return,
+            () = tokio::time::sleep(Duration::from_millis(50)) => {
+                // Queries keep the answers coming; none is read.
+                if tokio::time::timeout(Duration::from_secs(1), ws.send(Message::text(sample))).await.map_or(true, |r| r.is_err()) {
+                    c.non_readers_cut.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+            }
+        }
+    }
+}
+
+async fn flood(to: SocketAddr, url: String, stop: CancellationToken, c: Arc<Counters>) {
+    let _ = to;
+    let Ok(client) = reqwest::Client::builder()
+        .no_proxy()
+        .local_address(IpAddr::V4(Ipv4Addr::new(127, 0, 4, 1)))
+        .pool_max_idle_per_host(1)
+        .timeout(Duration::from_secs(5))
+        .build()
+    else {
+        return;
+    };
+    while !stop.is_cancelled() {
+        match client.get(&url).send().await {
+            Ok(r) if r.status().as_u16() == 429 => {
+                c.flood_429.fetch_add(1, Ordering::Relaxed);
+                let _ = r.bytes().await;
+            }
+            Ok(r) if r.status().is_success() => {
+                c.flood_ok.fetch_add(1, Ordering::Relaxed);
+                let _ = r.bytes().await;
+            }
+            _ => tokio::time::sleep(Duration::from_millis(10)).await,
+        }
+    }
+}
+
+async fn idle(to: SocketAddr, n: usize, stop: CancellationToken, c: Arc<Counters>) {
+    let src = Ipv4Addr::new(127, 0, 5, 1);
+    let mut held = Vec::new();
+    let mut pending = tokio::task::JoinSet::new();
+    for _ in 0..n {
+        if stop.is_cancelled() {
+            break;
+        }
+        while pending.len() >= 256 {
+            if let Some(Ok(Some(s))) = pending.join_next().await {
+                held.push(s);
+            }
+        }
+        let c = c.clone();
+        pending.spawn(async move {
+            let mut s = connect_from(src, to).await.ok()?;
+            // A refused connection is answered at once; a held one says nothing.
+            let mut buf = [0u8; 64];
+            match tokio::time::timeout(Duration::from_millis(300), s.read(&mut buf)).await {
+                Ok(_) => {
+                    c.idle_refused.fetch_add(1, Ordering::Relaxed);
+                    None
+                }
+                Err(_) => Some(s),
+            }
+        });
+    }
+    while let Some(r) = pending.join_next().await {
+        if let Ok(Some(s)) = r {
+            held.push(s);
+        }
+    }
+    c.idle_held.store(held.len() as u64, Ordering::Relaxed);
+    stop.cancelled().await;
+    drop(held);
+}
+
+impl std::fmt::Display for HostileReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let l = |f: &mut std::fmt::Formatter<'_>, name: &str, l: &Latency| {
+            writeln!(
+                f,
+                "{name:<10} {:>6} sent {:>6} ok {:>5} failed   p50 {:>7.2} ms  p99 {:>7.2} ms  max {:>7.2} ms",
+                l.sent, l.ok, l.failed, l.p50_ms, l.p99_ms, l.max_ms
+            )
+        };
+        l(f, "baseline", &self.baseline)?;
+        l(f, "during", &self.during)?;
+        l(f, "probes", &self.probes)?;
+        writeln!(
+            f,
+            "slow bodies: {} sockets, {} answered 408 | non-readers cut: {} | flood: {} ok, {} x 429 | idle: {} refused, {} held",
+            self.slow_body_sockets,
+            self.slow_body_408,
+            self.non_readers_cut,
+            self.flood_ok,
+            self.flood_429,
+            self.idle_refused,
+            self.idle_held
+        )?;
+        writeln!(
+            f,
+            "server RSS: {:.0} MiB at start, {:.0} MiB peak, {:.0} MiB after",
+            self.rss_start_mb, self.rss_peak_mb, self.rss_after_mb
+        )?;
+        for m in &self.failures {
+            writeln!(f, "FAILED: {m}")?;
+        }
+        Ok(())
+    }
+}
