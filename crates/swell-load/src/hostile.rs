@@ -14,8 +14,8 @@
 //!   (reconnecting when the server gives up on them), over 8 addresses;
 //! - `--non-readers` HTTP clients that post a large sample and never read the answer, and as many
 //!   WebSocket clients that subscribe and send queries but never read, each from its own address;
-//! - a flood: `--flood-connections` connections from one address asking for heights as fast as
-//!   they are answered;
+//! - a flood: `--flood-connections` connections from one address asking for heights at
+//!   `--flood-rate` in all (four times the default per-address limit);
 //! - `--idle` connections from one address that send nothing.
 //!
 //! Only loopback targets are accepted, and every count has a ceiling.
@@ -62,6 +62,11 @@ pub struct HostileArgs {
     /// Connections of the flood, all from one address.
     #[arg(long, default_value_t = 8)]
     pub flood_connections: usize,
+    /// Requests a second the flood sends, over all its connections: four times the server's
+    /// default per-address rate. (An unpaced flood on the same two cores as the server mostly
+    /// measures the battery's own CPU use, not the server's defence.)
+    #[arg(long, default_value_t = 2000.0)]
+    pub flood_rate: f64,
     /// Idle connections from one address.
     #[arg(long, default_value_t = 10_000)]
     pub idle: usize,
@@ -141,7 +146,8 @@ pub struct HostileReport {
     pub slow_body_sockets: u64,
     /// Slow-body sockets the server answered 408.
     pub slow_body_408: u64,
-    /// Non-reading clients (HTTP, WebSocket) the server disconnected during the attack.
+    /// Non-reading clients (HTTP, WebSocket) seen disconnected during the attack (a lower bound:
+    /// an HTTP non-reader answered 503 over the byte budget keeps its connection).
     pub non_readers_cut: u64,
     /// Flood requests answered 429.
     pub flood_429: u64,
@@ -267,8 +273,14 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
             counters.clone(),
         ));
     }
+    let per_conn = args.flood_rate.clamp(1.0, 100_000.0) / args.flood_connections.max(1) as f64;
     for _ in 0..args.flood_connections {
-        tasks.spawn(flood(addr, height.clone(), stop.clone(), counters.clone()));
+        tasks.spawn(flood(
+            height.clone(),
+            per_conn,
+            stop.clone(),
+            counters.clone(),
+        ));
     }
     {
         let (stop, counters, n) = (stop.clone(), counters.clone(), args.idle);
@@ -533,8 +545,9 @@ async fn ws_non_reader(
     }
 }
 
-async fn flood(to: SocketAddr, url: String, stop: CancellationToken, c: Arc<Counters>) {
-    let _ = to;
+async fn flood(url: String, rate: f64, stop: CancellationToken, c: Arc<Counters>) {
+    let every = Duration::from_secs_f64(1.0 / rate);
+    let mut next = tokio::time::Instant::now();
     let Ok(client) = reqwest::Client::builder()
         .no_proxy()
         .local_address(IpAddr::V4(Ipv4Addr::new(127, 0, 4, 1)))
@@ -545,6 +558,8 @@ async fn flood(to: SocketAddr, url: String, stop: CancellationToken, c: Arc<Coun
         return;
     };
     while !stop.is_cancelled() {
+        tokio::time::sleep_until(next).await;
+        next += every;
         match client.get(&url).send().await {
             Ok(r) if r.status().as_u16() == 429 => {
                 c.flood_429.fetch_add(1, Ordering::Relaxed);
