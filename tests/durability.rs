@@ -583,7 +583,7 @@ async fn sigterm_finishes_requests_closes_sockets_with_1001_and_flushes_bodies()
     let inflight = tokio::spawn(async move { client.post(url).json(&batch).send().await });
     tokio::time::sleep(Duration::from_millis(50)).await;
     let signalled = Instant::now();
-    let kill = Command::new("kill")
+    let kill = Command::new(common::system::program("kill", "procps"))
         .args(["-TERM", &a.child.id().to_string()])
         .status()
         .unwrap();

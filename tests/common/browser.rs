@@ -9,9 +9,14 @@ use std::process::Command;
 
 use serde_json::{Value, json};
 
-/// The Chromium binary: `$CHROMIUM`, else `chromium` on the PATH.
+/// The Chromium binary: `$CHROMIUM`, else Debian's `chromium` (installed when missing, see
+/// `system.rs`).
 pub fn chromium() -> String {
-    std::env::var("CHROMIUM").unwrap_or_else(|_| "chromium".into())
+    std::env::var("CHROMIUM").unwrap_or_else(|_| {
+        super::system::program("chromium", "chromium")
+            .display()
+            .to_string()
+    })
 }
 
 /// `s` with the five entities `--dump-dom` writes turned back into characters.

@@ -2,6 +2,7 @@
 #![allow(dead_code, unreachable_pub)]
 
 pub mod browser;
+pub mod system;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;

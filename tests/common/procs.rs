@@ -4,9 +4,12 @@
 
 use std::io::{Read as _, Write as _};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+#[path = "system.rs"]
+mod system;
 
 pub const TOKEN: &str = "fleet-token";
 
@@ -38,7 +41,7 @@ impl Proc {
 
     /// Sends `sig` (e.g. "STOP", "CONT", "TERM") with kill(1).
     pub fn signal(&self, sig: &str) {
-        let ok = Command::new("kill")
+        let ok = Command::new(which("kill", "procps"))
             .args([format!("-{sig}"), self.pid().to_string()])
             .status()
             .is_ok_and(|s| s.success());
@@ -53,19 +56,10 @@ impl Drop for Proc {
     }
 }
 
-/// Finds a Debian binary (PATH, then /usr/sbin for nginx); panics with the install hint.
+/// Finds a Debian binary (PATH, then /usr/sbin for nginx), installing its package when missing
+/// (see `system.rs`); panics with the install hint when it cannot.
 pub fn which(name: &str, package: &str) -> PathBuf {
-    for dir in std::env::var("PATH")
-        .unwrap_or_default()
-        .split(':')
-        .chain(["/usr/sbin", "/usr/bin"])
-    {
-        let p = Path::new(dir).join(name);
-        if p.is_file() {
-            return p;
-        }
-    }
-    panic!("{name} not found: apt-get install -y {package} (.ci/fleet-deps does)");
+    system::program(name, package)
 }
 
 /// Sends one inline Redis command and returns the first reply line (`+PONG`).
@@ -234,7 +228,7 @@ impl Drop for Nginx {
     /// A fast shutdown (SIGTERM) so the master stops its workers: a `kill -9` of the master
     /// (what dropping the [`Proc`] does) leaves them running, orphaned, after the test.
     fn drop(&mut self) {
-        let _ = Command::new("kill")
+        let _ = Command::new(which("kill", "procps"))
             .args(["-TERM", &self._proc.pid().to_string()])
             .status();
         let until = Instant::now() + Duration::from_secs(3);
