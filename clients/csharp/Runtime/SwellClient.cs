@@ -163,7 +163,9 @@ namespace Swell
         /// <summary>GET /v1/scenes/{id}/uniforms at t and origin: {t, origin, waves, phases, block, rings_dropped}.</summary>
         public Task<object> Uniforms(string id, double t, double ox = 0, double oz = 0)
         {
-            return RequestJson(HttpMethod.Get, "/v1/scenes/" + CheckId(id) + "/uniforms?t=" + Json.Number(t) + "&origin=" + Json.Number(ox) + "," + Json.Number(oz));
+            // Escaped: a number's "R" form may hold a '+' (1E+20), which a query reads as a space.
+            return RequestJson(HttpMethod.Get, "/v1/scenes/" + CheckId(id) + "/uniforms?t=" + Uri.EscapeDataString(Json.Number(t))
+                + "&origin=" + Uri.EscapeDataString(Json.Number(ox) + "," + Json.Number(oz)));
         }
 
         /// <summary>GET /v1/scenes/{id}/shader?lang=: the generated shader text (hlsl_include for Unity, gdshaderinc for Godot).</summary>
