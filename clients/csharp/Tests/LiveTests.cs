@@ -91,6 +91,24 @@ namespace Swell.Tests
                 });
             }
 
+            Runner.TA("open-sea (FFT + Gerstner): local uniforms equal GET /uniforms, FFT grid offsets included", async () =>
+            {
+                var surface = Surface.FromDerived(Json.Get(await http.Scene("open-sea"), "derived"));
+                Runner.Assert(!surface.Analytic, "FFT layers: not evaluated locally");
+                var c = await http.Clock("open-sea");
+                foreach (var o in new[] { new[] { 0.0, 0 }, new[] { -1234.75, 98765.5 } })
+                {
+                    var server = await http.Uniforms("open-sea", c.T, o[0], o[1]);
+                    var local = surface.Uniforms(c.T, o[0], o[1]);
+                    var phases = Json.Nums(Json.Get(server, "phases"));
+                    var block = Json.Nums(Json.Get(server, "block"));
+                    for (int i = 0; i < phases.Length; i++) Runner.Equal(SwellMath.BitsHex(phases[i]), SwellMath.BitsHex(local.Phases[i]), "phase " + i);
+                    Runner.Equal(block.Length, local.Block.Length, "block length");
+                    for (int i = 0; i < block.Length; i++) Runner.Equal((float)block[i], local.Block[i], "block " + i);
+                    Runner.Assert(local.Block.Length > local.PhaseSlots, "FFT vec4s after the phases");
+                }
+            });
+
             Runner.TA("golden lake_gerstner_cascade bit for bit from the server-built cascade waves", async () =>
             {
                 object doc = Json.Parse(File.ReadAllText(Path.Combine(vectors, "surface_v1.json")));
