@@ -42,6 +42,11 @@ pub struct Inner {
     pub bodies: crate::bodies::runner::BodyRegistry,
     /// Running tick loops, by scene.
     pub tickers: Tickers,
+    /// The id of each scene whose clock generation changed ([`AppState::replace_clock`]):
+    /// every stream session listens and sends its client a `clock` event for its own scene.
+    /// One channel for all scenes: clock changes are rare admin acts, and a session that lags
+    /// behind [`CLOCK_CHANGES`] of them just re-reads its scene's clock.
+    pub clock_changes: tokio::sync::broadcast::Sender<Arc<str>>,
     /// Fired when the server starts shutting down: the one signal every loop and session
     /// watches. WebSocket sessions send Close (1001) and end, tick, body and snapshot loops stop
     /// (axum's graceful shutdown does neither for upgraded connections).
@@ -64,6 +69,10 @@ pub struct Inner {
     /// Body sharing through the fleet's Redis (set with `fleet`).
     fleet_bodies: std::sync::OnceLock<crate::store::FleetBodies>,
 }
+
+/// Clock changes buffered for stream sessions ([`Inner::clock_changes`]): more than admins make
+/// in the time a session takes to read one.
+pub const CLOCK_CHANGES: usize = 64;
 
 impl std::ops::Deref for AppState {
     type Target = Inner;
@@ -98,6 +107,7 @@ impl AppState {
             metrics,
             bodies: Default::default(),
             tickers: Tickers::default(),
+            clock_changes: tokio::sync::broadcast::channel(CLOCK_CHANGES).0,
             shutdown: CancellationToken::new(),
             tasks: TaskTracker::new(),
             scenes: RwLock::new(BTreeMap::new()),
@@ -220,6 +230,23 @@ impl AppState {
     pub fn read_clock(&self, entry: &SceneEntry) -> ClockReading {
         let clock = *entry.clock.lock().unwrap_or_else(|p| p.into_inner());
         clock.read(self.now(), entry.scene.spec.tick_hz)
+    }
+
+    /// Sets a scene's clock: every path that changes a clock (a local admin change, the
+    /// journal's replay, a fleet's feed) comes through here, so stream sessions hear of every
+    /// change ([`Inner::clock_changes`]) whichever path brought it. Any change is announced,
+    /// not only a new generation: two admins changing one clock through two replicas at once
+    /// can both write the same next generation (the feed's order decides which clock every
+    /// replica ends with), and clients still hear of the second.
+    pub fn replace_clock(&self, entry: &SceneEntry, clock: Clock) {
+        let before = std::mem::replace(
+            &mut *entry.clock.lock().unwrap_or_else(|p| p.into_inner()),
+            clock,
+        );
+        if before != clock {
+            // An error only means no session is listening.
+            let _ = self.clock_changes.send(Arc::from(entry.scene.id.as_str()));
+        }
     }
 
     /// Inserts a scene at start-up (no persistence, no lock), with `clock` or one started from
@@ -415,11 +442,14 @@ impl AppState {
         if let Some(p) = update.paused {
             clock.set_paused(now, p);
         }
+        // One update is one change, whatever it moved: clients restart their fit at it.
+        clock.next_generation();
         let rec = ClockRecord {
             t: clock.t(now),
             rate: clock.rate(),
             paused: clock.paused(),
             unix: now,
+            generation: clock.generation(),
         };
         if let crate::store::Backend::Redis(fleet) = self.backend() {
             let op = Op::Clock {
@@ -435,7 +465,7 @@ impl AppState {
             clock: rec,
         })
         .await?;
-        *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = clock;
+        self.replace_clock(&entry, clock);
         Ok(self.read_clock(&entry))
     }
 
@@ -513,7 +543,7 @@ impl AppState {
             let id = &entry.scene.id;
             match store.load_clock(id) {
                 Ok(Some(rec)) => {
-                    *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = rec.restore(now);
+                    self.replace_clock(&entry, rec.restore(now));
                     ops.push(Op::Clock {
                         scene: id.clone(),
                         clock: rec,

@@ -69,3 +69,166 @@ async fn fast_forward_runs_faster() {
     assert!(c["t"].as_f64().unwrap() >= 50.0, "{c}");
     s.stop().await;
 }
+
+/// Reads text frames until one of type `ty` (skipping tick frames and anything else).
+async fn next_of_type(ws: &mut common::Ws, ty: &str) -> serde_json::Value {
+    use futures_util::StreamExt;
+    use tokio_tungstenite::tungstenite::Message;
+    loop {
+        let m = tokio::time::timeout(std::time::Duration::from_secs(10), ws.next())
+            .await
+            .expect("a message within 10 s")
+            .expect("socket open")
+            .expect("frame");
+        if let Message::Text(t) = m {
+            let v: serde_json::Value = serde_json::from_str(t.as_str()).expect("JSON");
+            if v["type"] == ty {
+                return v;
+            }
+        }
+    }
+}
+
+async fn ping_json(ws: &mut common::Ws, id: u64) -> serde_json::Value {
+    use futures_util::SinkExt;
+    let ping = json!({"type": "ping", "id": id, "client_time": 1.5});
+    ws.send(tokio_tungstenite::tungstenite::Message::Text(
+        ping.to_string().into(),
+    ))
+    .await
+    .unwrap();
+    next_of_type(ws, "pong").await
+}
+
+/// Issue 28: the pong carries the clock's rate, pause flag and generation; every admin change
+/// (seek, rate, pause) is one more generation, and every session of the scene gets a `clock`
+/// event with the new reading at once, whether it subscribed to ticks or not.
+#[tokio::test]
+async fn pong_carries_rate_paused_generation_and_changes_send_a_clock_event() {
+    let s = TestServer::start(config()).await;
+    let mut ws = common::ws_connect(s.addr, "calm", None).await;
+    let p = ping_json(&mut ws, 1).await;
+    assert_eq!(
+        (&p["rate"], &p["paused"], &p["generation"]),
+        (&json!(1.0), &json!(false), &json!(0)),
+        "{p}"
+    );
+
+    // A seek and a rate change in one update: one generation.
+    let (st, c) = s
+        .put_clock("calm", &json!({"t": 5000.0, "rate": 2.0}))
+        .await;
+    assert_eq!(st, 200, "{c}");
+    assert_eq!(
+        c["generation"],
+        json!(1),
+        "the HTTP reading has it too: {c}"
+    );
+    let ev = next_of_type(&mut ws, "clock").await;
+    assert!(ev.get("id").is_none(), "unprompted: {ev}");
+    assert_eq!((&ev["generation"], &ev["rate"]), (&json!(1), &json!(2.0)));
+    let t = ev["t"].as_f64().unwrap();
+    assert!(
+        (5000.0..5001.0).contains(&t),
+        "the reading after the seek: {ev}"
+    );
+    assert_eq!(ev["tick"], json!((t * 30.0).floor() as i64));
+    assert!(ev["unix"].as_f64().unwrap() > 1.7e9);
+    let p = ping_json(&mut ws, 2).await;
+    assert_eq!((&p["rate"], &p["generation"]), (&json!(2.0), &json!(1)));
+    assert!(p["scene_time"].as_f64().unwrap() >= t);
+
+    // Pause: generation 2; the pong reads the frozen t.
+    let (_, c) = s.put_clock("calm", &json!({"paused": true})).await;
+    let ev = next_of_type(&mut ws, "clock").await;
+    assert_eq!(
+        (&ev["generation"], &ev["paused"]),
+        (&json!(2), &json!(true))
+    );
+    assert_eq!(ev["t"], c["t"], "frozen");
+    let p = ping_json(&mut ws, 3).await;
+    assert_eq!((&p["paused"], &p["generation"]), (&json!(true), &json!(2)));
+    assert_eq!(p["scene_time"], c["t"]);
+
+    // Another scene's change is not this session's news.
+    s.put_clock("lake", &json!({"rate": 3.0})).await;
+    let p = ping_json(&mut ws, 4).await;
+    assert_eq!(p["generation"], json!(2));
+    s.stop().await;
+}
+
+/// The same in protobuf: `Pong.rate/paused/generation` and `ServerMessage.clock`.
+#[tokio::test]
+async fn protobuf_pong_and_clock_change() {
+    use futures_util::{SinkExt, StreamExt};
+    use prost::Message as _;
+    use swell::wire::v1;
+    use tokio_tungstenite::tungstenite::Message;
+    let s = TestServer::start(config()).await;
+    let mut ws = common::ws_connect(s.addr, "calm", Some("swell.v1.protobuf")).await;
+    async fn next(ws: &mut common::Ws) -> v1::ServerMessage {
+        loop {
+            let m = tokio::time::timeout(std::time::Duration::from_secs(10), ws.next())
+                .await
+                .expect("a message within 10 s")
+                .expect("socket open")
+                .expect("frame");
+            if let Message::Binary(b) = m {
+                return v1::ServerMessage::decode(b.as_ref()).expect("ServerMessage");
+            }
+        }
+    }
+    s.put_clock("calm", &json!({"rate": -0.5})).await;
+    let m = next(&mut ws).await;
+    let Some(v1::server_message::Msg::Clock(c)) = m.msg else {
+        panic!("{m:?}")
+    };
+    assert_eq!(
+        (m.id, c.rate, c.paused, c.generation, c.tick_hz),
+        (None, -0.5, false, 1, 30.0)
+    );
+    let ping = v1::ClientMessage {
+        id: Some(7),
+        msg: Some(v1::client_message::Msg::Ping(v1::Ping { client_time: 2.0 })),
+    };
+    ws.send(Message::Binary(ping.encode_to_vec().into()))
+        .await
+        .unwrap();
+    let m = next(&mut ws).await;
+    let Some(v1::server_message::Msg::Pong(p)) = m.msg else {
+        panic!("{m:?}")
+    };
+    assert_eq!(
+        (m.id, p.rate, p.paused, p.generation),
+        (Some(7), -0.5, false, 1)
+    );
+    s.stop().await;
+}
+
+/// The generation is part of the journaled clock record: a restart replays it as it was
+/// written (not a count of the changes this process applied), so it agrees with the replicas
+/// and clients of the process before.
+#[tokio::test]
+async fn the_generation_survives_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = TestServer::start(common::config_with_dir(dir.path().to_owned())).await;
+    for update in [
+        json!({"t": 10.0}),
+        json!({"rate": 2.0}),
+        json!({"paused": true}),
+    ] {
+        assert_eq!(s.put_clock("calm", &update).await.0, 200);
+    }
+    let (_, before) = s.get_json("/v1/scenes/calm/clock").await;
+    assert_eq!(before["generation"], json!(3));
+    s.stop().await;
+    let s = TestServer::start(common::config_with_dir(dir.path().to_owned())).await;
+    let (_, after) = s.get_json("/v1/scenes/calm/clock").await;
+    assert_eq!(
+        (&after["generation"], &after["t"]),
+        (&json!(3), &before["t"])
+    );
+    let (_, c) = s.put_clock("calm", &json!({"paused": false})).await;
+    assert_eq!(c["generation"], json!(4), "counts on from the record");
+    s.stop().await;
+}

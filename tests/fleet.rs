@@ -212,7 +212,32 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     }
     check_within("scene delete", &lags);
 
-    // A built-in scene's clock paused through replica 3: the same bits on replicas 1 and 2.
+    // A built-in scene's clock paused through replica 3: the same bits on replicas 1 and 2,
+    // and (issue 28) the same generation, with a `clock` event to a session on replica 1.
+    let mut ws = {
+        let url = format!("ws://127.0.0.1:{}/v1/scenes/calm/stream", rs[0].port);
+        tokio_tungstenite::connect_async(url.as_str())
+            .await
+            .expect("stream on replica 1")
+            .0
+    };
+    // Reads until the clock event and notes when it came.
+    let event = tokio::spawn(async move {
+        use futures_util::StreamExt;
+        loop {
+            let m = tokio::time::timeout(Duration::from_secs(5), ws.next())
+                .await
+                .expect("a clock event within 5 s")
+                .expect("socket open")
+                .expect("frame");
+            if let tokio_tungstenite::tungstenite::Message::Text(t) = m {
+                let v: Value = serde_json::from_str(t.as_str()).unwrap();
+                if v["type"] == "clock" {
+                    return (Instant::now(), v);
+                }
+            }
+        }
+    });
     let (st, clk) = admin(
         &c,
         &rs[2],
@@ -234,6 +259,17 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
         );
     }
     check_within("built-in clock pause (through replica 3)", &lags);
+    let (came, event) = event.await.expect("reader");
+    check_within(
+        "clock event (replica 1)",
+        &[came.saturating_duration_since(t0)],
+    );
+    assert_eq!(event["generation"], clk["generation"], "{event} vs {clk}");
+    assert_eq!(event["t"].as_f64().unwrap().to_bits(), t_bits);
+    for r in &rs[..2] {
+        let (_, v) = get(&c, r, "/v1/scenes/calm/clock").await;
+        assert_eq!(v["generation"], clk["generation"], "replica :{}", r.port);
+    }
 
     // A replica started now catches up from the store alone.
     let late = Replica::spawn(&redis.url(), &[]);
@@ -243,6 +279,10 @@ async fn an_admin_change_through_one_replica_is_served_by_the_others_within_200_
     let (_, v) = get(&c, &late, "/v1/scenes/calm/clock").await;
     assert_eq!(v["t"].as_f64().unwrap().to_bits(), t_bits, "{v}");
     assert_eq!(v["paused"], true);
+    assert_eq!(
+        v["generation"], clk["generation"],
+        "from the record, not a count"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

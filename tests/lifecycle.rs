@@ -148,6 +148,7 @@ async fn a_pre_journal_data_dir_is_imported() {
         rate: 2.0,
         paused: true,
         unix: 1.7e9,
+        generation: 0,
     };
     old.put_clock("marina", clock).unwrap();
     for round in 0..2 {

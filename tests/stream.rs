@@ -276,8 +276,15 @@ async fn subscribe_sends_ticks_that_follow_the_clock() {
     // Reversed clock: ticks go down.
     s.put_clock("tick20", &json!({"rate": -1})).await;
     let mut down = Vec::new();
+    let mut clock_events = 0;
     while down.len() < 5 {
         let v = recv_json(&mut ws, true).await;
+        // The change itself is announced to the session (issue 28), between frames.
+        if v["type"] == "clock" {
+            assert_eq!((&v["rate"], &v["generation"]), (&json!(-1.0), &json!(1)));
+            clock_events += 1;
+            continue;
+        }
         down.push(v["tick"].as_i64().unwrap());
     }
     // The first frame may still be from before the change.
@@ -285,6 +292,7 @@ async fn subscribe_sends_ticks_that_follow_the_clock() {
         down[1..].windows(2).all(|w| w[1] < w[0]),
         "decreasing: {down:?}"
     );
+    assert_eq!(clock_events, 1, "one clock event for one change");
 
     // Paused: no new frames.
     s.put_clock("tick20", &json!({"paused": true})).await;

@@ -45,7 +45,8 @@ export class SwellClient {
   streamUrl(scene: string): string;
   scenes(): Promise<{ scenes: { id: string; description: string; layers: string[]; tick_hz: number }[] }>;
   scene(id: string): Promise<any>;
-  clock(id: string): Promise<{ t: number; tick: number; tick_hz: number; rate: number; paused: boolean; unix: number }>;
+  clock(id: string): Promise<ClockReading>;
+  setClock(id: string, update: { t?: number; rate?: number; paused?: boolean }): Promise<ClockReading>;
   height(id: string, x: number, z: number, opts?: { t?: number }): Promise<{ t: number; height: number }>;
   sample(id: string, req: SampleRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<SampleResponse>;
   orientation(id: string, req: OrientationRequest, opts?: { wire?: 'json' | 'protobuf' }): Promise<OrientationResponse>;
@@ -61,15 +62,23 @@ export class SwellClient {
   putScene(id: string, spec: object): Promise<any>;
 }
 
+/** A scene clock's reading: `t` at Unix time `unix`; `generation` counts admin changes. */
+export interface ClockReading { t: number; tick: number; tick_hz: number; rate: number; paused: boolean; unix: number; generation: number }
+/** A pong: the client's time echoed, the scene clock when answered, and the clock's state. */
+export interface Pong { client_time: number; scene_time: number; tick: number; rate: number; paused: boolean; generation: number }
+
 export class ClockSync {
-  constructor(options?: { window?: number; best?: number });
+  constructor(options?: { window?: number; best?: number }, clock?: { rate?: number; paused?: boolean; generation?: number | null });
   offset: number; drift: number; rtt: number; minRtt: number; readonly synced: boolean;
+  rate: number; paused: boolean; generation: number | null; readonly slope: number;
+  provisional: { at: number; t: number } | null;
   add(sent: number, received: number, sceneTime: number): void;
   sceneTime(clientTime: number): number;
 }
 
 export interface SessionOptions {
-  WebSocket?: any; pingInterval?: number; syncPings?: number; requestTimeout?: number;
+  WebSocket?: any; pingInterval?: number; syncPings?: number; resyncPings?: number; requestTimeout?: number;
+  onClock?: (ev: ClockReading) => void;
   backoff?: { initial?: number; max?: number; factor?: number };
   onTick?: (frame: TickFrame) => void; onOpen?: () => void; onClose?: (ev: any) => void;
   interpolator?: BodyInterpolator; now?: () => number; clock?: { window?: number; best?: number };
@@ -78,10 +87,10 @@ export class SwellSession {
   constructor(url: string, options?: SessionOptions);
   connect(): Promise<this>;
   opened(): Promise<void>;
-  ping(): Promise<{ client_time: number; scene_time: number; tick: number }>;
+  ping(): Promise<Pong>;
   syncNow(n?: number): Promise<ClockSync>;
   serverTime(): number;
-  clockStats(): { offset: number; drift: number; rtt: number; minRtt: number };
+  clockStats(): { offset: number; drift: number; rtt: number; minRtt: number; rate: number; paused: boolean; generation: number | null };
   sample(req: SampleRequest): Promise<SampleResponse>;
   orientation(req: OrientationRequest): Promise<OrientationResponse>;
   subscribe(interest?: { bodies?: number[]; region?: [number, number, number, number] }): void;
@@ -89,6 +98,7 @@ export class SwellSession {
   close(): void;
   readonly reconnects: number;
   readonly lastTick: TickFrame | null;
+  readonly lastClock: ClockReading | undefined;
 }
 
 export interface InterpolatedBody { id: number; t: number; tick: number; position: Vec3; rotation: Quat; mode: 'interpolated' | 'extrapolated' | 'held' }

@@ -31,6 +31,9 @@ fn check(decoded: Result<Incoming, swell::stream::messages::DecodeError>) {
                     client_time: *client_time,
                     scene_time: swell_fuzz::DEFAULT_T,
                     tick: 0,
+                    rate: 1.0,
+                    paused: false,
+                    generation: 0,
                 },
             };
             encode_both(out);

@@ -81,7 +81,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "get",
         "/v1/scenes/{id}/clock",
-        "Scene clock: t, tick, tick_hz, rate, paused",
+        "Scene clock: t, tick, tick_hz, rate, paused, unix, generation",
     ),
     (
         "put",
@@ -253,7 +253,8 @@ pub fn openapi_document() -> Value {
                 "Upgrade to a WebSocket. Subprotocol swell.v1.json (default): text frames \
                 tagged by \"type\" (client: ping {id, client_time}, sample {id, ...as POST sample}, \
                 orientation {id, ...}, subscribe {ticks, bodies?}; server: pong, sample_result, \
-                orientation_result, tick {tick, t, bodies}, error {id?, code, message, field?}). \
+                orientation_result, tick {tick, t, bodies}, error {id?, code, message, field?}, \
+                clock {t, tick, tick_hz, rate, paused, unix, generation} when the clock changes). \
                 swell.v1.protobuf: binary frames of swell.v1.ClientMessage / ServerMessage \
                 (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \
                 upgrade or with an unknown subprotocol, before the upgrade."

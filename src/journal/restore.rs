@@ -43,7 +43,7 @@ fn put_scene(state: &AppState, id: &str, spec: &Value) {
 /// Sets a scene's clock from a journaled record.
 fn set_clock(state: &AppState, id: &str, rec: &ClockRecord) {
     if let Ok(entry) = state.scene(id) {
-        *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = rec.restore(state.now());
+        state.replace_clock(&entry, rec.restore(state.now()));
     }
 }
 

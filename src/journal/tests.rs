@@ -23,6 +23,7 @@ fn clock(i: u64) -> Op {
             rate: -0.5,
             paused: i.is_multiple_of(2),
             unix: 1.7e9 + i as f64,
+            generation: i,
         },
     }
 }

@@ -8,6 +8,17 @@
 //! system clocks' skew, without talking to each other. Every change re-anchors
 //! (`offset ← t(now)`, `anchor ← now`) first, so t is continuous through rate changes, pause and
 //! resume; only a seek jumps.
+//!
+//! # Generation
+//! Every admin change (seek, rate, pause: one `PUT …/clock` is one change) gives the clock the
+//! next *generation*, a counter that clients read in every pong and `clock` event and use to
+//! restart their clock fit (samples from before a change describe another clock). The
+//! generation is part of the replicated clock record ([`crate::scene::store::ClockRecord`]):
+//! the process that accepts the change computes `previous + 1` and writes it into the journal
+//! or the fleet's feed, and every replay and every replica takes it from the record as it is.
+//! So replicas and restarts agree on it without a counter of their own (a local counter would
+//! count the changes each process happened to apply: a replica that joined later, or a restart
+//! from a snapshot, would disagree). A clock started from the scene's epoch is generation 0.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -76,6 +87,7 @@ pub struct Clock {
     offset: f64,
     rate: f64,
     paused: bool,
+    generation: u64,
 }
 
 /// A clock's state at one instant, as the API reports it.
@@ -94,6 +106,8 @@ pub struct ClockReading {
     /// Unix time of the reading, s: `t` at another Unix time `u` is
     /// `t + rate·(u − unix)` (unless paused), so a client can follow the clock on its own.
     pub unix: f64,
+    /// The clock's generation: one more after every admin change (see the module docs).
+    pub generation: u64,
 }
 
 impl Clock {
@@ -104,17 +118,37 @@ impl Clock {
             offset: t,
             rate: 1.0,
             paused: false,
+            generation: 0,
         }
     }
 
-    /// A clock reading `t` at `now` with the given rate and pause state.
+    /// A clock reading `t` at `now` with the given rate and pause state (generation 0; see
+    /// [`Clock::with_generation`]).
     pub fn with_state(now: f64, t: f64, rate: f64, paused: bool) -> Clock {
         Clock {
             anchor: now,
             offset: t,
             rate,
             paused,
+            generation: 0,
         }
+    }
+
+    /// The same clock at generation `generation` (as a replicated record gives it).
+    #[must_use]
+    pub fn with_generation(self, generation: u64) -> Clock {
+        Clock { generation, ..self }
+    }
+
+    /// The clock's generation (see the module docs).
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// Counts one admin change: the next generation (the accepting process calls this once
+    /// per change, before recording it).
+    pub fn next_generation(&mut self) {
+        self.generation = self.generation.wrapping_add(1);
     }
 
     /// A running clock at rate 1 that reads `t = 0` at Unix time `epoch`.
@@ -174,6 +208,7 @@ impl Clock {
             rate: self.rate,
             paused: self.paused,
             unix: now,
+            generation: self.generation,
         }
     }
 }

@@ -43,6 +43,11 @@ pub struct ClockRecord {
     pub paused: bool,
     /// Wall-clock time of the reading, seconds since the Unix epoch.
     pub unix: f64,
+    /// The clock's generation after this change ([`crate::scene::clock`]): written by the
+    /// process that accepted the change, taken as it is by every replay and replica. Records
+    /// written before generations existed read as 0.
+    #[serde(default)]
+    pub generation: u64,
 }
 
 impl ClockRecord {
@@ -52,6 +57,7 @@ impl ClockRecord {
     /// than the one recorded.
     pub fn restore(&self, now: f64) -> crate::scene::Clock {
         crate::scene::Clock::with_state(self.unix.min(now), self.t, self.rate, self.paused)
+            .with_generation(self.generation)
     }
 }
 
@@ -306,6 +312,7 @@ mod tests {
             rate: -2.5,
             paused: true,
             unix: 1.7e9,
+            generation: 3,
         };
         s.put_clock("a", c).unwrap();
         let loaded = s.load_scenes();

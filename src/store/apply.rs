@@ -45,7 +45,7 @@ pub fn delete(state: &AppState, id: &str) {
 /// Sets a scene's clock from a record (nothing if the scene is unknown here).
 pub fn clock(state: &AppState, id: &str, rec: &ClockRecord) {
     if let Ok(entry) = state.scene(id) {
-        *entry.clock.lock().unwrap_or_else(|p| p.into_inner()) = rec.restore(state.now());
+        state.replace_clock(&entry, rec.restore(state.now()));
     }
 }
 

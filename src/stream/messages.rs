@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 use crate::error::ApiError;
+use crate::scene::clock::ClockReading;
 use crate::service::finite::check_answer;
 use crate::service::json;
 use crate::service::types::{
@@ -123,7 +124,15 @@ pub enum Event {
         scene_time: f64,
         /// `floor(scene_time·tick_hz)`.
         tick: i64,
+        /// Scene seconds per real second.
+        rate: f64,
+        /// Whether the clock is paused.
+        paused: bool,
+        /// The clock's generation ([`crate::scene::clock`]).
+        generation: u64,
     },
+    /// The scene's clock changed (sent unprompted, without an id).
+    Clock(ClockReading),
     /// Answer to `sample`.
     SampleResult(SampleResponse),
     /// Answer to `orientation`.
@@ -153,16 +162,20 @@ impl Outgoing {
         struct PongNumbers {
             client_time: f64,
             scene_time: f64,
+            rate: f64,
         }
         let checked = match &self.event {
             Event::Pong {
                 client_time,
                 scene_time,
+                rate,
                 ..
             } => check_answer(&PongNumbers {
                 client_time: *client_time,
                 scene_time: *scene_time,
+                rate: *rate,
             }),
+            Event::Clock(r) => check_answer(r),
             Event::SampleResult(r) => check_answer(r),
             Event::OrientationResult(r) => check_answer(r),
             Event::Tick(t) => check_answer(t.as_ref()),
@@ -358,11 +371,18 @@ pub fn encode_json(out: &Outgoing) -> String {
             client_time,
             scene_time,
             tick,
+            rate,
+            paused,
+            generation,
         } => tagged(
             "pong",
             out.id,
-            serde_json::json!({"client_time": client_time, "scene_time": scene_time, "tick": tick}),
+            serde_json::json!({
+                "client_time": client_time, "scene_time": scene_time, "tick": tick,
+                "rate": rate, "paused": paused, "generation": generation,
+            }),
         ),
+        Event::Clock(r) => tagged("clock", out.id, to(r)),
         Event::SampleResult(r) => tagged("sample_result", out.id, to(r)),
         Event::OrientationResult(r) => tagged("orientation_result", out.id, to(r)),
         Event::Tick(t) => tagged("tick", out.id, to(t.as_ref())),
@@ -384,10 +404,25 @@ pub fn encode_protobuf(out: Outgoing) -> Vec<u8> {
             client_time,
             scene_time,
             tick,
+            rate,
+            paused,
+            generation,
         } => server_message::Msg::Pong(v1::Pong {
             client_time,
             scene_time,
             tick,
+            rate,
+            paused,
+            generation,
+        }),
+        Event::Clock(r) => server_message::Msg::Clock(v1::ClockChange {
+            t: r.t,
+            tick: r.tick,
+            tick_hz: r.tick_hz,
+            rate: r.rate,
+            paused: r.paused,
+            unix: r.unix,
+            generation: r.generation,
         }),
         Event::SampleResult(r) => server_message::Msg::SampleResult(r.into()),
         Event::OrientationResult(r) => server_message::Msg::OrientationResult(r.into()),
@@ -492,6 +527,63 @@ mod tests {
         assert_eq!(
             (e.id, e.error.code, e.error.field.as_deref()),
             (Some(2), "invalid_value", Some("client_time"))
+        );
+    }
+
+    /// The pong carries the clock's rate, pause flag and generation in both codecs, and a
+    /// `clock` event its whole reading, without an id.
+    #[test]
+    fn pong_and_clock_event_carry_rate_paused_generation() {
+        let pong = Outgoing {
+            id: Some(1),
+            event: Event::Pong {
+                client_time: 0.5,
+                scene_time: 10.0,
+                tick: 300,
+                rate: 2.0,
+                paused: true,
+                generation: 7,
+            },
+        };
+        let v: Value = serde_json::from_str(&encode_json(&pong)).unwrap();
+        assert_eq!(
+            (v["rate"].as_f64(), v["paused"].as_bool()),
+            (Some(2.0), Some(true))
+        );
+        assert_eq!(v["generation"], 7);
+        let m = v1::ServerMessage::decode(encode_protobuf(pong).as_slice()).unwrap();
+        let Some(server_message::Msg::Pong(p)) = m.msg else {
+            panic!("not a pong")
+        };
+        assert_eq!((p.rate, p.paused, p.generation), (2.0, true, 7));
+
+        let reading = ClockReading {
+            t: 5.0,
+            tick: 150,
+            tick_hz: 30.0,
+            rate: -1.0,
+            paused: false,
+            unix: 1.8e9,
+            generation: 3,
+        };
+        let clock = Outgoing {
+            id: None,
+            event: Event::Clock(reading),
+        };
+        let v: Value = serde_json::from_str(&encode_json(&clock)).unwrap();
+        assert_eq!(v["type"], "clock");
+        assert!(v.get("id").is_none());
+        assert_eq!(
+            (v["t"].as_f64(), v["generation"].as_u64()),
+            (Some(5.0), Some(3))
+        );
+        let m = v1::ServerMessage::decode(encode_protobuf(clock).as_slice()).unwrap();
+        let Some(server_message::Msg::Clock(c)) = m.msg else {
+            panic!("not a clock event")
+        };
+        assert_eq!(
+            (m.id, c.t, c.rate, c.unix, c.generation),
+            (None, 5.0, -1.0, 1.8e9, 3)
         );
     }
 

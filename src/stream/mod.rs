@@ -38,6 +38,13 @@
 //! it, and its unread messages are drained for a moment first, so the connection ends with a
 //! FIN rather than a reset.
 //!
+//! # Clock changes
+//! Every session hears of every change to its scene's clock ([`AppState::replace_clock`]: a
+//! local admin change, or in a fleet the change arriving through the shared feed) and sends a
+//! `clock` event (no id) with the clock's reading, generation included, at once. Pongs carry the
+//! rate, pause flag and generation too, so a client that misses the event still restarts its
+//! clock fit at the next pong.
+//!
 //! # Shutdown
 //! Each session watches the server's shutdown token ([`shutdown`](crate::state::Inner::shutdown) field): when it
 //! fires, the session queues a Close frame (1001, going away), lets the writer flush it (up to
@@ -478,6 +485,9 @@ pub async fn session<W, R>(
         },
         state.limits.ws_messages_burst,
     );
+    // Clock changes of any scene ([`crate::state::Inner::clock_changes`]); this session tells
+    // its client about its own scene's, once per change it sees.
+    let mut clock_changes = state.clock_changes.subscribe();
     let end = loop {
         // Pinged at half the idle timeout, closed at the end of it.
         let wake = idle.map(|d| last_heard + if pinged { d } else { d / 2 });
@@ -494,6 +504,14 @@ pub async fn session<W, R>(
                 pinged = true;
                 queue.push_out(Out::Message(Message::Ping(Bytes::from_static(b"swell"))));
             }
+            changed = clock_changes.recv() => match changed {
+                Ok(scene) if *scene == *scene_id => clock_event(&state, &scene_id, &queue),
+                Ok(_) => {}
+                // Missed some: one of them may have been this scene's.
+                Err(broadcast::error::RecvError::Lagged(_)) => clock_event(&state, &scene_id, &queue),
+                // The state holds the sender for as long as any session runs.
+                Err(broadcast::error::RecvError::Closed) => break End::Shutdown,
+            },
             msg = stream.next() => {
                 last_heard = tokio::time::Instant::now();
                 pinged = false;
@@ -729,6 +747,17 @@ fn wrong_frame(got: &str, protocol: &str, want: &str) -> DecodeError {
     }
 }
 
+/// Queues a `clock` event with the scene's clock now (nothing if the scene is gone: the
+/// client hears of that from its next request or the end of its tick frames).
+fn clock_event(state: &AppState, scene_id: &str, queue: &Queue) {
+    if let Ok(entry) = state.scene(scene_id) {
+        queue.push(Outgoing {
+            id: None,
+            event: Event::Clock(state.read_clock(&entry)),
+        });
+    }
+}
+
 /// Acts on one client message.
 fn handle(
     state: &AppState,
@@ -749,6 +778,9 @@ fn handle(
                         client_time,
                         scene_time: r.t,
                         tick: r.tick,
+                        rate: r.rate,
+                        paused: r.paused,
+                        generation: r.generation,
                     },
                 });
             }

@@ -161,8 +161,23 @@ export class SwellClient {
   /** GET /v1/scenes/{id}: spec, derived (every built wave), model_version, spec_hash, clock. */
   scene(id) { return this._json('GET', `/v1/scenes/${checkSceneId(id)}`); }
 
-  /** GET /v1/scenes/{id}/clock: `{t, tick, tick_hz, rate, paused, unix}`. */
+  /** GET /v1/scenes/{id}/clock: `{t, tick, tick_hz, rate, paused, unix, generation}`. */
   clock(id) { return this._json('GET', `/v1/scenes/${checkSceneId(id)}/clock`); }
+
+  /**
+   * PUT /v1/scenes/{id}/clock (admin): seek (`t`), `rate` and/or `paused`, in that order; the
+   * reading after the change (its `generation` one more than before).
+   */
+  setClock(id, { t, rate, paused } = {}) {
+    const body = {};
+    if (t !== undefined) body.t = checkFinite('t', t);
+    if (rate !== undefined) body.rate = checkFinite('rate', rate);
+    if (paused !== undefined) {
+      if (typeof paused !== 'boolean') throw new ArgumentError('paused', 'paused must be a boolean');
+      body.paused = paused;
+    }
+    return this._json('PUT', `/v1/scenes/${checkSceneId(id)}/clock`, { body: JSON.stringify(body), contentType: 'application/json', admin: true });
+  }
 
   /** GET …/height: `{t, height}` at world (x, z); `t` omitted = the scene's now. */
   async height(id, x, z, { t } = {}) {

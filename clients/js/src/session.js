@@ -3,9 +3,15 @@
 //
 // - Requests carry an `id`; answers are matched by id (they may arrive out of order).
 // - Clock sync: pings every `pingInterval` ms; each pong gives a sample (send time, receive
-//   time, scene time). The offset comes from the samples with the lowest round trip (their
-//   midpoint error is at most RTT/2, and queueing only ever adds delay), the drift from a
-//   least-squares slope over the window; `serverTime()` is then scene time now, in seconds.
+//   time, scene time) and the clock's rate, pause flag and generation. The offset comes from
+//   the samples with the lowest round trip (their midpoint error is at most RTT/2, and queueing
+//   only ever adds delay), the drift from a least-squares slope over the window; `serverTime()`
+//   is then scene time now, in seconds.
+// - Clock changes (an admin seek, rate or pause change): the server sends a `clock` event and
+//   every later pong has the new generation. Either restarts the fit (the old samples describe
+//   another clock): until the next pong `serverTime()` follows the event's reading at its rate,
+//   and `resyncPings` pings go out at once. A pong of an older generation (sent before the
+//   change, answered after the restart) is dropped.
 // - Tick subscription with an interest set (`bodies`, `region`); frames go to `onTick` and to an
 //   optional `BodyInterpolator`.
 // - Reconnect: when the socket closes without `close()` having been called, it reopens after
@@ -24,9 +30,15 @@ const monotonicSeconds = () => (globalThis.performance?.now?.() ?? Date.now()) /
 /**
  * Clock synchronisation from ping/pong samples. Times are seconds: `clientTime` on a local
  * monotonic clock, `sceneTime` on the scene clock.
+ *
+ * One fit describes one clock *generation* (the server counts every seek, rate or pause change;
+ * pongs and `clock` events carry it): the session starts a new ClockSync at each new generation,
+ * so samples from before a change never mix with those after it. The scene clock runs at the
+ * rate the server states (`k` = rate, or 0 while paused), so each sample gives the offset of
+ * `sceneTime − k·mid`, and the fitted drift is only the two machines' clock-frequency error.
  */
 export class ClockSync {
-  constructor({ window = 32, best = 4 } = {}) {
+  constructor({ window = 32, best = 4 } = {}, { rate = 1, paused = false, generation = null } = {}) {
     this.window = window;
     this.best = best;
     this.samples = [];
@@ -34,37 +46,54 @@ export class ClockSync {
     this.drift = 0;
     this.ref = 0;
     this.rtt = NaN;
+    this.rate = rate;
+    this.paused = paused;
+    /** The server's clock generation this fit describes (null: a server that sends none). */
+    this.generation = generation;
+    /**
+     * Before the first sample of a generation announced by a `clock` event: the event's
+     * reading `{at, t}` (client time of its arrival less the previous one-way delay, scene time).
+     */
+    this.provisional = null;
   }
+
+  /** Scene seconds per client second: the rate, or 0 while paused. */
+  get slope() { return this.paused ? 0 : this.rate; }
 
   /** Adds a sample: ping sent at `sent`, pong received at `received` (client clock), pong's scene time. */
   add(sent, received, sceneTime) {
     const rtt = received - sent;
     const mid = sent + rtt / 2;
-    this.samples.push({ rtt, mid, offset: sceneTime - mid });
+    this.samples.push({ rtt, mid, offset: sceneTime - this.slope * mid });
     if (this.samples.length > this.window) this.samples.shift();
     this.rtt = rtt;
     const sorted = [...this.samples].sort((a, b) => a.rtt - b.rtt);
     const good = sorted.slice(0, Math.min(this.best, sorted.length));
     // Drift: slope of offset against time over the samples within twice the best RTT (needs a
-    // spread of at least a second to mean anything).
+    // spread of at least a second to mean anything; none while paused: the clock stands still).
     const within = this.samples.filter((s) => s.rtt <= 2 * sorted[0].rtt + 1e-3);
     const m0 = within.reduce((a, s) => a + s.mid, 0) / within.length;
     const o0 = within.reduce((a, s) => a + s.offset, 0) / within.length;
     let sxx = 0, sxy = 0;
     for (const s of within) { sxx += (s.mid - m0) ** 2; sxy += (s.mid - m0) * (s.offset - o0); }
     const span = within.length > 1 ? within[within.length - 1].mid - within[0].mid : 0;
-    this.drift = span >= 1 && sxx > 0 ? sxy / sxx : 0;
+    this.drift = this.slope !== 0 && span >= 1 && sxx > 0 ? sxy / sxx : 0;
     // Offset at `ref` from the lowest-RTT samples, each carried to ref along the drift.
     this.ref = good.reduce((a, s) => a + s.mid, 0) / good.length;
     this.offset = good.reduce((a, s) => a + s.offset + this.drift * (this.ref - s.mid), 0) / good.length;
     this.minRtt = sorted[0].rtt;
   }
 
-  /** Whether there is at least one sample. */
-  get synced() { return this.samples.length > 0; }
+  /** Whether there is at least one sample (or a `clock` event's reading). */
+  get synced() { return this.samples.length > 0 || this.provisional !== null; }
 
   /** Scene time at client time `c` (s). */
-  sceneTime(c) { return c + this.offset + this.drift * (c - this.ref); }
+  sceneTime(c) {
+    if (this.samples.length === 0 && this.provisional) {
+      return this.provisional.t + this.slope * (c - this.provisional.at);
+    }
+    return this.slope * c + this.offset + this.drift * (c - this.ref);
+  }
 }
 
 /**
@@ -74,8 +103,10 @@ export class ClockSync {
  * Options: `WebSocket` (constructor; default the global one: browsers, Node 22+, or Node 20
  * with `--experimental-websocket`), `pingInterval` (ms, 1000), `syncPings` (pings `connect()`
  * waits for, 5), `requestTimeout` (ms, 10000), `backoff` (`{initial: 200, max: 5000, factor:
- * 2}` ms), `onTick(frame)`, `onOpen()`, `onClose(event)`, `interpolator` (a BodyInterpolator fed
- * every tick frame), `now` (client clock in s; default `performance.now()/1000`).
+ * 2}` ms), `onTick(frame)`, `onOpen()`, `onClose(event)`, `onClock(event)` (the scene's clock
+ * changed: `{t, tick, tick_hz, rate, paused, unix, generation}`), `resyncPings` (pings sent at a
+ * clock change, 3), `interpolator` (a BodyInterpolator fed every tick frame), `now` (client
+ * clock in s; default `performance.now()/1000`).
  */
 export class SwellSession {
   constructor(url, options = {}) {
@@ -89,6 +120,8 @@ export class SwellSession {
     }
     this.pingInterval = options.pingInterval ?? 1000;
     this.syncPings = options.syncPings ?? 5;
+    this.resyncPings = options.resyncPings ?? 3;
+    this.onClock = options.onClock ?? null;
     this.requestTimeout = options.requestTimeout ?? 10000;
     this.backoff = { initial: 200, max: 5000, factor: 2, ...(options.backoff ?? {}) };
     this.onTick = options.onTick ?? null;
@@ -187,6 +220,25 @@ export class SwellSession {
     return this.syncNow(this.syncPings).then(() => { this.previousClock = null; }, () => {});
   }
 
+  // A new fit for the clock `c` (a pong or a `clock` event: rate, paused, generation), with the
+  // event's reading as the estimate until the first pong (`received`: its arrival, or null).
+  _restartFit(c, received) {
+    const prev = this.clock;
+    this.clock = new ClockSync(this.clockOptions, { rate: c.rate ?? 1, paused: c.paused ?? false, generation: c.generation ?? null });
+    if (received !== null) {
+      // The event left the server about one one-way delay before it arrived.
+      const oneWay = Number.isFinite(prev.minRtt) ? prev.minRtt / 2 : 0;
+      this.clock.provisional = { at: received - oneWay, t: c.t };
+    }
+  }
+
+  _clockChanged(m, received) {
+    this._restartFit(m, received);
+    this.lastClock = m;
+    this.onClock?.(m);
+    if (this.ws && this.ws.readyState === 1) this.syncNow(this.resyncPings).catch(() => {});
+  }
+
   /** Resolves when the socket is open (now or after a reconnect). */
   opened() {
     if (this.ws && this.ws.readyState === 1) return Promise.resolve();
@@ -239,6 +291,10 @@ export class SwellSession {
       this.onTick?.(m);
       return;
     }
+    if (m.type === 'clock') {
+      this._clockChanged(m, received);
+      return;
+    }
     const p = m.id != null ? this.pending.get(m.id) : undefined;
     if (!p) return;
     this.pending.delete(m.id);
@@ -247,7 +303,19 @@ export class SwellSession {
       return;
     }
     if (m.type === 'pong') {
-      this.clock.add(m.client_time, received, m.scene_time);
+      const g = m.generation ?? null;
+      const cur = this.clock.generation;
+      if (g !== null && cur !== null && g < cur) {
+        // Answered before a change this session already restarted at: another clock's sample.
+      } else {
+        if (g !== cur && (this.clock.synced || cur === null)) {
+          this._restartFit(m, null);
+        } else if (!this.clock.synced) {
+          // The first pong of a fit states the clock it samples.
+          Object.assign(this.clock, { rate: m.rate ?? 1, paused: m.paused ?? false, generation: g });
+        }
+        this.clock.add(m.client_time, received, m.scene_time);
+      }
       this.lastPong = m;
     }
     delete m.type;
@@ -255,7 +323,10 @@ export class SwellSession {
     p.resolve(m);
   }
 
-  /** One ping: resolves to the pong (`{client_time, scene_time, tick}`) and feeds the clock. */
+  /**
+   * One ping: resolves to the pong (`{client_time, scene_time, tick, rate, paused, generation}`)
+   * and feeds the clock.
+   */
   ping() { return this._request({ type: 'ping', client_time: this.now() }); }
 
   /** Sends `n` pings one after another (so their RTTs are not inflated by each other). */
@@ -271,10 +342,13 @@ export class SwellSession {
     return clock.sceneTime(this.now());
   }
 
-  /** Clock offset (scene time − client time, s), round trip of the last pong and its minimum (s). */
+  /**
+   * Clock offset (scene time − rate·client time, s), drift, round trip of the last pong and its
+   * minimum (s), and the clock the fit describes (rate, paused, generation).
+   */
   clockStats() {
     const c = this.clock.synced ? this.clock : (this.previousClock ?? this.clock);
-    return { offset: c.offset, drift: c.drift, rtt: c.rtt, minRtt: c.minRtt };
+    return { offset: c.offset, drift: c.drift, rtt: c.rtt, minRtt: c.minRtt, rate: c.rate, paused: c.paused, generation: c.generation };
   }
 
   /** A sample query on the socket: the same answer as POST …/sample. */

@@ -217,6 +217,46 @@ describe('live server', { skip }, () => {
       } finally { s.close(); }
     });
 
+    // Issue 28: after an admin clock change the fit restarts at the new generation. Truth is
+    // the server's own reading carried to now: `t + rate·(unix_now − unix)` (0 while paused).
+    const truth = (r) => r.t + (r.paused ? 0 : r.rate) * (wallSeconds() - r.unix);
+    const smallSpec = { description: 'clock test', tick_hz: 20, seed: 3, layers: [{ kind: 'gerstner', waves: [{ amplitude: 0.4, wavelength: 30, direction: [1, 0.5], steepness: 0.6 }] }] };
+
+    test('seek and rate change while connected: serverTime() within 5 ms 1 s after each', async () => {
+      await admin.putScene('clock-live', smallSpec);
+      const events = [];
+      const s = new SwellSession(http.streamUrl('clock-live'), { onClock: (e) => events.push(e) });
+      await s.connect();
+      try {
+        for (const [what, update] of [['seek', { t: 118000 }], ['rate 1 -> 2', { rate: 2 }], ['pause', { paused: true }], ['resume', { paused: false }], ['seek back, rate -1', { t: 50, rate: -1 }]]) {
+          const before = s.clockStats().generation;
+          const r = await admin.setClock('clock-live', update);
+          assert.equal(r.generation, before + 1, `${what}: one generation per change`);
+          await sleep(1000);
+          const err = s.serverTime() - truth(r);
+          console.log(`clock change (${what}): error 1 s after ${(err * 1e3).toFixed(3)} ms, generation ${s.clockStats().generation}`);
+          assert.ok(Math.abs(err) < 0.005, `${what}: scene time off by ${err} s 1 s after the change`);
+          assert.equal(s.clockStats().generation, r.generation);
+          assert.equal(events.at(-1)?.generation, r.generation, `${what}: a clock event`);
+        }
+      } finally { s.close(); }
+    });
+
+    test('joining a paused or rate-2 scene: serverTime() within 5 ms after the first pong', async () => {
+      for (const [what, update] of [['paused', { t: 777.25, paused: true }], ['rate 2', { paused: false, rate: 2 }]]) {
+        await admin.putScene('clock-join', smallSpec);
+        const r = await admin.setClock('clock-join', update);
+        const s = new SwellSession(http.streamUrl('clock-join'), { syncPings: 1 });
+        await s.connect();
+        try {
+          const err = s.serverTime() - truth(r);
+          console.log(`joining a ${what} scene: error after the first pong ${(err * 1e3).toFixed(3)} ms`);
+          assert.ok(Math.abs(err) < 0.005, `${what}: scene time off by ${err} s`);
+          assert.equal(s.clock.samples.length, 1);
+        } finally { s.close(); }
+      }
+    });
+
     test('sample and orientation on the socket equal the HTTP answers bit for bit', async () => {
       const s = new SwellSession(http.streamUrl('lake'));
       await s.connect();

@@ -98,3 +98,59 @@ test('a reconnect drops the old clock samples and re-syncs to the new server clo
   assert.ok(Math.abs(mixed.sceneTime(server.now) - (server.now + 503)) > 1, 'old samples would pin the old offset');
   } finally { s.close(); }
 });
+
+// Issue 28: a fake server whose clock reads `t0 + rate·(now − a0)` (frozen while paused), with a
+// generation that each change increments; pongs carry rate, paused and generation.
+test('clock generations: a clock event or a newer pong restarts the fit, an older pong is dropped', async () => {
+  const srv = { now: 0, rtt: 0.002, t0: 100, a0: 0, rate: 1, paused: false, gen: 0, answerGen: null, sock: null };
+  const sceneAt = (c) => (srv.paused ? srv.t0 : srv.t0 + srv.rate * (c - srv.a0));
+  const change = ({ t, rate, paused }) => {
+    srv.t0 = t ?? sceneAt(srv.now);
+    srv.a0 = srv.now;
+    if (rate !== undefined) srv.rate = rate;
+    if (paused !== undefined) srv.paused = paused;
+    srv.gen++;
+  };
+  class Sock {
+    constructor() { this.readyState = 0; srv.sock = this; setTimeout(() => { this.readyState = 1; this.onopen?.(); }, 1); }
+    send(text) {
+      const m = JSON.parse(text);
+      if (m.type !== 'ping') return;
+      srv.now += srv.rtt / 2;
+      const pong = { type: 'pong', id: m.id, client_time: m.client_time, scene_time: sceneAt(srv.now), tick: 0,
+        rate: srv.rate, paused: srv.paused, generation: srv.answerGen ?? srv.gen };
+      srv.now += srv.rtt / 2;
+      setTimeout(() => this.onmessage?.({ data: JSON.stringify(pong) }), 0);
+    }
+    close() { this.readyState = 3; }
+  }
+  const events = [];
+  const s = new SwellSession('ws://fake/v1/scenes/x/stream', { WebSocket: Sock, now: () => srv.now, pingInterval: 1e6, syncPings: 3, onClock: (e) => events.push(e) });
+  await s.connect();
+  try {
+    assert.ok(Math.abs(s.serverTime() - sceneAt(srv.now)) < 1e-9);
+    assert.equal(s.clockStats().generation, 0);
+    // Seek to 5000 at rate 2, announced by an event (it arrives at once here).
+    change({ t: 5000, rate: 2 });
+    srv.sock.onmessage({ data: JSON.stringify({ type: 'clock', t: sceneAt(srv.now), tick: 0, tick_hz: 30, rate: 2, paused: false, unix: 0, generation: srv.gen }) });
+    assert.equal(events.length, 1);
+    assert.ok(Math.abs(s.serverTime() - sceneAt(srv.now)) < 0.005, 'the event\'s reading until the next pong');
+    for (let i = 0; i < 50 && s.clock.samples.length < 3; i++) await new Promise((r) => setTimeout(r, 1));
+    assert.equal(s.clock.samples.length, 3, 'resyncPings pings at once, on a fresh fit');
+    srv.now += 10;
+    assert.ok(Math.abs(s.serverTime() - sceneAt(srv.now)) < 1e-9, 'rate 2 from the pongs');
+    // A pong answered before a change the session already restarted at: dropped.
+    srv.answerGen = 0;
+    await s.ping();
+    srv.answerGen = null;
+    assert.equal(s.clock.samples.length, 3, 'an older generation\'s pong is not a sample');
+    // A change whose event was missed: the next pong's newer generation restarts the fit.
+    change({ paused: true });
+    await s.ping();
+    assert.equal(s.clockStats().generation, 2);
+    assert.equal(s.clock.samples.length, 1);
+    const frozen = sceneAt(srv.now);
+    srv.now += 5;
+    assert.equal(s.serverTime(), frozen, 'paused: frozen');
+  } finally { s.close(); }
+});

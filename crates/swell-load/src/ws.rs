@@ -121,6 +121,11 @@ pub enum ServerMsg {
         /// Points or bodies answered.
         values: usize,
     },
+    /// A `clock` event (the scene's clock changed; no id): its generation.
+    Clock {
+        /// The clock's generation.
+        generation: u64,
+    },
     /// An `error`.
     Error {
         /// Echoed id.
@@ -140,6 +145,7 @@ struct JsonMsg {
     tick: Option<i64>,
     t: Option<f64>,
     scene_time: Option<f64>,
+    generation: Option<u64>,
     bodies: Option<Vec<IgnoredAny>>,
     height: Option<Vec<IgnoredAny>>,
     normal: Option<Vec<IgnoredAny>>,
@@ -192,6 +198,9 @@ pub fn decode(wire: Wire, payload: &[u8]) -> Result<ServerMsg, String> {
                     code: m.code.unwrap_or_default(),
                     message: m.message.unwrap_or_default(),
                 },
+                "clock" => ServerMsg::Clock {
+                    generation: m.generation.unwrap_or_default(),
+                },
                 other => return Err(format!("unknown message type {other:?}")),
             })
         }
@@ -220,6 +229,9 @@ pub fn decode(wire: Wire, payload: &[u8]) -> Result<ServerMsg, String> {
                     id: m.id,
                     code: e.code,
                     message: e.message,
+                },
+                Msg::Clock(c) => ServerMsg::Clock {
+                    generation: c.generation,
                 },
             })
         }
@@ -577,6 +589,7 @@ mod tests {
                 client_time: 0.0,
                 scene_time: 12.5,
                 tick: 375,
+                ..Default::default()
             })),
         }
         .encode_to_vec();

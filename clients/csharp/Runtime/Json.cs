@@ -1,0 +1,258 @@
+// A minimal JSON reader and writer for the wire's own messages (no dependency beyond the base
+// class library: Unity and .NET Standard 2.1 have no System.Text.Json).
+//
+// Values are plain objects: Dictionary<string, object> (keys in document order), List<object>,
+// string, double, bool, null. Numbers are parsed with double.Parse (invariant culture), which
+// rounds correctly, so a number the server wrote with its shortest round-trip form reads back to
+// the server's bits; numbers are written with the "R" format, checked to round-trip.
+using System;
+using System.Collections.Generic;
+using System.Globalization;
+using System.Text;
+
+namespace Swell
+{
+    /// <summary>Parses and writes JSON as plain objects.</summary>
+    public static class Json
+    {
+        /// <summary>Parses one JSON value.</summary>
+        /// <exception cref="FormatException">The text is not JSON.</exception>
+        public static object Parse(string text)
+        {
+            int i = 0;
+            object v = ReadValue(text, ref i);
+            SkipWs(text, ref i);
+            if (i != text.Length) throw new FormatException("trailing characters at " + i);
+            return v;
+        }
+
+        static void SkipWs(string s, ref int i)
+        {
+            while (i < s.Length && (s[i] == ' ' || s[i] == '\t' || s[i] == '\n' || s[i] == '\r')) i++;
+        }
+
+        static object ReadValue(string s, ref int i)
+        {
+            SkipWs(s, ref i);
+            if (i >= s.Length) throw new FormatException("unexpected end of JSON");
+            char c = s[i];
+            if (c == '{')
+            {
+                var d = new Dictionary<string, object>();
+                i++;
+                SkipWs(s, ref i);
+                if (i < s.Length && s[i] == '}') { i++; return d; }
+                while (true)
+                {
+                    SkipWs(s, ref i);
+                    string k = ReadString(s, ref i);
+                    SkipWs(s, ref i);
+                    Expect(s, ref i, ':');
+                    d[k] = ReadValue(s, ref i);
+                    SkipWs(s, ref i);
+                    if (i < s.Length && s[i] == ',') { i++; continue; }
+                    Expect(s, ref i, '}');
+                    return d;
+                }
+            }
+            if (c == '[')
+            {
+                var l = new List<object>();
+                i++;
+                SkipWs(s, ref i);
+                if (i < s.Length && s[i] == ']') { i++; return l; }
+                while (true)
+                {
+                    l.Add(ReadValue(s, ref i));
+                    SkipWs(s, ref i);
+                    if (i < s.Length && s[i] == ',') { i++; continue; }
+                    Expect(s, ref i, ']');
+                    return l;
+                }
+            }
+            if (c == '"') return ReadString(s, ref i);
+            if (Word(s, ref i, "true")) return true;
+            if (Word(s, ref i, "false")) return false;
+            if (Word(s, ref i, "null")) return null;
+            int start = i;
+            while (i < s.Length && "+-0123456789.eE".IndexOf(s[i]) >= 0) i++;
+            if (start == i) throw new FormatException("unexpected '" + c + "' at " + i);
+            return double.Parse(s.Substring(start, i - start), NumberStyles.Float, CultureInfo.InvariantCulture);
+        }
+
+        static bool Word(string s, ref int i, string w)
+        {
+            if (string.CompareOrdinal(s, i, w, 0, w.Length) != 0) return false;
+            i += w.Length;
+            return true;
+        }
+
+        static void Expect(string s, ref int i, char c)
+        {
+            if (i >= s.Length || s[i] != c) throw new FormatException("expected '" + c + "' at " + i);
+            i++;
+        }
+
+        static string ReadString(string s, ref int i)
+        {
+            Expect(s, ref i, '"');
+            var sb = new StringBuilder();
+            while (true)
+            {
+                if (i >= s.Length) throw new FormatException("unterminated string");
+                char c = s[i++];
+                if (c == '"') return sb.ToString();
+                if (c != '\\') { sb.Append(c); continue; }
+                char e = s[i++];
+                switch (e)
+                {
+                    case '"': sb.Append('"'); break;
+                    case '\\': sb.Append('\\'); break;
+                    case '/': sb.Append('/'); break;
+                    case 'b': sb.Append('\b'); break;
+                    case 'f': sb.Append('\f'); break;
+                    case 'n': sb.Append('\n'); break;
+                    case 'r': sb.Append('\r'); break;
+                    case 't': sb.Append('\t'); break;
+                    case 'u':
+                        sb.Append((char)int.Parse(s.Substring(i, 4), NumberStyles.HexNumber, CultureInfo.InvariantCulture));
+                        i += 4;
+                        break;
+                    default: throw new FormatException("bad escape \\" + e);
+                }
+            }
+        }
+
+        /// <summary>Writes a value (dictionaries, lists and arrays, strings, numbers, bools, null).</summary>
+        public static string Write(object v)
+        {
+            var sb = new StringBuilder();
+            WriteValue(sb, v);
+            return sb.ToString();
+        }
+
+        /// <summary>A double as JSON: the shortest form that reads back to the same bits.</summary>
+        /// <exception cref="ArgumentException">NaN or an infinity (JSON has none).</exception>
+        public static string Number(double x)
+        {
+            if (double.IsNaN(x) || double.IsInfinity(x)) throw new ArgumentException("JSON has no " + x);
+            string r = x.ToString("R", CultureInfo.InvariantCulture);
+            if (BitConverter.DoubleToInt64Bits(double.Parse(r, CultureInfo.InvariantCulture)) != BitConverter.DoubleToInt64Bits(x))
+                r = x.ToString("G17", CultureInfo.InvariantCulture);
+            return r;
+        }
+
+        static void WriteValue(StringBuilder sb, object v)
+        {
+            if (v == null) { sb.Append("null"); return; }
+            if (v is string) { WriteString(sb, (string)v); return; }
+            if (v is bool) { sb.Append((bool)v ? "true" : "false"); return; }
+            if (v is double) { sb.Append(Number((double)v)); return; }
+            if (v is float) { sb.Append(Number((float)v)); return; }
+            if (v is int || v is long || v is ulong || v is uint)
+            {
+                sb.Append(Convert.ToString(v, CultureInfo.InvariantCulture));
+                return;
+            }
+            var dict = v as IDictionary<string, object>;
+            if (dict != null)
+            {
+                sb.Append('{');
+                bool first = true;
+                foreach (var kv in dict)
+                {
+                    if (!first) sb.Append(',');
+                    first = false;
+                    WriteString(sb, kv.Key);
+                    sb.Append(':');
+                    WriteValue(sb, kv.Value);
+                }
+                sb.Append('}');
+                return;
+            }
+            var list = v as System.Collections.IEnumerable;
+            if (list != null)
+            {
+                sb.Append('[');
+                bool first = true;
+                foreach (var x in list)
+                {
+                    if (!first) sb.Append(',');
+                    first = false;
+                    WriteValue(sb, x);
+                }
+                sb.Append(']');
+                return;
+            }
+            throw new ArgumentException("cannot write " + v.GetType() + " as JSON");
+        }
+
+        static void WriteString(StringBuilder sb, string s)
+        {
+            sb.Append('"');
+            foreach (char c in s)
+            {
+                if (c == '"') sb.Append("\\\"");
+                else if (c == '\\') sb.Append("\\\\");
+                else if (c < 0x20) sb.Append("\\u").Append(((int)c).ToString("x4", CultureInfo.InvariantCulture));
+                else sb.Append(c);
+            }
+            sb.Append('"');
+        }
+
+        // Accessors for parsed values: each throws FormatException naming the field when the
+        // value has another type.
+
+        /// <summary>The object at <paramref name="key"/>, or null when absent.</summary>
+        public static object Get(object obj, string key)
+        {
+            var d = obj as Dictionary<string, object>;
+            object v;
+            return d != null && d.TryGetValue(key, out v) ? v : null;
+        }
+
+        /// <summary>A number field.</summary>
+        public static double Num(object obj, string key)
+        {
+            object v = Get(obj, key);
+            if (!(v is double)) throw new FormatException(key + " is not a number");
+            return (double)v;
+        }
+
+        /// <summary>A number field, or <paramref name="fallback"/> when absent or null.</summary>
+        public static double Num(object obj, string key, double fallback)
+        {
+            object v = Get(obj, key);
+            return v is double ? (double)v : fallback;
+        }
+
+        /// <summary>A boolean field, or <paramref name="fallback"/> when absent.</summary>
+        public static bool Bool(object obj, string key, bool fallback)
+        {
+            object v = Get(obj, key);
+            return v is bool ? (bool)v : fallback;
+        }
+
+        /// <summary>A string field, or null.</summary>
+        public static string Str(object obj, string key)
+        {
+            return Get(obj, key) as string;
+        }
+
+        /// <summary>An array field (empty when absent).</summary>
+        public static List<object> List(object obj, string key)
+        {
+            return (Get(obj, key) as List<object>) ?? new List<object>();
+        }
+
+        /// <summary>An array of numbers.</summary>
+        public static double[] Nums(object v)
+        {
+            var l = v as List<object>;
+            if (l == null) throw new FormatException("not an array of numbers");
+            var r = new double[l.Count];
+            for (int i = 0; i < r.Length; i++) r[i] = (double)l[i];
+            return r;
+        }
+    }
+}

@@ -1,0 +1,206 @@
+// The package's tests, as one console program with a tiny runner (no NUnit needed): golden
+// vectors bit for bit, clock sync and interpolation offline, and, when SWELL_URL names a live
+// server (.ci/csharp-client starts one), HTTP, both WebSocket subprotocols, clock changes and
+// interpolation against it.
+//
+// Usage: mono SwellTests.exe [path/to/proto/vectors]   (env SWELL_URL, SWELL_TOKEN)
+using System;
+using System.Collections.Generic;
+using System.IO;
+using System.Linq;
+using System.Threading;
+using System.Threading.Tasks;
+
+namespace Swell.Tests
+{
+    static class Runner
+    {
+        static int passed, failed;
+        static readonly List<string> Failures = new List<string>();
+
+        static void Test(string name, Action body)
+        {
+            var sw = System.Diagnostics.Stopwatch.StartNew();
+            try
+            {
+                body();
+                passed++;
+                Console.WriteLine("ok   " + name + " (" + sw.ElapsedMilliseconds + " ms)");
+            }
+            catch (Exception e)
+            {
+                var inner = e is AggregateException ? ((AggregateException)e).Flatten().InnerException : e;
+                failed++;
+                Failures.Add(name + ": " + inner);
+                Console.WriteLine("FAIL " + name + ": " + inner.Message);
+            }
+        }
+
+        static void TestAsync(string name, Func<Task> body)
+        {
+            Test(name, () => body().GetAwaiter().GetResult());
+        }
+
+        internal static void Assert(bool ok, string what)
+        {
+            if (!ok) throw new Exception("assertion failed: " + what);
+        }
+
+        internal static void Equal<T>(T want, T got, string what)
+        {
+            if (!EqualityComparer<T>.Default.Equals(want, got)) throw new Exception(what + ": want " + want + ", got " + got);
+        }
+
+        static int Main(string[] args)
+        {
+            string vectors = args.Length > 0 ? args[0] : Path.Combine("..", "..", "proto", "vectors");
+            Offline.Run(vectors);
+            string url = Environment.GetEnvironmentVariable("SWELL_URL");
+            if (!string.IsNullOrEmpty(url)) Live.Run(url, Environment.GetEnvironmentVariable("SWELL_TOKEN"), vectors);
+            else Console.WriteLine("skip live tests: SWELL_URL is not set");
+            Console.WriteLine(passed + " passed, " + failed + " failed");
+            foreach (var f in Failures) Console.WriteLine("  " + f);
+            return failed == 0 ? 0 : 1;
+        }
+
+        internal static void T(string name, Action body) { Test(name, body); }
+        internal static void TA(string name, Func<Task> body) { TestAsync(name, body); }
+    }
+
+    static class Offline
+    {
+        internal static void Run(string vectors)
+        {
+            object doc = Json.Parse(File.ReadAllText(Path.Combine(vectors, "surface_v1.json")));
+            Runner.T("golden vectors: model version 2", () => Runner.Equal(2.0, Json.Num(doc, "model_version"), "model_version"));
+            foreach (var name in new[] { "calm_sine", "steep_gerstner_s095" })
+            {
+                Runner.T("golden " + name + ": every field bit for bit", () =>
+                {
+                    var c = Json.List(doc, "cases").First(k => Json.Str(k, "name") == name);
+                    int n = CheckCase(Surface.FromSpec(Json.Get(c, "spec")), c);
+                    Runner.Equal(Json.List(c, "times").Count * Json.List(c, "points").Count, n, "points checked");
+                });
+            }
+
+            Runner.T("sin/cos kernel: known values and odd/even symmetry", () =>
+            {
+                double s, c;
+                SwellMath.SinCos(0, out s, out c);
+                Runner.Equal(0.0, s, "sin 0");
+                Runner.Equal(1.0, c, "cos 0");
+                for (double x = -40; x < 40; x += 0.37)
+                {
+                    double s2, c2;
+                    SwellMath.SinCos(x, out s, out c);
+                    SwellMath.SinCos(-x, out s2, out c2);
+                    Runner.Assert(Math.Abs(s - Math.Sin(x)) < 1e-15 && Math.Abs(c - Math.Cos(x)) < 1e-15, "close to Math.Sin at " + x);
+                }
+            });
+
+            Runner.T("JSON numbers round-trip to the bit", () =>
+            {
+                var rng = new Random(5);
+                for (int i = 0; i < 20000; i++)
+                {
+                    double x = BitConverter.Int64BitsToDouble((long)(rng.NextDouble() * long.MaxValue));
+                    if (double.IsNaN(x) || double.IsInfinity(x)) continue;
+                    double y = (double)Json.Parse(Json.Number(x));
+                    Runner.Equal(BitConverter.DoubleToInt64Bits(x), BitConverter.DoubleToInt64Bits(y), "bits of " + x);
+                }
+            });
+
+            Runner.T("ClockSync: rate 2 from one sample; paused holds; drift fit at rate 1", () =>
+            {
+                var c = new ClockSync(new ClockState { Rate = 2, Generation = 1 });
+                // Scene = 1000 + 2·client; one-way 1 ms each way.
+                c.Add(10.0, 10.002, 1000 + 2 * 10.001);
+                Runner.Assert(Math.Abs(c.SceneTime(20) - (1000 + 40)) < 1e-9, "rate 2: " + c.SceneTime(20));
+                var p = new ClockSync(new ClockState { Rate = 1, Paused = true, Generation = 2 });
+                p.Add(1, 1.004, 77.25);
+                Runner.Equal(77.25, p.SceneTime(500), "paused");
+                var d = new ClockSync(new ClockState { Rate = 1, Generation = 0 });
+                double drift = 2e-4;
+                for (int i = 0; i < 60; i++) d.Add(i * 0.1, i * 0.1 + 0.002, 500 + (1 + drift) * (i * 0.1 + 0.001));
+                Runner.Assert(Math.Abs(d.Drift - drift) < 2e-5, "drift " + d.Drift);
+                Runner.Assert(Math.Abs(d.SceneTime(30) - (500 + (1 + drift) * 30)) < 1e-3, "at 30 s");
+            });
+
+            Runner.T("BodyInterpolator: interpolates, extrapolates, holds, resets on a jump back", () =>
+            {
+                var ip = new BodyInterpolator(0.1, 64, 0.25);
+                for (int k = 0; k < 5; k++)
+                {
+                    var f = new TickFrame { Tick = k, T = k / 10.0 };
+                    f.Bodies.Add(new BodyState { Id = 7, Position = new[] { k * 1.0, 0, 0 }, Velocity = new[] { 10.0, 0, 0 } });
+                    ip.Push(f);
+                }
+                var a = ip.Sample(0.25)[7];
+                Runner.Equal(InterpMode.Interpolated, a.Mode, "mode");
+                Runner.Assert(Math.Abs(a.Position[0] - 2.5) < 1e-12, "x " + a.Position[0]);
+                var e = ip.Sample(0.5)[7];
+                Runner.Equal(InterpMode.Extrapolated, e.Mode, "past the newest");
+                Runner.Assert(Math.Abs(e.Position[0] - 5.0) < 1e-12, "extrapolated x " + e.Position[0]);
+                Runner.Equal(InterpMode.Held, ip.Sample(2.0)[7].Mode, "too far");
+                Runner.Equal(InterpMode.Held, ip.Sample(-1)[7].Mode, "before");
+                Runner.Assert(Math.Abs(ip.At(0.4)[7].Position[0] - 3.0) < 1e-12, "At = Sample(t - delay)");
+                ip.Push(new TickFrame { Tick = 1, T = 0.1 });
+                Runner.Equal(1, ip.Count, "reset on a frame older than the newest");
+            });
+
+            Runner.T("protobuf: ping and subscribe encode as prost does; a pong decodes", () =>
+            {
+                // ClientMessage{id: 3, ping{client_time: 1.5}}: 08 03 12 09 09 <1.5 LE>.
+                var ping = Protobuf.Ping(3, 1.5);
+                Runner.Equal("0803120909000000000000f83f", Hex(ping), "ping bytes");
+                var sub = Protobuf.Subscribe(4, true, new ulong[] { 1, 300 }, null);
+                Runner.Equal("08042a070801120301ac02", Hex(sub), "subscribe bytes");
+                // ServerMessage{id: 9, pong{client_time 4, scene_time 2.5, tick 75, rate 2, paused, generation 5}}.
+                var pong = FromHex("0809" + "1221" + "090000000000001040" + "110000000000000440" + "184b" + "210000000000000040" + "2801" + "3005");
+                var m = Protobuf.Decode(pong);
+                Runner.Equal("pong", m.Type, "type");
+                Runner.Equal(9UL, m.Id, "id");
+                Runner.Equal(2.5, m.SceneTime, "scene_time");
+                Runner.Equal(75L, m.Tick, "tick");
+                Runner.Equal(2.0, m.Clock.Rate, "rate");
+                Runner.Equal(true, m.Clock.Paused, "paused");
+                Runner.Equal(5L, m.Clock.Generation, "generation");
+            });
+        }
+
+        internal static string Hex(byte[] b) { return string.Concat(b.Select(x => x.ToString("x2"))); }
+
+        static byte[] FromHex(string h)
+        {
+            var b = new byte[h.Length / 2];
+            for (int i = 0; i < b.Length; i++) b[i] = Convert.ToByte(h.Substring(2 * i, 2), 16);
+            return b;
+        }
+
+        internal static int CheckCase(Surface surface, object c)
+        {
+            int n = 0;
+            foreach (var e in Json.List(c, "expected"))
+            {
+                var pt = Json.Nums(Json.Get(e, "point"));
+                double t = Json.Num(e, "t");
+                var q = surface.Query(pt[0], pt[1], t);
+                var bits = Json.Get(e, "bits");
+                string where = Json.Str(c, "name") + " t=" + t + " point=" + pt[0] + "," + pt[1];
+                Runner.Equal(Json.Str(bits, "height"), SwellMath.BitsHex(q.Height), where + " height");
+                var nb = Json.List(bits, "normal");
+                var db = Json.List(bits, "displacement");
+                for (int k = 0; k < 3; k++)
+                {
+                    Runner.Equal((string)nb[k], SwellMath.BitsHex(q.Normal[k]), where + " normal[" + k + "]");
+                    Runner.Equal((string)db[k], SwellMath.BitsHex(q.Displacement[k]), where + " displacement[" + k + "]");
+                }
+                Runner.Equal(Json.Str(bits, "jacobian"), SwellMath.BitsHex(q.Jacobian), where + " jacobian");
+                Runner.Equal(Json.Str(bits, "residual"), SwellMath.BitsHex(q.Residual), where + " residual");
+                Runner.Equal(Json.Bool(bits, "folded", false), q.Folded, where + " folded");
+                n++;
+            }
+            return n;
+        }
+    }
+}
