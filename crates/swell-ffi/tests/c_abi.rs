@@ -26,16 +26,14 @@ fn vectors(name: &str) -> Value {
     serde_json::from_str(&text).expect("vectors are JSON")
 }
 
-/// The static library cargo built for this test run: beside the test binary's `deps/` folder
-/// (`target/<profile>/libswell_ffi.a`), else the newest one in `deps/`.
+/// The static library cargo built for this test run. `cargo test` builds the library's crate
+/// types into the test binary's own `deps/` folder and does not copy them up to
+/// `target/<profile>/` (only `cargo build` does), so the copy up there may be stale: `deps/`
+/// first (the newest `libswell_ffi*.a`), the profile folder only if there is none.
 fn static_lib() -> PathBuf {
     let exe = std::env::current_exe().expect("test binary path");
     let deps = exe.parent().expect("deps folder");
     let profile = deps.parent().expect("profile folder");
-    let uplifted = profile.join("libswell_ffi.a");
-    if uplifted.exists() {
-        return uplifted;
-    }
     let mut found: Vec<(std::time::SystemTime, PathBuf)> = std::fs::read_dir(deps)
         .expect("read deps")
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -47,13 +45,19 @@ fn static_lib() -> PathBuf {
         .filter_map(|p| Some((p.metadata().ok()?.modified().ok()?, p)))
         .collect();
     found.sort();
-    found.pop().map(|(_, p)| p).unwrap_or_else(|| {
-        panic!(
-            "no libswell_ffi.a in {} or {}",
-            profile.display(),
-            deps.display()
-        )
-    })
+    match found.pop() {
+        Some((_, p)) => p,
+        None => {
+            let uplifted = profile.join("libswell_ffi.a");
+            assert!(
+                uplifted.exists(),
+                "no libswell_ffi.a in {} or {}",
+                deps.display(),
+                profile.display()
+            );
+            uplifted
+        }
+    }
 }
 
 /// Compiles `tests/c/<name>.c` with `cc` against the static library; returns the executable.
