@@ -264,7 +264,12 @@ pub unsafe extern "C" fn swell_world_assign(
         let s = unsafe { get(src, "src") }?;
         // SAFETY: as above.
         let d = unsafe { get_mut(dst, "dst") }?;
-        d.scene = Arc::clone(&s.scene);
+        if !Arc::ptr_eq(&d.scene, &s.scene) {
+            // The memo's frames are keyed by layer index and time, not by scene: frames of
+            // another scene must not be read for this one.
+            d.memo = FrameMemo::new();
+            d.scene = Arc::clone(&s.scene);
+        }
         d.world = s.world.clone();
         d.specs = s.specs.clone();
         d.anchor = s.anchor;

@@ -105,6 +105,37 @@ int main(void) {
   swell_world_free(NULL);
   swell_surface_free(NULL);
 
+  /* Regression: swell_world_assign between worlds of two scenes used to keep the destination's
+   * FFT frame memo, keyed by layer index and time only, so the copy stepped on the other
+   * scene's frames. Two FFT scenes that differ only in their seed. */
+  const char *fft_a =
+      "{\"seed\": 1, \"layers\": [{\"kind\": \"fft\", \"resolution\": 16, \"tile_size\": 64, \"wind_direction\": [1, 0],"
+      " \"spectrum\": {\"kind\": \"phillips\", \"wind_speed\": 12}}]}";
+  const char *fft_b =
+      "{\"seed\": 2, \"layers\": [{\"kind\": \"fft\", \"resolution\": 16, \"tile_size\": 64, \"wind_direction\": [1, 0],"
+      " \"spectrum\": {\"kind\": \"phillips\", \"wind_speed\": 12}}]}";
+  SwellSurface *sa = NULL, *sb = NULL;
+  SwellWorld *wa = NULL, *wb = NULL;
+  want("fft a", swell_surface_new(fft_a, strlen(fft_a), &sa), SWELL_OK, NULL);
+  want("fft b", swell_surface_new(fft_b, strlen(fft_b), &sb), SWELL_OK, NULL);
+  want("world a", swell_world_new(sa, 0, &wa), SWELL_OK, NULL);
+  want("world b", swell_world_new(sb, 0, &wb), SWELL_OK, NULL);
+  want("spawn a", swell_world_spawn(wa, BOAT, strlen(BOAT), &id), SWELL_OK, NULL);
+  want("spawn b", swell_world_spawn(wb, BOAT, strlen(BOAT), &id), SWELL_OK, NULL);
+  want("step b (fills its memo)", swell_world_step_to(wb, 3), SWELL_OK, NULL);
+  want("assign a to b", swell_world_assign(wb, wa), SWELL_OK, NULL);
+  want("step a", swell_world_step_to(wa, 3), SWELL_OK, NULL);
+  want("step b", swell_world_step_to(wb, 3), SWELL_OK, NULL);
+  SwellBodyState sta, stb;
+  want("state a", swell_world_state(wa, id, &sta), SWELL_OK, NULL);
+  want("state b", swell_world_state(wb, id, &stb), SWELL_OK, NULL);
+  want("assigned world steps on its own scene", memcmp(&sta, &stb, sizeof sta) == 0 ? SWELL_OK : SWELL_ERR_PANIC,
+       SWELL_OK, NULL);
+  swell_world_free(wa);
+  swell_world_free(wb);
+  swell_surface_free(sa);
+  swell_surface_free(sb);
+
   printf("%ld passed, %ld failed\n", passed, failed);
   return failed == 0 ? 0 : 1;
 }
