@@ -118,7 +118,7 @@ int main(int argc, char **argv) {
         SwellBodyState a, b;
         CHECK(swell_world_state(ahead, id, &a));
         CHECK(swell_world_state(straight, id, &b));
-        if (memcmp(&a, &b, sizeof a) != 0) {
+        if (!same_state(&a, &b)) {
           fprintf(stderr, "%s: a rewound prediction left the trajectory\n", name);
           failed++;
         } else {

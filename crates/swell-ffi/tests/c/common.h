@@ -33,6 +33,18 @@ static inline double read_hex(FILE *f) {
   return bits_to_double(b);
 }
 
+/* Reads one hex bit pattern as a float; exits on malformed input. */
+static inline float read_hex32(FILE *f) {
+  uint32_t b;
+  float x;
+  if (fscanf(f, "%" SCNx32, &b) != 1) {
+    fprintf(stderr, "malformed input: expected a hex float\n");
+    exit(2);
+  }
+  memcpy(&x, &b, sizeof x);
+  return x;
+}
+
 /* Reads "<n>\n<n bytes>"; the caller frees. */
 static inline char *read_text(FILE *f, size_t *len) {
   size_t n;
@@ -48,6 +60,20 @@ static inline char *read_text(FILE *f, size_t *len) {
   buf[n] = '\0';
   *len = n;
   return buf;
+}
+
+/* Whether two body states have the same bits in every field (not memcmp: the struct's
+ * trailing padding is not part of the state and may hold anything). */
+static inline int same_state(const SwellBodyState *a, const SwellBodyState *b) {
+  const double *x[4] = {a->position, a->rotation, a->velocity, a->angular_velocity};
+  const double *y[4] = {b->position, b->rotation, b->velocity, b->angular_velocity};
+  const int n[4] = {3, 4, 3, 3};
+  if (a->id != b->id || a->quarantined != b->quarantined) return 0;
+  if (double_to_bits(a->submerged) != double_to_bits(b->submerged)) return 0;
+  for (int v = 0; v < 4; v++)
+    for (int i = 0; i < n[v]; i++)
+      if (double_to_bits(x[v][i]) != double_to_bits(y[v][i])) return 0;
+  return 1;
 }
 
 /* Exits with the library's message when a call fails. */
