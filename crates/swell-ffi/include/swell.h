@@ -128,6 +128,14 @@ typedef struct SwellOrientation {
   double roll;
 } SwellOrientation;
 
+// One point of [`swell_surface_displacement_normal_f32`], in single precision.
+typedef struct SwellPointF32 {
+  // `[Dx, y, Dz]` of the point taken as undisplaced, m.
+  float displacement[3];
+  // Unit normal `[x, y, z]` of the displaced surface there.
+  float normal[3];
+} SwellPointF32;
+
 // A force and torque on one body for a span of ticks (the server's body input).
 typedef struct SwellInput {
   // Force `[x, y, z]` in the body frame, N (x forward: thrust).
@@ -294,6 +302,25 @@ SwellStatus swell_surface_orientation(const struct SwellSurface *surface,
                                       const double *probes,
                                       size_t n_probes,
                                       struct SwellOrientation *out);
+
+// The single-precision fast path for rendering: displacement and normal of `n` undisplaced
+// points `points[2i], points[2i+1]` = `(x0, z0)` at scene time `t`, into `out[0..n]` (phases
+// reduced in f64, then f32 sin/cos and sums; a few micrometres off the f64 model, several
+// times cheaper, and just as deterministic: `proto/vectors/surface_f32_v1.json` pins it).
+// FFT layers are read from their grids at the default filter and time sampling.
+//
+// # Errors
+// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_ARGUMENT`] for a non-finite `t` or
+// coordinate.
+//
+// # Safety
+// `surface` a live handle; `points` readable for `2n` doubles and `out` writable for `n`
+// points (both may be null when `n` is 0).
+SwellStatus swell_surface_displacement_normal_f32(const struct SwellSurface *surface,
+                                                  double t,
+                                                  const double *points,
+                                                  size_t n,
+                                                  struct SwellPointF32 *out);
 
 // Makes an empty body world for the scene of `surface`, anchored at scene tick `anchor_tick`
 // (world tick 0 is that scene tick), with the scene's tick rate and gravity, as the server

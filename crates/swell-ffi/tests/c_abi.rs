@@ -1,7 +1,8 @@
 //! C programs built with the system `cc` against the static library (`libswell_ffi.a`, built
 //! by cargo with this test) and `include/swell.h`:
 //!
-//! - `tests/c/golden.c` checks every output of `proto/vectors/surface_v1.json` bit for bit;
+//! - `tests/c/golden.c` checks every output of `proto/vectors/surface_v1.json` bit for bit, and
+//!   `tests/c/golden_f32.c` those of `surface_f32_v1.json` (the single-precision fast path);
 //! - `tests/c/bodies.c` replays the body logs of `proto/vectors/bodies_v1.json` (produced by
 //!   the server's body code, `tests/body_vectors.rs` in the root crate) and checks every body's
 //!   state at every tick bit for bit, and that a rewound prediction repeats its trajectory;
@@ -165,6 +166,37 @@ fn a_c_program_reproduces_the_golden_vectors_bit_for_bit() {
     }
     input += "end\n";
     let passed = run(&build("golden"), &input);
+    assert_eq!(passed, points, "every golden point was checked");
+}
+
+#[test]
+fn a_c_program_reproduces_the_f32_golden_vectors_bit_for_bit() {
+    let file = vectors("surface_f32_v1.json");
+    let mut input = String::new();
+    let mut points = 0;
+    for case in file["cases"].as_array().unwrap() {
+        let _ = writeln!(input, "case {}", case["name"].as_str().unwrap());
+        text(&mut input, "spec", &case["spec"].to_string());
+        for e in case["expected"].as_array().unwrap() {
+            let b = &e["bits"];
+            let mut line = format!(
+                "point {} {} {} {}",
+                hex_f64(&e["t"]),
+                hex_f64(&e["point"][0]),
+                hex_f64(&e["point"][1]),
+                hex_str(&b["height"])
+            );
+            for k in ["displacement_f32", "normal_f32"] {
+                for v in b[k].as_array().unwrap() {
+                    line += &format!(" {}", hex_str(v));
+                }
+            }
+            let _ = writeln!(input, "{line}");
+            points += 1;
+        }
+    }
+    input += "end\n";
+    let passed = run(&build("golden_f32"), &input);
     assert_eq!(passed, points, "every golden point was checked");
 }
 
