@@ -114,3 +114,37 @@ pub extern "C" fn swell_last_error_message() -> *const c_char {
 pub extern "C" fn swell_last_error_code() -> SwellStatus {
     catch_unwind(|| LAST.with(|l| l.borrow().0)).unwrap_or(SWELL_ERR_PANIC)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::ffi::CStr;
+
+    use super::*;
+
+    fn last() -> String {
+        // SAFETY: the pointer is a NUL-terminated thread-local string, read before the next call.
+        unsafe { CStr::from_ptr(swell_last_error_message()) }
+            .to_string_lossy()
+            .into_owned()
+    }
+
+    /// A panic inside an exported function's body is a status and a message, never an unwind
+    /// into the caller; errors keep their code; success leaves the last error as it was.
+    #[test]
+    fn the_guard_turns_panics_and_errors_into_codes_and_messages() {
+        let status = guard(|| panic!("boom at the boundary"));
+        assert_eq!(status, SWELL_ERR_PANIC);
+        assert_eq!(swell_last_error_code(), SWELL_ERR_PANIC);
+        assert!(last().contains("boom at the boundary"), "{}", last());
+        assert_eq!(
+            guard(|| Err(Error::invalid("t = NaN must be finite"))),
+            SWELL_ERR_INVALID_ARGUMENT
+        );
+        assert_eq!(last(), "t = NaN must be finite");
+        assert_eq!(guard(|| Ok(())), SWELL_OK);
+        assert_eq!(last(), "t = NaN must be finite");
+        // A message with an interior NUL is cut there rather than lost.
+        guard(|| Err(Error::invalid("before\0after")));
+        assert_eq!(last(), "before");
+    }
+}
