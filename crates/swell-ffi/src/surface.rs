@@ -22,6 +22,16 @@ pub struct SwellSurface {
     pub(crate) scene: Arc<Scene>,
 }
 
+// What the docs promise of the handles, checked by the compiler: a surface may be queried from
+// several threads at once and a world moved between threads (a world's memo is a mutex, but
+// stepping needs `&mut`, so one thread at a time).
+const _: () = {
+    const fn send_sync<T: Send + Sync>() {}
+    const fn send<T: Send>() {}
+    send_sync::<SwellSurface>();
+    send::<crate::SwellWorld>();
+};
+
 /// Ask for the height at the world point (with inversion of the horizontal displacement).
 pub const SWELL_FIELD_HEIGHT: u32 = 1;
 /// Ask for the unit normal of the displaced surface at the world point.
