@@ -146,7 +146,12 @@ fn mint() -> Value {
         .map(|id| {
             let scene = builtin(id);
             let states = replay(&scene);
-            json!({"name": id, "scene": scene, "anchor": ANCHOR, "log": log, "states": states})
+            // The spec as the server serves it (`GET /v1/scenes/{id}`'s `spec`): every field
+            // written out, numbers in shortest round-trip form. A client may build from either.
+            let spec: SceneSpec = serde_json::from_str(&scene).unwrap();
+            let served = serde_json::to_string(&spec).unwrap();
+            json!({"name": id, "scene": scene, "served": served, "anchor": ANCHOR, "log": log,
+                   "states": states})
         })
         .collect();
     json!({
@@ -167,7 +172,7 @@ fn layout(v: &Value) -> String {
     let cases = v["cases"].as_array().unwrap();
     for (i, c) in cases.iter().enumerate() {
         out += "    {\n";
-        for k in ["name", "scene", "anchor"] {
+        for k in ["name", "scene", "served", "anchor"] {
             out += &format!("      \"{k}\": {},\n", line(&c[k]));
         }
         for (k, last) in [("log", false), ("states", true)] {
@@ -216,6 +221,11 @@ fn body_vectors_match_the_server_bit_for_bit() {
     );
     for (w, g) in want.iter().zip(got) {
         assert_eq!(w["scene"], g["scene"], "{}: scene changed", g["name"]);
+        assert_eq!(
+            w["served"], g["served"],
+            "{}: served spec changed",
+            g["name"]
+        );
         assert_eq!(w["log"], g["log"], "{}: log changed", g["name"]);
         for (ws, gs) in w["states"]
             .as_array()
