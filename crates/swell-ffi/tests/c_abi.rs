@@ -200,14 +200,31 @@ fn a_c_program_reproduces_the_f32_golden_vectors_bit_for_bit() {
     assert_eq!(passed, points, "every golden point was checked");
 }
 
+/// The bodies test replays every case twice: from the scene JSON as PUT, and from the spec as
+/// the server serves it (`GET /v1/scenes/{id}`): both must build the sea of the states.
 #[test]
 fn a_c_program_replays_a_body_log_to_the_servers_states() {
     let file = vectors("bodies_v1.json");
+    let cases = file["cases"].as_array().unwrap().len() as u64;
+    let mut total = 0;
+    for key in ["scene", "served"] {
+        let (input, expected) = body_input(&file, key);
+        let passed = run(&build("bodies"), &input);
+        // Every state, plus one rewound-prediction check per case.
+        assert_eq!(passed, expected + cases, "from {key}");
+        total += passed;
+    }
+    assert!(total > 0);
+}
+
+/// The C program's input for every case of `file`, building the scene from `key`; and the number
+/// of states it checks.
+fn body_input(file: &Value, key: &str) -> (String, u64) {
     let mut input = String::new();
     let mut expected = 0;
     for case in file["cases"].as_array().unwrap() {
         let _ = writeln!(input, "case {}", case["name"].as_str().unwrap());
-        text(&mut input, "scene", case["scene"].as_str().unwrap());
+        text(&mut input, "scene", case[key].as_str().unwrap());
         let _ = writeln!(input, "anchor {}", case["anchor"]);
         // Events and expectations in tick order; at a tick, events before the states.
         let mut next_id = 0u64;
@@ -263,10 +280,7 @@ fn a_c_program_replays_a_body_log_to_the_servers_states() {
         input += "done\n";
     }
     input += "end\n";
-    let cases = file["cases"].as_array().unwrap().len() as u64;
-    let passed = run(&build("bodies"), &input);
-    // Every state, plus one rewound-prediction check per case.
-    assert_eq!(passed, expected + cases);
+    (input, expected)
 }
 
 #[test]
