@@ -16,7 +16,7 @@ pub mod runner;
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
-use swell_waves::body::{BodyInput, BodySpec, HullSpec, SEA_WATER_DENSITY, World, WorldSettings};
+use swell_waves::body::{BodyInput, BodySpec, World, WorldSettings};
 use swell_waves::particles::{Impact, Impacts};
 use swell_waves::{QueryOptions, Surface, SurfaceAt};
 
@@ -27,10 +27,6 @@ pub use event::{BodyEvent, WorldRecord};
 /// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
 /// is re-anchored instead. Two seconds at 30 Hz: catching up more would stall the loop further.
 pub const MAX_CATCH_UP_TICKS: i64 = 60;
-
-/// Damping ratio of the server's default drag: about 30% of critical in heave, so a spawned boat
-/// settles within a few oscillations, as players expect, instead of bobbing forever.
-pub const DEFAULT_DAMPING_RATIO: f64 = 0.3;
 
 /// Most body impacts (splashes, wakes) a scene's bodies may make within one ring lifetime before
 /// the newest: beyond it a new one is dropped. Half of the API's [`crate::impacts::MAX_NEAR_IMPACTS`],
@@ -63,10 +59,7 @@ pub const BODY_IMPACT_HISTORY: f64 = 3600.0;
 /// Journal replay, which has no shared cache, keeps the frames it computed in a
 /// [`swell_waves::FrameMemo`] ([`Sea::Memo`]).
 fn step_options() -> QueryOptions {
-    let mut o = QueryOptions::default();
-    o.inversion.tolerance = 1e-3;
-    o.time = swell_waves::TimeSampling::Grid;
-    o
+    swell_waves::body::authority_step_options()
 }
 
 /// Where a body step reads the sea. Both give the same bits (a cached grid frame is the frame
@@ -143,84 +136,11 @@ fn ripple<'s>(sea: SurfaceAt<'s>, impacts: &Impacts) -> SurfaceAt<'s> {
     }
 }
 
-/// `POST /v1/scenes/{id}/bodies` body.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpawnRequest {
-    /// Mass, kg.
-    pub mass: f64,
-    /// Hull: `{"kind":"box","length","beam","height","cells"?:[nx,nz]}` or
-    /// `{"kind":"cells","cells":[{"position":[x,y,z],"volume","height"}]}`.
-    pub hull: HullSpec,
-    /// World position of the body origin `[x, y, z]`, m.
-    pub position: [f64; 3],
-    /// Yaw, rad (about +y), within ±[`swell_waves::body::MAX_YAW`].
-    #[serde(default)]
-    pub yaw: f64,
-    /// Centre of mass in the body frame, m. Default the hull centre.
-    #[serde(default)]
-    pub center_of_mass: [f64; 3],
-    /// Linear drag, N·s/m. Default: [`DEFAULT_DAMPING_RATIO`] of critical heave damping.
-    #[serde(default)]
-    pub linear_drag: Option<f64>,
-    /// Quadratic drag, N·s²/m². Default 0.
-    #[serde(default)]
-    pub quadratic_drag: f64,
-    /// Angular damping, N·m·s/rad. Default: the linear default times the hull's
-    /// `(L² + B²)/12` (the same damping ratio in pitch and roll, roughly).
-    #[serde(default)]
-    pub angular_damping: Option<f64>,
-    /// Waves shorter than this factor times the hull length do not move the body (analytic
-    /// layers only). Default 0.
-    #[serde(default)]
-    pub min_wavelength_factor: f64,
-}
-
-impl SpawnRequest {
-    /// The model spec, with the server's default damping filled in.
-    pub fn body_spec(&self, gravity: f64) -> BodySpec {
-        let (area, length, beam, volume) = match &self.hull {
-            HullSpec::Box {
-                length,
-                beam,
-                height,
-                ..
-            } => (length * beam, *length, *beam, length * beam * height),
-            HullSpec::Cells { cells } => {
-                let v: f64 = cells.iter().map(|c| c.volume).sum();
-                let a: f64 = cells
-                    .iter()
-                    .map(|c| {
-                        if c.height > 0.0 {
-                            c.volume / c.height
-                        } else {
-                            0.0
-                        }
-                    })
-                    .sum();
-                let side = a.max(0.0).sqrt();
-                (a, side, side, v)
-            }
-        };
-        // Heave stiffness ρ·g·A and critical damping 2·sqrt(k·m); drag acts on the submerged
-        // fraction f = m/(ρ·V) at rest, so divide by it to get that damping at the waterline.
-        let k = SEA_WATER_DENSITY * gravity * area;
-        let f = (self.mass / (SEA_WATER_DENSITY * volume)).clamp(0.05, 1.0);
-        let c = 2.0 * DEFAULT_DAMPING_RATIO * (k * self.mass).max(0.0).sqrt() / f;
-        let c = if c.is_finite() { c } else { 0.0 };
-        BodySpec {
-            mass: self.mass,
-            hull: self.hull.clone(),
-            center_of_mass: self.center_of_mass,
-            linear_drag: self.linear_drag.unwrap_or(c),
-            quadratic_drag: self.quadratic_drag,
-            angular_damping: self
-                .angular_damping
-                .unwrap_or(c * (length * length + beam * beam) / 12.0),
-            min_wavelength_factor: self.min_wavelength_factor,
-        }
-    }
-}
+/// Damping ratio of the server's default drag (see the model's docs).
+pub use swell_waves::body::DEFAULT_DAMPING_RATIO;
+/// `POST /v1/scenes/{id}/bodies` body: the model's [`swell_waves::body::SpawnSpec`] (moved
+/// there so the C ABI spawns with the same default damping; see its docs).
+pub use swell_waves::body::SpawnSpec as SpawnRequest;
 
 /// `POST /v1/scenes/{id}/bodies/{bid}/input` body: force and torque in the body frame.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
@@ -768,12 +688,7 @@ impl SceneBodies {
 }
 
 fn settings(anchor: i64, tick_hz: f64, gravity: f64) -> WorldSettings {
-    WorldSettings {
-        tick_hz,
-        water_density: SEA_WATER_DENSITY,
-        gravity,
-        start_time: anchor as f64 / tick_hz,
-    }
+    swell_waves::body::authority_settings(anchor, tick_hz, gravity)
 }
 
 fn out(id: u64, b: &swell_waves::body::Body) -> BodyState {

@@ -18,11 +18,15 @@
 //! - **Containment**: a body whose state turns non-finite is rolled back to its state before
 //!   the step, its velocities zeroed, and flagged ([`BodyStatus`]); NaN never leaves a step.
 //! - **Determinism**: see [`World`].
+//! - **A scene's authority** sets its world up with [`authority_settings`],
+//!   [`authority_step_options`] and [`SpawnSpec`] (the default damping): the server and the C ABI
+//!   both build from these, so a client's prediction reaches the server's bits.
 //!
 //! Limits: no added mass or radiation damping (heave periods are the hydrostatic
 //! `2π·sqrt(m/(ρ·g·A_wp))`); buoyancy is vertical (no wave-pressure gradient, so a body drifts
 //! only through drag against the orbital velocity); bodies do not collide.
 
+mod authority;
 mod buoyancy;
 mod hull;
 mod orientation;
@@ -31,6 +35,7 @@ mod state;
 mod water;
 mod world;
 
+pub use authority::{DEFAULT_DAMPING_RATIO, SpawnSpec, authority_settings, authority_step_options};
 pub use hull::{
     Cell, CellSpec, DEFAULT_BOX_CELLS, Hull, HullSpec, MAX_BOX_CELLS_PER_SIDE, MAX_CELLS,
 };
