@@ -21,7 +21,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Serve the HTTP API (the default).
-    Serve(ServeArgs),
+    Serve(Box<ServeArgs>),
     /// List the built-in scene ids and descriptions.
     Scenes,
     /// Exit 0 if a server answers 2xx at `--url` (container health checks: no curl needed).
@@ -136,7 +136,7 @@ async fn main() -> anyhow::Result<()> {
             println!("{}", swell::access::hashed(token.trim()));
             Ok(())
         }
-        Some(Command::Serve(args)) => serve(args).await,
+        Some(Command::Serve(args)) => serve(*args).await,
         None => serve(cli.serve).await,
     }
 }

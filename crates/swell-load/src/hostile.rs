@@ -411,7 +411,11 @@ async fn probe(base: String, dur: Duration) -> Latency {
     let (mut ms, mut ok, mut failed) = (Vec::new(), 0, 0);
     let mut i = 0u64;
     while start.elapsed() < dur {
-        let path = if i % 2 == 0 { "/healthz" } else { "/readyz" };
+        let path = if i.is_multiple_of(2) {
+            "/healthz"
+        } else {
+            "/readyz"
+        };
         i += 1;
         let t0 = Instant::now();
         match client.get(format!("{base}{path}")).send().await {
