@@ -110,7 +110,16 @@ struct Inner {
     activity: HashMap<u64, Activity>,
     clock: u64,
     far: usize,
+    /// Scenes deleted or replaced ([`FrameCache::forget_scene`]), the newest
+    /// [`RETIRED_KEPT`]: a query or the ahead loop that still holds such a scene computes its
+    /// frame without caching it, so nothing re-fills the cache after the forget.
+    retired: std::collections::HashSet<u64>,
+    retired_order: std::collections::VecDeque<u64>,
 }
+
+/// Retired scene uids remembered. A query holds its scene for milliseconds; by the time
+/// thousands of scenes have been retired since, no request still holds this one.
+const RETIRED_KEPT: usize = 4096;
 
 /// A bounded cache of FFT frames shared by all requests.
 #[derive(Debug)]
@@ -138,6 +147,14 @@ impl FrameCache {
     /// once, not when the frames would have aged out.
     pub fn forget_scene(&self, uid: u64) {
         let mut g = self.lock();
+        if g.retired.insert(uid) {
+            g.retired_order.push_back(uid);
+            if g.retired_order.len() > RETIRED_KEPT
+                && let Some(old) = g.retired_order.pop_front()
+            {
+                g.retired.remove(&old);
+            }
+        }
         let mut far_dropped = 0;
         g.entries.retain(|k, e| {
             let keep = k.scene != uid;
@@ -243,6 +260,10 @@ impl FrameCache {
     fn slot(&self, key: Key, need: FftFields, near: bool) -> (Slot, FftFields) {
         let mut guard = self.lock();
         let g = &mut *guard;
+        if g.retired.contains(&key.scene) {
+            // A scene deleted meanwhile: its frame is computed for this caller alone.
+            return (Arc::new(OnceLock::new()), need);
+        }
         g.clock += 1;
         let stamp = g.clock;
         let now = Instant::now();
