@@ -9,14 +9,16 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use swell_waves::SpecError;
 
-/// A request that could not be answered: a status, a stable machine-readable `code`, a message
-/// for people, and the offending field's path when there is one.
+mod code;
+pub use code::ErrorCode;
+
+/// A request that could not be answered: a stable machine-readable `code` (which fixes the
+/// status, [`ApiError::status`]), a message for people, and the offending field's path when
+/// there is one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ApiError {
-    /// HTTP status.
-    pub status: StatusCode,
-    /// Stable code, e.g. `bad_json`, `not_found`, `invalid_spec`.
-    pub code: &'static str,
+    /// Stable code, e.g. `bad_json`, `not_found`, `invalid_spec`; it decides the status.
+    pub code: ErrorCode,
     /// What was wrong, in words.
     pub message: String,
     /// Path of the offending field (`points[3][0]`, `layers[1].waves[0].steepness`).
@@ -38,14 +40,19 @@ struct ErrorDetail<'a> {
 }
 
 impl ApiError {
-    /// An error with no field.
-    pub fn new(status: StatusCode, code: &'static str, message: impl Into<String>) -> Self {
+    /// An error with no field; its status is the code's.
+    pub fn new(code: ErrorCode, message: impl Into<String>) -> Self {
         Self {
-            status,
             code,
             message: message.into(),
             field: None,
         }
+    }
+
+    /// The HTTP status, the code's one status.
+    #[must_use]
+    pub fn status(&self) -> StatusCode {
+        self.code.status()
     }
 
     /// Names the offending field.
@@ -57,31 +64,22 @@ impl ApiError {
 
     /// 400 `bad_json`: the body is not JSON of the expected shape.
     pub fn bad_json(message: impl Into<String>) -> Self {
-        Self::new(StatusCode::BAD_REQUEST, "bad_json", message)
+        Self::new(ErrorCode::BadJson, message)
     }
 
     /// 400 `invalid_value`: a well-formed request with a value outside what is allowed.
     pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
-        Self::new(StatusCode::BAD_REQUEST, "invalid_value", message).with_field(field)
+        Self::new(ErrorCode::InvalidValue, message).with_field(field)
     }
 
     /// 404 `not_found`: no such scene.
     pub fn scene_not_found(id: &str) -> Self {
-        Self::new(
-            StatusCode::NOT_FOUND,
-            "not_found",
-            format!("no scene with id {id:?}"),
-        )
+        Self::new(ErrorCode::NotFound, format!("no scene with id {id:?}"))
     }
 
     /// 422 `invalid_spec`: the model rejected a scene spec; message and field are the model's.
     pub fn invalid_spec(e: &SpecError) -> Self {
-        Self::new(
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "invalid_spec",
-            e.to_string(),
-        )
-        .with_field(e.field())
+        Self::new(ErrorCode::InvalidSpec, e.to_string()).with_field(e.field())
     }
 
     /// 400 `invalid_value` from a model error about a query (times, options, bodies).
@@ -92,8 +90,7 @@ impl ApiError {
     /// 413 `too_many_points`.
     pub fn too_many_points(field: &str, n: usize, max: usize) -> Self {
         Self::new(
-            StatusCode::PAYLOAD_TOO_LARGE,
-            "too_many_points",
+            ErrorCode::TooManyPoints,
             format!("{field} asks for {n} points; at most {max} per request"),
         )
         .with_field(field)
@@ -102,11 +99,7 @@ impl ApiError {
     /// 500 `internal`: something failed on our side. The detail is logged, not sent.
     pub fn internal(detail: impl std::fmt::Display) -> Self {
         tracing::error!(%detail, "internal error");
-        Self::new(
-            StatusCode::INTERNAL_SERVER_ERROR,
-            "internal",
-            "internal server error",
-        )
+        Self::new(ErrorCode::Internal, "internal server error")
     }
 
     /// 500 `non_finite_result`: the answer to a valid request came out with a NaN or an
@@ -116,8 +109,7 @@ impl ApiError {
     pub fn non_finite(found: impl std::fmt::Display) -> Self {
         tracing::error!(%found, "non-finite number in an answer; sent an error instead");
         Self::new(
-            StatusCode::INTERNAL_SERVER_ERROR,
-            "non_finite_result",
+            ErrorCode::NonFiniteResult,
             format!(
                 "the answer came out non-finite ({found}); no answer was sent rather than a wrong one"
             ),
@@ -126,7 +118,7 @@ impl ApiError {
 
     /// 503 `overloaded`.
     pub fn overloaded(message: impl Into<String>) -> Self {
-        Self::new(StatusCode::SERVICE_UNAVAILABLE, "overloaded", message)
+        Self::new(ErrorCode::Overloaded, message)
     }
 }
 
@@ -135,7 +127,7 @@ impl std::fmt::Display for ApiError {
         write!(
             f,
             "{} {}: {}",
-            self.status.as_u16(),
+            self.status().as_u16(),
             self.code,
             self.message
         )
@@ -146,12 +138,13 @@ impl std::error::Error for ApiError {}
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
-        if self.status.is_client_error() {
-            tracing::debug!(status = self.status.as_u16(), code = self.code, message = %self.message, "rejected request");
+        let status = self.status();
+        if status.is_client_error() {
+            tracing::debug!(status = status.as_u16(), code = self.code.as_str(), message = %self.message, "rejected request");
         }
         let body = ErrorBody {
             error: ErrorDetail {
-                code: self.code,
+                code: self.code.as_str(),
                 message: &self.message,
                 field: self.field.as_deref(),
             },
@@ -160,14 +153,14 @@ impl IntoResponse for ApiError {
         let bytes = serde_json::to_vec(&body).unwrap_or_else(|_| {
             br#"{"error":{"code":"internal","message":"internal server error"}}"#.to_vec()
         });
-        let mut resp = (self.status, bytes).into_response();
+        let mut resp = (status, bytes).into_response();
         resp.headers_mut().insert(
             header::CONTENT_TYPE,
             HeaderValue::from_static("application/json"),
         );
         // Kept for `api::wire::protobuf_errors`, which re-encodes it for protobuf clients.
         resp.extensions_mut().insert(self.clone());
-        if self.status == StatusCode::UNAUTHORIZED {
+        if status == StatusCode::UNAUTHORIZED {
             resp.headers_mut()
                 .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
         }

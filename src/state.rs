@@ -16,7 +16,7 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 use crate::config::Limits;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::frames::FrameCache;
 use crate::journal::{Journal, Op, Recovered};
 use crate::scene::clock::{BUILTIN_EPOCH, ClockReading, WallClock};
@@ -214,8 +214,7 @@ impl AppState {
     fn applied_scene(&self, id: &str) -> Result<Arc<SceneEntry>, ApiError> {
         self.scene(id).map_err(|_| {
             ApiError::new(
-                axum::http::StatusCode::NOT_FOUND,
-                "not_found",
+                ErrorCode::NotFound,
                 format!("scene {id:?} was deleted by a concurrent change through another replica"),
             )
         })
@@ -285,8 +284,7 @@ impl AppState {
         let map = self.read_scenes();
         if !map.contains_key(id) && map.len() >= self.limits.max_scenes {
             return Err(ApiError::new(
-                axum::http::StatusCode::CONFLICT,
-                "too_many_scenes",
+                ErrorCode::TooManyScenes,
                 format!(
                     "the server holds {} scenes, its limit (max_scenes); delete one first",
                     map.len()
@@ -303,10 +301,7 @@ impl AppState {
             .map(|(_, e)| FrameCache::scene_bytes(&e.scene))
             .sum();
         if others + mine > self.limits.max_fft_bytes {
-            return Err(ApiError::new(
-                axum::http::StatusCode::UNPROCESSABLE_ENTITY,
-                "fft_budget",
-                format!(
+            return Err(ApiError::new(ErrorCode::FftBudget, format!(
                     "this scene's FFT layers need up to {} MiB of frames and the other scenes {} MiB: more than max_fft_bytes ({} MiB); lower a layer's resolution or delete a scene",
                     mine >> 20,
                     others >> 20,

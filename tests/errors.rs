@@ -91,7 +91,7 @@ async fn unknown_scene_is_404_everywhere() {
         .await;
     assert_eq!((st, code(&v)), (404, "not_found"));
     let (st, v) = s.get_json("/v2/whatever").await;
-    assert_eq!((st, code(&v)), (404, "not_found"));
+    assert_eq!((st, code(&v)), (404, "no_such_route"));
     s.stop().await;
 }
 

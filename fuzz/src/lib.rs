@@ -138,9 +138,9 @@ fn assert_answer_lengths(r: &SampleResponse, n: usize) {
 /// number went non-finite or an invariant broke.
 pub fn assert_client_error(e: &ApiError) {
     assert!(
-        e.status.is_client_error(),
+        e.status().is_client_error(),
         "a request was answered {} {}: {} (field {:?})",
-        e.status,
+        e.status(),
         e.code,
         e.message,
         e.field

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use axum::body::{Body, Bytes};
 use axum::extract::{MatchedPath, Request, State};
-use axum::http::{HeaderValue, Method, StatusCode, header};
+use axum::http::{HeaderValue, Method, header};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use http_body::{Body as _, Frame, SizeHint};
@@ -34,7 +34,7 @@ use tokio::sync::Semaphore;
 
 use crate::access::{Access, Presented, Role};
 use crate::config::Limits;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::peers::{Budget, Charge, OverBudget, PeerAddr, PeerPolicy, RateLimiter};
 use crate::state::AppState;
 
@@ -119,22 +119,19 @@ pub fn authorize(need: Option<Role>, presented: Presented) -> Result<(), ApiErro
     };
     match presented {
         Presented::None => Err(ApiError::new(
-            StatusCode::UNAUTHORIZED,
-            "unauthorized",
+            ErrorCode::Unauthorized,
             format!(
                 "this endpoint needs a {} token: Authorization: Bearer <token>",
                 need.as_str()
             ),
         )),
         Presented::Unknown => Err(ApiError::new(
-            StatusCode::FORBIDDEN,
-            "forbidden",
+            ErrorCode::Forbidden,
             "the token is not valid",
         )),
         Presented::Valid(r) if r >= need => Ok(()),
         Presented::Valid(r) => Err(ApiError::new(
-            StatusCode::FORBIDDEN,
-            "forbidden",
+            ErrorCode::Forbidden,
             format!(
                 "this endpoint needs a {} token; this one is a {} token",
                 need.as_str(),
@@ -148,8 +145,7 @@ fn rate_limited(what: &str, retry_after: f64) -> Response {
     metrics::counter!("swell_http_rate_limited_total", "key" => what.to_owned()).increment(1);
     let secs = retry_after.ceil().clamp(1.0, 3600.0);
     let mut r = ApiError::new(
-        StatusCode::TOO_MANY_REQUESTS,
-        "rate_limited",
+        ErrorCode::RateLimited,
         format!("too many requests from this {what}; retry after {secs} s"),
     )
     .into_response();
@@ -239,8 +235,7 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
         Ok(r) => r,
         Err(_) => {
             return ApiError::new(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "timeout",
+                ErrorCode::Timeout,
                 format!("the request took longer than {} ms", timeout.as_millis()),
             )
             .into_response();
@@ -253,8 +248,7 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
 
 fn too_large(limits: &Limits) -> ApiError {
     ApiError::new(
-        StatusCode::PAYLOAD_TOO_LARGE,
-        "body_too_large",
+        ErrorCode::BodyTooLarge,
         format!(
             "request body is larger than the server's limit of {} bytes (max_body_bytes)",
             limits.max_body_bytes
@@ -264,8 +258,7 @@ fn too_large(limits: &Limits) -> ApiError {
 
 fn request_timeout(message: String) -> Response {
     metrics::counter!("swell_http_body_timeouts_total").increment(1);
-    let mut r =
-        ApiError::new(StatusCode::REQUEST_TIMEOUT, "request_timeout", message).into_response();
+    let mut r = ApiError::new(ErrorCode::RequestTimeout, message).into_response();
     // The rest of the body may still come: the connection cannot carry another request.
     r.headers_mut()
         .insert(header::CONNECTION, HeaderValue::from_static("close"));
@@ -316,8 +309,7 @@ async fn read_body(
             }
             Some(Some(Err(e))) => {
                 return Err(ApiError::new(
-                    StatusCode::BAD_REQUEST,
-                    "bad_body",
+                    ErrorCode::BadBody,
                     format!("the request body could not be read: {e}"),
                 )
                 .into_response());

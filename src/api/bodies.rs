@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::api::json::RawBody;
 use crate::bodies::runner::ensure_running;
 use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::service::json::from_slice;
 use crate::service::types::{BodyDescription, HullExtent};
 use crate::state::AppState;
@@ -95,8 +95,7 @@ pub async fn create(
         let max = state.limits.max_scene_bodies;
         if b.len() >= max {
             return Err(ApiError::new(
-                StatusCode::CONFLICT,
-                "too_many_bodies",
+                ErrorCode::SceneFull,
                 format!("scene {id} already has {max} bodies, the limit"),
             ));
         }

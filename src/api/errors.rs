@@ -8,29 +8,30 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use http_body_util::BodyExt as _;
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 
 /// Longest plain-text rejection kept as the JSON error's message, bytes.
 const MAX_MESSAGE: usize = 1024;
 
-/// The code of a rejection nobody gave a code, by status.
-pub fn code_for(status: StatusCode) -> &'static str {
+/// The code of a rejection nobody gave a code, by status. The code decides the status of the
+/// rewritten answer: a status with a code of its own keeps it; any other 4xx becomes 400
+/// `bad_request` and any other 5xx 500 `internal` (no code has two statuses).
+pub fn code_for(status: StatusCode) -> ErrorCode {
     match status.as_u16() {
-        400 => "bad_request",
-        401 => "unauthorized",
-        403 => "forbidden",
-        404 => "not_found",
-        405 => "method_not_allowed",
-        408 => "request_timeout",
-        413 => "body_too_large",
-        414 => "uri_too_long",
-        415 => "unsupported_media_type",
-        422 => "invalid_value",
-        429 => "rate_limited",
-        431 => "headers_too_large",
-        503 => "overloaded",
-        s if s >= 500 => "internal",
-        _ => "bad_request",
+        400 => ErrorCode::BadRequest,
+        401 => ErrorCode::Unauthorized,
+        403 => ErrorCode::Forbidden,
+        404 => ErrorCode::NoSuchRoute,
+        405 => ErrorCode::MethodNotAllowed,
+        408 => ErrorCode::RequestTimeout,
+        413 => ErrorCode::BodyTooLarge,
+        414 => ErrorCode::UriTooLong,
+        415 => ErrorCode::UnsupportedMediaType,
+        429 => ErrorCode::RateLimited,
+        431 => ErrorCode::HeadersTooLarge,
+        503 => ErrorCode::Overloaded,
+        s if s >= 500 => ErrorCode::Internal,
+        _ => ErrorCode::BadRequest,
     }
 }
 
@@ -65,7 +66,7 @@ pub async fn json_errors(req: Request, next: Next) -> Response {
             .unwrap_or("request rejected")
             .to_owned();
     }
-    let mut out = ApiError::new(status, code_for(status), message).into_response();
+    let mut out = ApiError::new(code_for(status), message).into_response();
     // Headers that say how to retry or what is allowed survive the rewrite.
     for name in [header::RETRY_AFTER, header::ALLOW, header::CONNECTION] {
         if let Some(v) = parts.headers.get(&name) {

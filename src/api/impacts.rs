@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use swell_waves::particles::Impact;
 
 use crate::api::json::RawBody;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::impacts::{AddError, IMPACT_HORIZON_S, ImpactEvent, MAX_SCENE_IMPACTS, apply_tick};
 use crate::journal::Op;
 use crate::service::json::from_slice;
@@ -57,10 +57,7 @@ pub async fn create(
     let entry = state.scene(&id)?;
     let scene = &entry.scene;
     let Some(layer) = scene.surface.impact_layer() else {
-        return Err(ApiError::new(
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "invalid_spec",
-            format!("scene {id} has no particle layer: impacts ripple on one (add {{\"kind\": \"particles\"}} to its layers)"),
+        return Err(ApiError::new(ErrorCode::InvalidSpec, format!("scene {id} has no particle layer: impacts ripple on one (add {{\"kind\": \"particles\"}} to its layers)"),
         )
         .with_field("layers"));
     };
@@ -83,10 +80,7 @@ pub async fn create(
     let now = state.read_clock(&entry).t;
     let lifetime = layer.ripples().lifetime;
     if !(t >= now - lifetime && t <= now + IMPACT_HORIZON_S) {
-        return Err(ApiError::new(
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "impact_out_of_window",
-            format!(
+        return Err(ApiError::new(ErrorCode::ImpactOutOfWindow, format!(
                 "t = {t} is outside [now - lifetime, now + {IMPACT_HORIZON_S}] = [{}, {}] of this scene's clock",
                 now - lifetime,
                 now + IMPACT_HORIZON_S
@@ -95,7 +89,7 @@ pub async fn create(
         .with_field("t"));
     }
     let refused = |e: AddError| match e {
-        AddError::Full(why) => ApiError::new(StatusCode::CONFLICT, "too_many_impacts", why),
+        AddError::Full(why) => ApiError::new(ErrorCode::TooManyImpacts, why),
         AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
     };
     if let Some(fleet) = state.fleet() {

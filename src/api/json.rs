@@ -10,7 +10,7 @@ use axum::body::Bytes;
 use axum::extract::{FromRequest, Request};
 use axum::http::{StatusCode, header};
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 
 /// The raw body of a request, size-limited, with errors as [`ApiError`]. Admin handlers take this
 /// and parse after checking the token, so an unauthenticated client learns nothing about specs.
@@ -25,8 +25,7 @@ impl<S: Send + Sync> FromRequest<S> for RawBody {
             && ct.as_bytes().starts_with(b"application/x-protobuf")
         {
             return Err(ApiError::new(
-                StatusCode::UNSUPPORTED_MEDIA_TYPE,
-                "unsupported_media_type",
+                ErrorCode::UnsupportedMediaType,
                 "this endpoint takes JSON only (protobuf is for query bodies)",
             ));
         }
@@ -42,8 +41,7 @@ pub async fn read_bytes<S: Send + Sync>(req: Request, state: &S) -> Result<Bytes
     match Bytes::from_request(req, state).await {
         Ok(b) => Ok(b),
         Err(r) if r.status() == StatusCode::PAYLOAD_TOO_LARGE => Err(ApiError::new(
-            StatusCode::PAYLOAD_TOO_LARGE,
-            "body_too_large",
+            ErrorCode::BodyTooLarge,
             "request body is larger than the server's limit (max_body_bytes)",
         )),
         Err(r) => Err(ApiError::bad_json(r.body_text())),

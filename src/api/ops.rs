@@ -5,12 +5,12 @@
 //! the router serves is listed.
 
 use axum::extract::State;
-use axum::http::{HeaderValue, StatusCode, header};
+use axum::http::{HeaderValue, header};
 use axum::response::{Html, IntoResponse, Response};
 use serde_json::{Value, json};
 
 use crate::access::Role;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::state::AppState;
 
 /// `GET /healthz`: the process is up.
@@ -40,8 +40,7 @@ pub async fn readyz(State(state): State<AppState>) -> Result<axum::Json<Value>, 
         ))
     } else {
         Err(ApiError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "not_ready",
+            ErrorCode::NotReady,
             "the server is starting or shutting down",
         ))
     }

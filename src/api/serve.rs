@@ -40,6 +40,7 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
 use tokio::time::Sleep;
 
+use crate::error::ErrorCode;
 use crate::peers::{ConnCounts, ConnGuard, PeerAddr, PeerPolicy};
 
 /// The limits of [`serve`].
@@ -189,10 +190,14 @@ fn publish(open: usize) {
 async fn refuse(mut tcp: TcpStream, permit: OwnedSemaphorePermit, per_peer: usize) {
     use tokio::io::AsyncWriteExt as _;
     let body = format!(
-        "{{\"error\":{{\"code\":\"too_many_connections\",\"message\":\"this address has {per_peer} connections open (max_connections_per_peer); close one first\"}}}}"
+        "{{\"error\":{{\"code\":\"{code}\",\"message\":\"this address has {per_peer} connections open (max_connections_per_peer); close one first\"}}}}",
+        code = ErrorCode::TooManyConnections.as_str(),
     );
+    let status = ErrorCode::TooManyConnections.status();
     let head = format!(
-        "HTTP/1.1 429 Too Many Requests\r\ncontent-type: application/json\r\ncontent-length: {}\r\nretry-after: 1\r\nconnection: close\r\n\r\n",
+        "HTTP/1.1 {} {}\r\ncontent-type: application/json\r\ncontent-length: {}\r\nretry-after: 1\r\nconnection: close\r\n\r\n",
+        status.as_str(),
+        status.canonical_reason().unwrap_or_default(),
         body.len()
     );
     let write = async {

@@ -25,7 +25,7 @@ use swell_shaders::{Entry, Lang, ShaderError};
 use swell_waves::LayerSpec;
 use swell_waves::surface::layer_seed;
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::scene::{Scene, fnv1a64_hex};
 use crate::service::query::{check_time, resolve_time, run_query};
 use crate::state::AppState;
@@ -134,11 +134,9 @@ fn shader_error(e: ShaderError) -> ApiError {
     match e {
         ShaderError::TooManyWaves { .. }
         | ShaderError::NotRepresentable { .. }
-        | ShaderError::TooManyParticles { .. } => ApiError::new(
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "shader_unavailable",
-            e.to_string(),
-        ),
+        | ShaderError::TooManyParticles { .. } => {
+            ApiError::new(ErrorCode::ShaderUnavailable, e.to_string())
+        }
         ShaderError::BadLayer { .. } | ShaderError::NeedsLayer { .. } => {
             ApiError::invalid("layer", e.to_string())
         }
@@ -424,7 +422,7 @@ mod tests {
         for bad in ["1", "1,2,3", "x,1", "nan,0", "1e10,0", ""] {
             let e = parse_origin(Some(bad), 1e9).unwrap_err();
             assert_eq!(e.field.as_deref(), Some("origin"), "{bad}");
-            assert_eq!(e.status, StatusCode::BAD_REQUEST);
+            assert_eq!(e.status(), StatusCode::BAD_REQUEST);
         }
     }
 

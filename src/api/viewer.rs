@@ -13,7 +13,7 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::state::AppState;
 
 const INDEX_HTML: &str = include_str!("../../clients/viewer/index.html");
@@ -90,7 +90,7 @@ async fn client_module(Path(file): Path<String>) -> Result<Response, ApiError> {
         .iter()
         .find(|(name, _)| *name == file)
         .map(|(_, body)| asset("text/javascript; charset=utf-8", body))
-        .ok_or_else(|| ApiError::new(StatusCode::NOT_FOUND, "not_found", "no such viewer asset"))
+        .ok_or_else(|| ApiError::new(ErrorCode::NotFound, "no such viewer asset"))
 }
 
 #[cfg(test)]

@@ -19,7 +19,7 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use crate::api::json::read_bytes;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::service::finite::check_answer;
 use crate::service::json::from_slice;
 use crate::service::types::{
@@ -90,8 +90,7 @@ impl FromProto for OrientationRequest {
 pub fn decode_proto<T: FromProto>(bytes: &[u8]) -> Result<T, ApiError> {
     let p = T::Proto::decode(bytes).map_err(|e| {
         ApiError::new(
-            axum::http::StatusCode::BAD_REQUEST,
-            "bad_protobuf",
+            ErrorCode::BadProtobuf,
             format!("malformed protobuf body: {e}"),
         )
     })?;

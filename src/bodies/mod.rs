@@ -20,7 +20,7 @@ use swell_waves::body::{BodyInput, BodySpec, World, WorldSettings};
 use swell_waves::particles::{Impact, Impacts};
 use swell_waves::{QueryOptions, Surface, SurfaceAt};
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 pub use crate::service::types::BodyState;
 pub use event::{BodyEvent, WorldRecord};
 
@@ -707,8 +707,7 @@ fn out(id: u64, b: &swell_waves::body::Body) -> BodyState {
 /// 404 for an unknown body.
 pub fn body_not_found(id: u64) -> ApiError {
     ApiError::new(
-        axum::http::StatusCode::NOT_FOUND,
-        "body_not_found",
+        ErrorCode::BodyNotFound,
         format!("no body with id {id} in this scene"),
     )
     .with_field("body")
@@ -951,8 +950,8 @@ mod tests {
             from_tick: Some(3),
             ticks: None,
         };
-        assert_eq!(a.input(id, &req).unwrap_err().status, 400);
-        assert_eq!(a.input(99, &req).unwrap_err().status, 404);
+        assert_eq!(a.input(id, &req).unwrap_err().status(), 400);
+        assert_eq!(a.input(99, &req).unwrap_err().status(), 404);
         let bad = InputRequest {
             force: [f64::NAN, 0.0, 0.0],
             from_tick: None,

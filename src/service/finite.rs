@@ -434,7 +434,10 @@ mod tests {
         assert_eq!(e.path, "bodies[1].heave");
         assert!(e.value.is_nan());
         let api = check_answer(&orientation(f64::NAN)).unwrap_err();
-        assert_eq!((api.status.as_u16(), api.code), (500, "non_finite_result"));
+        assert_eq!(
+            (api.status().as_u16(), api.code.as_str()),
+            (500, "non_finite_result")
+        );
         assert!(api.message.contains("bodies[1].heave"), "{}", api.message);
     }
 

@@ -14,7 +14,7 @@ use swell_waves::body::MAX_YAW;
 use swell_waves::{Inversion, QueryFields, QueryOptions};
 
 use crate::config::Limits;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::frames::FrameCache;
 use crate::scene::{Scene, SceneEntry};
 use crate::service::types::{
@@ -103,8 +103,7 @@ pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, ApiError> {
             "residual" => f.residual = true,
             other => {
                 return Err(ApiError::new(
-                    axum::http::StatusCode::BAD_REQUEST,
-                    "unknown_field",
+                    ErrorCode::UnknownField,
                     format!(
                         "fields[{i}] = {other:?} is not a field; expected one of {}",
                         FIELD_NAMES.join(", ")
@@ -218,8 +217,7 @@ pub fn run_sample(
             if std::time::Instant::now() > deadline {
                 metrics::counter!("swell_queries_abandoned_total").increment(1);
                 return Err(ApiError::new(
-                    axum::http::StatusCode::SERVICE_UNAVAILABLE,
-                    "timeout",
+                    ErrorCode::Timeout,
                     format!(
                         "the sample took longer than {} ms (request_timeout_ms); ask for fewer points",
                         limits.request_timeout_ms
@@ -292,8 +290,7 @@ pub fn run_orientation(
 ) -> Result<OrientationResponse, ApiError> {
     if req.bodies.len() > limits.max_bodies {
         return Err(ApiError::new(
-            axum::http::StatusCode::PAYLOAD_TOO_LARGE,
-            "too_many_bodies",
+            ErrorCode::TooManyBodies,
             format!(
                 "bodies has {} entries; at most {} per request",
                 req.bodies.len(),

@@ -46,7 +46,6 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use axum::http::StatusCode;
 use redis::AsyncCommands as _;
 use redis::aio::MultiplexedConnection;
 use redis::streams::{StreamReadOptions, StreamReadReply};
@@ -56,7 +55,7 @@ use tokio::sync::watch;
 use super::Fleet;
 use super::fleet::EntryId;
 use crate::bodies::{BodyState, InputRequest, SpawnRequest, WorldRecord};
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::state::AppState;
 
 /// How long a lease lasts without renewal: the failover time after a `kill -9`. Under 2 s at
@@ -220,11 +219,7 @@ return 0
 ";
 
 fn unavailable(message: impl Into<String>) -> ApiError {
-    ApiError::new(
-        StatusCode::SERVICE_UNAVAILABLE,
-        "store_unavailable",
-        message,
-    )
+    ApiError::new(ErrorCode::StoreUnavailable, message)
 }
 
 fn redis_down(e: &redis::RedisError) -> ApiError {
@@ -842,8 +837,7 @@ async fn trimmed_past(
 
 fn too_many(scene: &str, max: usize) -> ApiError {
     ApiError::new(
-        StatusCode::CONFLICT,
-        "too_many_bodies",
+        ErrorCode::SceneFull,
         format!("scene {scene} already has {max} bodies, the limit"),
     )
 }

@@ -45,7 +45,6 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use axum::http::StatusCode;
 use redis::aio::{ConnectionManager, ConnectionManagerConfig, MultiplexedConnection};
 use redis::streams::{StreamId, StreamReadOptions, StreamReadReply};
 use redis::{AsyncCommands as _, AsyncConnectionConfig};
@@ -53,7 +52,7 @@ use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 
 use super::StoreUrl;
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::journal::{AdminScene, AdminState, Op};
 use crate::scene::Scene;
 use crate::scene::store::ClockRecord;
@@ -219,11 +218,7 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 /// 503 `store_unavailable` with a message for the operator.
 fn unavailable(message: impl Into<String>) -> ApiError {
-    ApiError::new(
-        StatusCode::SERVICE_UNAVAILABLE,
-        "store_unavailable",
-        message,
-    )
+    ApiError::new(ErrorCode::StoreUnavailable, message)
 }
 
 impl Fleet {
@@ -482,8 +477,7 @@ impl Fleet {
         let id = match written {
             Ok(Ok(full)) if full.starts_with("full:") => {
                 return Err(ApiError::new(
-                    StatusCode::CONFLICT,
-                    "too_many_impacts",
+                    ErrorCode::TooManyImpacts,
                     format!(
                         "the scene holds {} impacts, the limit",
                         full.trim_start_matches("full:")

@@ -10,12 +10,11 @@
 
 use std::sync::Arc;
 
-use axum::http::StatusCode;
 use prost::Message as _;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::scene::clock::ClockReading;
 use crate::service::finite::check_answer;
 use crate::service::json;
@@ -284,10 +283,7 @@ pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
                 compact: false,
             })
         }),
-        other => Err(ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "unknown_type",
-            format!(
+        other => Err(ApiError::new(ErrorCode::UnknownType, format!(
                 "type = {other:?} is not a message type; expected ping, sample, orientation or subscribe"
             ),
         )
@@ -307,8 +303,7 @@ pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
         DecodeError::new(
             None,
             ApiError::new(
-                StatusCode::BAD_REQUEST,
-                "bad_protobuf",
+                ErrorCode::BadProtobuf,
                 format!("malformed ClientMessage: {e}"),
             ),
         )
@@ -337,8 +332,7 @@ pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
                 compact: s.compact,
             }),
         None => Err(ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "bad_protobuf",
+            ErrorCode::BadProtobuf,
             "ClientMessage has no msg (ping, sample, orientation or subscribe)",
         )
         .with_field("msg")),
@@ -450,7 +444,7 @@ mod tests {
     #[test]
     fn json_unknown_type_keeps_the_id() {
         let e = decode_json(r#"{"type":"dance","id":3}"#).unwrap_err();
-        assert_eq!((e.id, e.error.code), (Some(3), "unknown_type"));
+        assert_eq!((e.id, e.error.code.as_str()), (Some(3), "unknown_type"));
     }
 
     #[test]
@@ -497,7 +491,7 @@ mod tests {
         let Event::Error(e) = &out.event else {
             panic!("a NaN answer went through: {out:?}");
         };
-        assert_eq!((out.id, e.code), (Some(9), "non_finite_result"));
+        assert_eq!((out.id, e.code.as_str()), (Some(9), "non_finite_result"));
         assert!(e.message.contains("height[1]"), "{}", e.message);
         let v: Value = serde_json::from_str(&encode_json(&out)).unwrap();
         assert_eq!(v["type"], "error");
@@ -525,7 +519,7 @@ mod tests {
         .encode_to_vec();
         let e = decode_protobuf(&bytes).unwrap_err();
         assert_eq!(
-            (e.id, e.error.code, e.error.field.as_deref()),
+            (e.id, e.error.code.as_str(), e.error.field.as_deref()),
             (Some(2), "invalid_value", Some("client_time"))
         );
     }

@@ -64,13 +64,13 @@ use axum::body::Bytes;
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
 use axum::extract::{Path, State};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{HeaderMap, header};
 use axum::response::Response;
 use futures_util::{FutureExt as _, Sink, SinkExt, Stream, StreamExt};
 use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
-use crate::error::ApiError;
+use crate::error::{ApiError, ErrorCode};
 use crate::service::query::{
     At, orientation_probes, resolve_time, run_orientation, run_sample, runs_inline,
 };
@@ -119,8 +119,7 @@ fn negotiate(headers: &HeaderMap) -> Result<Option<Codec>, ApiError> {
         }
     }
     Err(ApiError::new(
-        StatusCode::BAD_REQUEST,
-        "unsupported_subprotocol",
+        ErrorCode::UnsupportedSubprotocol,
         format!(
             "none of the offered subprotocols ({}) is spoken here; use {JSON_PROTOCOL} or {PROTOBUF_PROTOCOL}",
             offered.join(", ")
@@ -151,10 +150,7 @@ pub async fn stream(
         state.peer_policy.exempt.contains(client)
     });
     let ws = ws.map_err(|r| {
-        ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "websocket_required",
-            format!(
+        ApiError::new(ErrorCode::WebsocketRequired, format!(
                 "this endpoint is a WebSocket (subprotocols {JSON_PROTOCOL}, {PROTOBUF_PROTOCOL}): {}",
                 r.body_text()
             ),
@@ -199,8 +195,7 @@ fn check_key(headers: &HeaderMap) -> Result<(), ApiError> {
         Ok(())
     } else {
         Err(ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "bad_websocket_key",
+            ErrorCode::BadWebsocketKey,
             "Sec-WebSocket-Key must be the base64 of 16 bytes (24 characters ending in ==)",
         )
         .with_field("Sec-WebSocket-Key"))
@@ -528,10 +523,7 @@ pub async fn session<W, R>(
                             break End::Flood;
                         }
                         metrics::counter!("swell_ws_rate_limited_total").increment(1);
-                        queue.error(None, ApiError::new(
-                            StatusCode::TOO_MANY_REQUESTS,
-                            "rate_limited",
-                            format!(
+                        queue.error(None, ApiError::new(ErrorCode::RateLimited, format!(
                                 "more than {} messages a second on this socket (ws_messages_per_s); this one was dropped",
                                 state.limits.ws_messages_per_s
                             ),
@@ -740,8 +732,7 @@ fn wrong_frame(got: &str, protocol: &str, want: &str) -> DecodeError {
     DecodeError {
         id: None,
         error: ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "wrong_frame_type",
+            ErrorCode::WrongFrameType,
             format!("a {got} frame on {protocol}; this subprotocol uses {want} frames"),
         ),
     }

@@ -262,7 +262,7 @@ impl From<&Tick> for v1::Tick {
 impl From<&ApiError> for v1::Error {
     fn from(e: &ApiError) -> Self {
         v1::Error {
-            code: e.code.to_owned(),
+            code: e.code.as_str().to_owned(),
             message: e.message.clone(),
             field: e.field.clone(),
         }
@@ -289,7 +289,7 @@ mod tests {
         };
         let e = SampleRequest::try_from(r).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("fields[1]"));
-        assert_eq!(e.status.as_u16(), 400);
+        assert_eq!(e.status().as_u16(), 400);
     }
 
     #[test]
