@@ -101,6 +101,7 @@ pub mod gerstner;
 pub mod math;
 pub mod particles;
 pub mod query;
+pub mod simd;
 pub mod sine;
 pub mod spectrum;
 pub mod surface;

@@ -964,8 +964,8 @@ pub(crate) fn for_blocks<T>(
     f: impl FnMut(&[DVec2; BLOCK], &mut [T]),
 ) {
     #[cfg(target_arch = "x86_64")]
-    if simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked on the line above.
+    if crate::simd::simd_level() >= crate::simd::SimdLevel::Avx2 {
+        // SAFETY: `simd_level` is Avx2 or wider only where the CPU has AVX2 (detected at run time).
         unsafe { blocks_avx2(points, out, f) };
         return;
     }
