@@ -52,6 +52,7 @@
 
 mod fields;
 mod frame;
+mod lanes;
 mod layer;
 mod reference;
 mod sample;

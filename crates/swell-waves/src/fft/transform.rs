@@ -14,38 +14,57 @@
 //!    transformed once; `f(·, a) = Re z`, `f(·, b) = Im z`. The row pass costs N/2 complex
 //!    transforms.
 //!
-//! How it is scheduled does not change a bit (every 1-D transform is RustFFT's, on the same
-//! input, and is independent of the others in its batch): columns are transformed out of place
-//! (RustFFT's in-place call is an out-of-place transform plus a copy back), either straight from
-//! a stored half spectrum or one column at a time as the caller makes it; rows are packed,
-//! transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
+//! How it is scheduled does not change a bit (every 1-D transform is independent of the others
+//! in its batch and runs the same operation sequence on the same input).
 //!
-//! We do not use the `realfft` crate: it only plans through RustFFT's SIMD `FftPlanner`, so the
-//! portable backend (the scalar planner, identical bits on every CPU) could not use it.
+//! **Portable backend.** The 1-D transforms are the crate's own ([`super::lanes`]): RustFFT's
+//! scalar plan ported operation for operation, so the bits are those RustFFT's
+//! `FftPlannerScalar` gave, and run W at a time, one transform per SIMD lane: W columns
+//! (`m0 … m0 + W − 1`), then W row pairs. W is 1, 2, 4 or 8 by [`crate::simd::simd_level`];
+//! every width gives the same bits. Inputs are gathered straight into the plan's bit-reversed
+//! order, so no transform needs a copy of its own.
+//!
+//! **Native backend.** RustFFT's run-time dispatched planner, one transform at a time; rows are
+//! packed, transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
+//!
+//! We do not use the `realfft` crate: it only plans through RustFFT's SIMD `FftPlanner`, whose
+//! bits depend on the CPU.
 
 use std::sync::{Arc, Mutex};
 
 use rustfft::num_complex::Complex;
-use rustfft::{Fft, FftPlanner, FftPlannerScalar};
+use rustfft::{Fft, FftPlanner};
 
 use super::FftBackend;
+use super::lanes::{C, LaneFft};
+use crate::simd::{SimdLevel, simd_level};
 
 /// Plans and scratch sizes for inverse real 2-D transforms of one size, and a pool of working
 /// memory so that a frame allocates only the grids it returns.
 pub(crate) struct InverseRealFft2 {
     n: usize,
-    fft: Arc<dyn Fft<f64>>,
+    engine: Engine,
     /// Scratch returned by finished frames. Frames on several threads each take their own (the
     /// pool grows to the number of concurrent frames and no further); the buffers' contents
     /// never reach a result, so reuse cannot change one.
     pool: Mutex<Vec<Scratch>>,
 }
 
+/// Which 1-D transform a 2-D transform runs.
+#[derive(Clone)]
+enum Engine {
+    /// The crate's lane-parallel port of RustFFT's scalar plan, with `scatter[m]`, the position
+    /// input m takes in the plan's gather order.
+    Lanes { fft: LaneFft, scatter: Vec<u32> },
+    /// RustFFT's SIMD planner (the native backend).
+    Rust(Arc<dyn Fft<f64>>),
+}
+
 impl Clone for InverseRealFft2 {
     fn clone(&self) -> Self {
         Self {
             n: self.n,
-            fft: Arc::clone(&self.fft),
+            engine: self.engine.clone(),
             pool: Mutex::new(Vec::new()),
         }
     }
@@ -64,12 +83,18 @@ impl std::fmt::Debug for InverseRealFft2 {
 pub(crate) struct Scratch {
     /// G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
     cols: Vec<Complex<f64>>,
-    /// One column's spectrum (N), filled by the caller of `process_with`.
+    /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
     column: Vec<Complex<f64>>,
-    /// One block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart) and its transform.
+    /// Native backend: one block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart)
+    /// and its transform, and RustFFT's scratch.
     rows_in: Vec<Complex<f64>>,
     rows_out: Vec<Complex<f64>>,
     fft: Vec<Complex<f64>>,
+    /// Portable backend: N values of W lanes, for the width in use (only one is ever sized).
+    lanes1: Vec<C<1>>,
+    lanes2: Vec<C<2>>,
+    lanes4: Vec<C<4>>,
+    lanes8: Vec<C<8>>,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
     pub(crate) htilde: Vec<Complex<f64>>,
     /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
@@ -77,16 +102,31 @@ pub(crate) struct Scratch {
     pub(crate) phases: Vec<(f64, f64)>,
 }
 
+/// Where a 2-D transform's column spectra come from.
+enum Columns<'a, F> {
+    /// A stored half spectrum, column m at `[m·N .. (m+1)·N]`.
+    Half(&'a [Complex<f64>]),
+    /// Made on demand: `f(m, buf)` writes column m into `buf` (N entries, all of them).
+    Made(F),
+}
+
 impl InverseRealFft2 {
-    /// Plans the length-`n` inverse transform with the backend's planner (`n` even, ≥ 2).
+    /// Plans the length-`n` inverse transform for the backend (`n` a power of two, ≥ 16).
     pub(crate) fn new(n: usize, backend: FftBackend) -> Self {
-        let fft = match backend {
-            FftBackend::Portable => FftPlannerScalar::new().plan_fft_inverse(n),
-            FftBackend::Native => FftPlanner::new().plan_fft_inverse(n),
+        let engine = match backend {
+            FftBackend::Portable => {
+                let fft = LaneFft::new(n);
+                let mut scatter = vec![0u32; n];
+                for (p, &s) in fft.gather_order().iter().enumerate() {
+                    scatter[s as usize] = p as u32;
+                }
+                Engine::Lanes { fft, scatter }
+            }
+            FftBackend::Native => Engine::Rust(FftPlanner::new().plan_fft_inverse(n)),
         };
         Self {
             n,
-            fft,
+            engine,
             pool: Mutex::new(Vec::new()),
         }
     }
@@ -95,17 +135,24 @@ impl InverseRealFft2 {
     pub(crate) fn scratch(&self) -> Scratch {
         let zero = Complex::new(0.0, 0.0);
         let half = self.n / 2 * self.n;
-        let pairs = ROW_PAIRS.min(self.n / 2);
-        let fft_len = self
-            .fft
-            .get_outofplace_scratch_len()
-            .max(self.fft.get_immutable_scratch_len());
+        let (rows, fft_len) = match &self.engine {
+            Engine::Rust(fft) => (
+                ROW_PAIRS.min(self.n / 2),
+                fft.get_outofplace_scratch_len()
+                    .max(fft.get_immutable_scratch_len()),
+            ),
+            Engine::Lanes { .. } => (0, 0),
+        };
         Scratch {
             cols: vec![zero; half],
-            column: vec![zero; self.n],
-            rows_in: vec![zero; pairs * (self.n + ROW_STRIDE_PAD)],
-            rows_out: vec![zero; pairs * self.n],
+            column: Vec::new(),
+            rows_in: vec![zero; rows * (self.n + ROW_STRIDE_PAD)],
+            rows_out: vec![zero; rows * self.n],
             fft: vec![zero; fft_len],
+            lanes1: Vec::new(),
+            lanes2: Vec::new(),
+            lanes4: Vec::new(),
+            lanes8: Vec::new(),
             htilde: vec![zero; half],
             phases: Vec::new(),
         }
@@ -134,17 +181,27 @@ impl InverseRealFft2 {
     pub(crate) fn process(&self, half: &[Complex<f64>], scratch: &mut Scratch, out: &mut [f64]) {
         let n = self.n;
         debug_assert_eq!(half.len(), n / 2 * n);
-        // Column pass straight from `half` into G: RustFFT's immutable form runs the same
-        // algorithm as its in-place one (which is out of place into scratch, then a copy back).
-        self.fft
-            .process_immutable_with_scratch(half, &mut scratch.cols, &mut scratch.fft);
-        self.row_pass(scratch, out);
+        match &self.engine {
+            Engine::Lanes { fft, scatter } => self.dispatch(
+                fft,
+                scatter,
+                Columns::<fn(usize, &mut [Complex<f64>])>::Half(half),
+                scratch,
+                out,
+            ),
+            Engine::Rust(fft) => {
+                // Column pass straight from `half` into G: RustFFT's immutable form runs the
+                // same algorithm as its in-place one.
+                fft.process_immutable_with_scratch(half, &mut scratch.cols, &mut scratch.fft);
+                self.row_pass_rust(fft, scratch, out);
+            }
+        }
     }
 
     /// [`InverseRealFft2::process`] of the half spectrum whose column m `column(m, buf)` writes
-    /// into `buf` (N entries, every one of them), one column at a time: the column is
-    /// transformed while it is in L1, and no N/2·N spectrum is ever stored. Same bits as
-    /// `process` of the assembled spectrum.
+    /// into `buf` (N entries, every one of them): a few columns at a time, each transformed
+    /// while it is in L1, and no N/2·N spectrum is ever stored. Same bits as `process` of the
+    /// assembled spectrum.
     #[inline(always)]
     pub(crate) fn process_with(
         &self,
@@ -153,21 +210,59 @@ impl InverseRealFft2 {
         out: &mut [f64],
     ) {
         let n = self.n;
-        for (m, g) in scratch.cols.chunks_exact_mut(n).enumerate() {
-            column(m, &mut scratch.column);
-            self.fft
-                .process_outofplace_with_scratch(&mut scratch.column, g, &mut scratch.fft);
+        match &self.engine {
+            Engine::Lanes { fft, scatter } => {
+                self.dispatch(fft, scatter, Columns::Made(column), scratch, out)
+            }
+            Engine::Rust(fft) => {
+                scratch.column.resize(n, Complex::new(0.0, 0.0));
+                for (m, g) in scratch.cols.chunks_exact_mut(n).enumerate() {
+                    column(m, &mut scratch.column);
+                    fft.process_outofplace_with_scratch(&mut scratch.column, g, &mut scratch.fft);
+                }
+                self.row_pass_rust(fft, scratch, out);
+            }
         }
-        self.row_pass(scratch, out);
     }
 
-    /// The row pass from G (`scratch.cols`) into `out`, ROW_PAIRS pairs at a time: pack the
-    /// block (a tiled transpose: for each m the block's 2·ROW_PAIRS values of G[m, ·] are
-    /// contiguous), transform it, unpack it into `out`. The block stays in L1/L2 from packing to
-    /// unpacking. Each row's transform is independent of the others in its batch, so the
-    /// blocking leaves every bit as the one-batch form computed it.
+    /// The portable 2-D transform at the level in use: the same bits at every level.
     #[inline(always)]
-    fn row_pass(&self, scratch: &mut Scratch, out: &mut [f64]) {
+    fn dispatch<F: FnMut(usize, &mut [Complex<f64>])>(
+        &self,
+        fft: &LaneFft,
+        scatter: &[u32],
+        columns: Columns<'_, F>,
+        s: &mut Scratch,
+        out: &mut [f64],
+    ) {
+        match simd_level() {
+            SimdLevel::Scalar => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Sse2 => {
+                // SAFETY: every x86-64 CPU has SSE2.
+                unsafe { lanes_2d_sse2(fft, scatter, columns, s, out) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => {
+                // SAFETY: `simd_level` returns Avx2 only where the CPU has AVX2 (detected).
+                unsafe { lanes_2d_avx2(fft, scatter, columns, s, out) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => {
+                // SAFETY: `simd_level` returns Avx512 only where the CPU has AVX-512 F.
+                unsafe { lanes_2d_avx512(fft, scatter, columns, s, out) }
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+        }
+    }
+
+    /// The row pass from G (`scratch.cols`) into `out` with RustFFT (native backend),
+    /// ROW_PAIRS pairs at a time: pack the block (a tiled transpose: for each m the block's
+    /// 2·ROW_PAIRS values of G[m, ·] are contiguous), transform it, unpack it into `out`. The
+    /// block stays in L1/L2 from packing to unpacking.
+    #[inline(always)]
+    fn row_pass_rust(&self, fft: &Arc<dyn Fft<f64>>, scratch: &mut Scratch, out: &mut [f64]) {
         let n = self.n;
         let h = n / 2;
         debug_assert_eq!(out.len(), n * n);
@@ -194,8 +289,7 @@ impl InverseRealFft2 {
                 }
             }
             for (row, z) in rows.chunks_exact_mut(stride).zip(zs.chunks_exact_mut(n)) {
-                self.fft
-                    .process_outofplace_with_scratch(&mut row[..n], z, &mut scratch.fft);
+                fft.process_outofplace_with_scratch(&mut row[..n], z, &mut scratch.fft);
             }
             let block = &mut out[a0 * n..(a0 + 2 * pairs) * n];
             for (z, pair) in zs.chunks_exact(n).zip(block.chunks_exact_mut(2 * n)) {
@@ -209,6 +303,156 @@ impl InverseRealFft2 {
             }
         }
     }
+}
+
+/// The lane buffer of width W in a scratch.
+trait LaneBuf<const W: usize> {
+    fn lanes(&mut self) -> &mut Vec<C<W>>;
+}
+impl LaneBuf<1> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<1>> {
+        &mut self.lanes1
+    }
+}
+impl LaneBuf<2> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<2>> {
+        &mut self.lanes2
+    }
+}
+impl LaneBuf<4> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<4>> {
+        &mut self.lanes4
+    }
+}
+impl LaneBuf<8> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<8>> {
+        &mut self.lanes8
+    }
+}
+
+/// The portable 2-D inverse real transform with W 1-D transforms per step (module docs).
+///
+/// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order,
+/// transformed, and stored as G's columns. Row pass: row pairs `p0 … p0 + W − 1` are packed
+/// (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar packing's operations) into lanes,
+/// transformed, and unpacked into `out`.
+#[inline(always)]
+fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) where
+    Scratch: LaneBuf<W>,
+{
+    let n = fft.len();
+    let h = n / 2;
+    debug_assert_eq!(out.len(), n * n);
+    let zero = Complex::new(0.0, 0.0);
+    let mut data = std::mem::take(LaneBuf::<W>::lanes(s));
+    data.resize(n, C::ZERO);
+    let gather = fft.gather_order();
+    let mut columns = columns;
+    if matches!(columns, Columns::Made(_)) {
+        s.column.resize(W * n, zero);
+    }
+    for m0 in (0..h).step_by(W) {
+        let src: &[Complex<f64>] = match &mut columns {
+            Columns::Half(half) => &half[m0 * n..(m0 + W) * n],
+            Columns::Made(f) => {
+                for (l, buf) in s.column.chunks_exact_mut(n).take(W).enumerate() {
+                    f(m0 + l, buf);
+                }
+                &s.column[..W * n]
+            }
+        };
+        for (d, &k) in data.iter_mut().zip(gather) {
+            for l in 0..W {
+                let v = src[l * n + k as usize];
+                d.re[l] = v.re;
+                d.im[l] = v.im;
+            }
+        }
+        fft.run(&mut data);
+        let g = &mut s.cols[m0 * n..(m0 + W) * n];
+        for (j, d) in data.iter().enumerate() {
+            for l in 0..W {
+                g[l * n + j] = Complex::new(d.re[l], d.im[l]);
+            }
+        }
+    }
+    let g = &s.cols;
+    for p0 in (0..h).step_by(W) {
+        let a0 = 2 * p0;
+        let (d0, dh) = (scatter[0] as usize, scatter[h] as usize);
+        for q in 0..W {
+            let (a, b) = (a0 + 2 * q, a0 + 2 * q + 1);
+            data[d0].re[q] = g[a].re;
+            data[d0].im[q] = g[b].re;
+            data[dh].re[q] = 0.0;
+            data[dh].im[q] = 0.0;
+        }
+        for m in 1..h {
+            let col = &g[m * n + a0..m * n + a0 + 2 * W];
+            let (pm, pn) = (scatter[m] as usize, scatter[n - m] as usize);
+            for q in 0..W {
+                let (ga, gb) = (col[2 * q], col[2 * q + 1]);
+                data[pm].re[q] = ga.re - gb.im;
+                data[pm].im[q] = ga.im + gb.re;
+                data[pn].re[q] = ga.re + gb.im;
+                data[pn].im[q] = gb.re - ga.im;
+            }
+        }
+        fft.run(&mut data);
+        let block = &mut out[a0 * n..(a0 + 2 * W) * n];
+        for (i, d) in data.iter().enumerate() {
+            for q in 0..W {
+                block[2 * q * n + i] = d.re[q];
+                block[(2 * q + 1) * n + i] = d.im[q];
+            }
+        }
+    }
+    *LaneBuf::<W>::lanes(s) = data;
+}
+
+/// [`lanes_2d`] with two lanes, compiled for SSE2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse2")]
+fn lanes_2d_sse2<F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) {
+    lanes_2d::<2, F>(fft, scatter, columns, s, out);
+}
+
+/// [`lanes_2d`] with four lanes, compiled for AVX2 (never FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn lanes_2d_avx2<F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) {
+    lanes_2d::<4, F>(fft, scatter, columns, s, out);
+}
+
+/// [`lanes_2d`] with eight lanes, compiled for AVX-512 F (never FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn lanes_2d_avx512<F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) {
+    lanes_2d::<8, F>(fft, scatter, columns, s, out);
 }
 
 /// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
