@@ -81,8 +81,12 @@ impl std::fmt::Debug for InverseRealFft2 {
 /// Working memory for [`InverseRealFft2::process`] and for a frame's spectra; reusable across
 /// calls and fields. Nothing read from it ever reaches a result before being overwritten.
 pub(crate) struct Scratch {
-    /// G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
+    /// Native backend: G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
     cols: Vec<Complex<f64>>,
+    /// Portable backend: G after the column pass as four N/2 × N/2 planes (N² values), laid
+    /// out for the row pass: plane `2·(j mod 2) + c` (c = 0 real, 1 imaginary part) holds
+    /// G[m, j] at `[m·N/2 + j/2]`, so a block of row pairs reads W consecutive values.
+    planes: Vec<f64>,
     /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
     column: Vec<Complex<f64>>,
     /// Native backend: one block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart)
@@ -135,16 +139,19 @@ impl InverseRealFft2 {
     pub(crate) fn scratch(&self) -> Scratch {
         let zero = Complex::new(0.0, 0.0);
         let half = self.n / 2 * self.n;
-        let (rows, fft_len) = match &self.engine {
+        let (rows, fft_len, cols, planes) = match &self.engine {
             Engine::Rust(fft) => (
                 ROW_PAIRS.min(self.n / 2),
                 fft.get_outofplace_scratch_len()
                     .max(fft.get_immutable_scratch_len()),
+                half,
+                0,
             ),
-            Engine::Lanes { .. } => (0, 0),
+            Engine::Lanes { .. } => (0, 0, 0, self.n * self.n),
         };
         Scratch {
-            cols: vec![zero; half],
+            cols: vec![zero; cols],
+            planes: vec![0.0; planes],
             column: Vec::new(),
             rows_in: vec![zero; rows * (self.n + ROW_STRIDE_PAD)],
             rows_out: vec![zero; rows * self.n],
@@ -333,9 +340,9 @@ impl LaneBuf<8> for Scratch {
 /// The portable 2-D inverse real transform with W 1-D transforms per step (module docs).
 ///
 /// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order,
-/// transformed, and stored as G's columns. Row pass: row pairs `p0 … p0 + W − 1` are packed
-/// (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar packing's operations) into lanes,
-/// transformed, and unpacked into `out`.
+/// transformed, and stored into G's planes (`Scratch::planes`). Row pass: row pairs
+/// `p0 … p0 + W − 1` are packed (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar packing's
+/// operations, W lanes per vector operation) into lanes, transformed, and unpacked into `out`.
 #[inline(always)]
 fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
     fft: &LaneFft,
@@ -375,41 +382,58 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
             }
         }
         fft.run(&mut data);
-        let g = &mut s.cols[m0 * n..(m0 + W) * n];
-        for (j, d) in data.iter().enumerate() {
+        let hh = h * h;
+        let (re_e, rest) = s.planes.split_at_mut(hh);
+        let (im_e, rest) = rest.split_at_mut(hh);
+        let (re_o, im_o) = rest.split_at_mut(hh);
+        for (jp, pair) in data.chunks_exact(2).enumerate() {
             for l in 0..W {
-                g[l * n + j] = Complex::new(d.re[l], d.im[l]);
+                let at = (m0 + l) * h + jp;
+                re_e[at] = pair[0].re[l];
+                im_e[at] = pair[0].im[l];
+                re_o[at] = pair[1].re[l];
+                im_o[at] = pair[1].im[l];
             }
         }
     }
-    let g = &s.cols;
+    let hh = h * h;
+    let (re_e, rest) = s.planes.split_at(hh);
+    let (im_e, rest) = rest.split_at(hh);
+    let (re_o, im_o) = rest.split_at(hh);
+    let lanes_at =
+        |plane: &[f64], at: usize| -> [f64; W] { plane[at..at + W].try_into().expect("W values") };
     for p0 in (0..h).step_by(W) {
         let a0 = 2 * p0;
         let (d0, dh) = (scatter[0] as usize, scatter[h] as usize);
-        for q in 0..W {
-            let (a, b) = (a0 + 2 * q, a0 + 2 * q + 1);
-            data[d0].re[q] = g[a].re;
-            data[d0].im[q] = g[b].re;
-            data[dh].re[q] = 0.0;
-            data[dh].im[q] = 0.0;
-        }
+        // m = 0: (G_a[0].re, G_b[0].re); m = N/2: the empty Nyquist entry.
+        data[d0] = C {
+            re: lanes_at(re_e, p0),
+            im: lanes_at(re_o, p0),
+        };
+        data[dh] = C::ZERO;
         for m in 1..h {
-            let col = &g[m * n + a0..m * n + a0 + 2 * W];
+            let at = m * h + p0;
+            let (ga_re, ga_im) = (lanes_at(re_e, at), lanes_at(im_e, at));
+            let (gb_re, gb_im) = (lanes_at(re_o, at), lanes_at(im_o, at));
             let (pm, pn) = (scatter[m] as usize, scatter[n - m] as usize);
-            for q in 0..W {
-                let (ga, gb) = (col[2 * q], col[2 * q + 1]);
-                data[pm].re[q] = ga.re - gb.im;
-                data[pm].im[q] = ga.im + gb.re;
-                data[pn].re[q] = ga.re + gb.im;
-                data[pn].im[q] = gb.re - ga.im;
-            }
+            data[pm] = C {
+                re: std::array::from_fn(|q| ga_re[q] - gb_im[q]),
+                im: std::array::from_fn(|q| ga_im[q] + gb_re[q]),
+            };
+            data[pn] = C {
+                re: std::array::from_fn(|q| ga_re[q] + gb_im[q]),
+                im: std::array::from_fn(|q| gb_re[q] - ga_im[q]),
+            };
         }
         fft.run(&mut data);
+        // Unpacked W outputs at a time: a W × W transpose per part, written W values per row.
         let block = &mut out[a0 * n..(a0 + 2 * W) * n];
-        for (i, d) in data.iter().enumerate() {
+        for (i0, d) in (0..n).step_by(W).zip(data.chunks_exact(W)) {
             for q in 0..W {
-                block[2 * q * n + i] = d.re[q];
-                block[(2 * q + 1) * n + i] = d.im[q];
+                let re: [f64; W] = std::array::from_fn(|k| d[k].re[q]);
+                let im: [f64; W] = std::array::from_fn(|k| d[k].im[q]);
+                block[2 * q * n + i0..][..W].copy_from_slice(&re);
+                block[(2 * q + 1) * n + i0..][..W].copy_from_slice(&im);
             }
         }
     }
