@@ -374,11 +374,36 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
                 &s.column[..W * n]
             }
         };
-        for (d, &k) in data.iter_mut().zip(gather) {
-            for l in 0..W {
-                let v = src[l * n + k as usize];
-                d.re[l] = v.re;
-                d.im[l] = v.im;
+        if W >= 4 {
+            // W/2 consecutive entries of the W columns are a W × W block of f64 (re, im
+            // interleaved): transposed, its rows are the lanes' real and imaginary parts of
+            // those entries, each stored whole at the entry's place in the plan's order.
+            let half = W / 2;
+            for k0 in (0..n).step_by(half) {
+                let t = transpose::<W>(std::array::from_fn(|l| {
+                    let col = &src[l * n + k0..][..half];
+                    std::array::from_fn(|c| {
+                        if c % 2 == 0 {
+                            col[c / 2].re
+                        } else {
+                            col[c / 2].im
+                        }
+                    })
+                }));
+                for c2 in 0..half {
+                    data[scatter[k0 + c2] as usize] = C {
+                        re: t[2 * c2],
+                        im: t[2 * c2 + 1],
+                    };
+                }
+            }
+        } else {
+            for (d, &k) in data.iter_mut().zip(gather) {
+                for l in 0..W {
+                    let v = src[l * n + k as usize];
+                    d.re[l] = v.re;
+                    d.im[l] = v.im;
+                }
             }
         }
         fft.run(&mut data);
@@ -386,13 +411,31 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
         let (re_e, rest) = s.planes.split_at_mut(hh);
         let (im_e, rest) = rest.split_at_mut(hh);
         let (re_o, im_o) = rest.split_at_mut(hh);
-        for (jp, pair) in data.chunks_exact(2).enumerate() {
-            for l in 0..W {
-                let at = (m0 + l) * h + jp;
-                re_e[at] = pair[0].re[l];
-                im_e[at] = pair[0].im[l];
-                re_o[at] = pair[1].re[l];
-                im_o[at] = pair[1].im[l];
+        // W × W block transposes: W consecutive even (odd) outputs of the W columns become W
+        // consecutive plane entries of each column.
+        for (jp0, block) in (0..h).step_by(W).zip(data.chunks_exact(2 * W)) {
+            let planes: [(&mut [f64], [[f64; W]; W]); 4] = [
+                (
+                    &mut *re_e,
+                    transpose(std::array::from_fn(|r| block[2 * r].re)),
+                ),
+                (
+                    &mut *im_e,
+                    transpose(std::array::from_fn(|r| block[2 * r].im)),
+                ),
+                (
+                    &mut *re_o,
+                    transpose(std::array::from_fn(|r| block[2 * r + 1].re)),
+                ),
+                (
+                    &mut *im_o,
+                    transpose(std::array::from_fn(|r| block[2 * r + 1].im)),
+                ),
+            ];
+            for (plane, t) in planes {
+                for (l, row) in t.iter().enumerate() {
+                    plane[(m0 + l) * h + jp0..][..W].copy_from_slice(row);
+                }
             }
         }
     }
@@ -429,15 +472,126 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
         // Unpacked W outputs at a time: a W × W transpose per part, written W values per row.
         let block = &mut out[a0 * n..(a0 + 2 * W) * n];
         for (i0, d) in (0..n).step_by(W).zip(data.chunks_exact(W)) {
+            let re = transpose::<W>(std::array::from_fn(|k| d[k].re));
+            let im = transpose::<W>(std::array::from_fn(|k| d[k].im));
             for q in 0..W {
-                let re: [f64; W] = std::array::from_fn(|k| d[k].re[q]);
-                let im: [f64; W] = std::array::from_fn(|k| d[k].im[q]);
-                block[2 * q * n + i0..][..W].copy_from_slice(&re);
-                block[(2 * q + 1) * n + i0..][..W].copy_from_slice(&im);
+                block[2 * q * n + i0..][..W].copy_from_slice(&re[q]);
+                block[(2 * q + 1) * n + i0..][..W].copy_from_slice(&im[q]);
             }
         }
     }
     *LaneBuf::<W>::lanes(s) = data;
+}
+
+/// `m` transposed (`out[c][r] = m[r][c]`): moves only, so every level gives the same bits. W = 4
+/// and 8 use AVX2 / AVX-512 shuffles: `lanes_2d::<4>` runs only inside [`lanes_2d_avx2`] and
+/// `lanes_2d::<8>` only inside [`lanes_2d_avx512`], where those instructions are enabled.
+#[inline(always)]
+fn transpose<const W: usize>(m: [[f64; W]; W]) -> [[f64; W]; W] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if W == 8 {
+            let a: [[f64; 8]; 8] = std::array::from_fn(|r| std::array::from_fn(|c| m[r][c]));
+            // SAFETY: W = 8 only in `lanes_2d_avx512`, which runs where the CPU has AVX-512 F.
+            let t = unsafe { transpose8_avx512(&a) };
+            return std::array::from_fn(|r| std::array::from_fn(|c| t[r][c]));
+        }
+        if W == 4 {
+            let a: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| m[r][c]));
+            // SAFETY: W = 4 only in `lanes_2d_avx2`, which runs where the CPU has AVX2.
+            let t = unsafe { transpose4_avx2(&a) };
+            return std::array::from_fn(|r| std::array::from_fn(|c| t[r][c]));
+        }
+    }
+    std::array::from_fn(|c| std::array::from_fn(|r| m[r][c]))
+}
+
+/// 8 × 8 transpose in AVX-512 registers: pairs interleaved, then 2×2 and 4×4 blocks moved
+/// with two-source permutes (24 shuffles, no arithmetic).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn transpose8_avx512(m: &[[f64; 8]; 8]) -> [[f64; 8]; 8] {
+    use std::arch::x86_64::*;
+    // SAFETY: every pointer is to an array of 8 f64 (unaligned loads and stores are allowed).
+    unsafe {
+        let r: [__m512d; 8] = std::array::from_fn(|i| _mm512_loadu_pd(m[i].as_ptr()));
+        // t_lo(a, b) = [a0 b0 a2 b2 a4 b4 a6 b6], t_hi = [a1 b1 a3 b3 a5 b5 a7 b7].
+        let lo = |a, b| _mm512_unpacklo_pd(a, b);
+        let hi = |a, b| _mm512_unpackhi_pd(a, b);
+        let t = [
+            lo(r[0], r[1]),
+            hi(r[0], r[1]),
+            lo(r[2], r[3]),
+            hi(r[2], r[3]),
+            lo(r[4], r[5]),
+            hi(r[4], r[5]),
+            lo(r[6], r[7]),
+            hi(r[6], r[7]),
+        ];
+        let perm = |a, idx: [i64; 8], b| {
+            _mm512_permutex2var_pd(a, _mm512_loadu_si512(idx.as_ptr().cast()), b)
+        };
+        const EVEN: [i64; 8] = [0, 1, 8, 9, 4, 5, 12, 13];
+        const ODD: [i64; 8] = [2, 3, 10, 11, 6, 7, 14, 15];
+        // u[k]: rows 0–3 (v: rows 4–7) of columns (c, c + 4) for c = 0, 2, 1, 3.
+        let u = [
+            perm(t[0], EVEN, t[2]),
+            perm(t[0], ODD, t[2]),
+            perm(t[1], EVEN, t[3]),
+            perm(t[1], ODD, t[3]),
+        ];
+        let v = [
+            perm(t[4], EVEN, t[6]),
+            perm(t[4], ODD, t[6]),
+            perm(t[5], EVEN, t[7]),
+            perm(t[5], ODD, t[7]),
+        ];
+        const LOW: [i64; 8] = [0, 1, 2, 3, 8, 9, 10, 11];
+        const HIGH: [i64; 8] = [4, 5, 6, 7, 12, 13, 14, 15];
+        let cols = [
+            perm(u[0], LOW, v[0]),
+            perm(u[2], LOW, v[2]),
+            perm(u[1], LOW, v[1]),
+            perm(u[3], LOW, v[3]),
+            perm(u[0], HIGH, v[0]),
+            perm(u[2], HIGH, v[2]),
+            perm(u[1], HIGH, v[1]),
+            perm(u[3], HIGH, v[3]),
+        ];
+        let mut out = [[0.0; 8]; 8];
+        for (o, c) in out.iter_mut().zip(cols) {
+            _mm512_storeu_pd(o.as_mut_ptr(), c);
+        }
+        out
+    }
+}
+
+/// 4 × 4 transpose in AVX2 registers (unpack, then swap 128-bit halves).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn transpose4_avx2(m: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: every pointer is to an array of 4 f64 (unaligned loads and stores are allowed).
+    unsafe {
+        let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(m[i].as_ptr()));
+        let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+        let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+        let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+        let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+        let cols = [
+            _mm256_permute2f128_pd(t0, t2, 0x20),
+            _mm256_permute2f128_pd(t1, t3, 0x20),
+            _mm256_permute2f128_pd(t0, t2, 0x31),
+            _mm256_permute2f128_pd(t1, t3, 0x31),
+        ];
+        let mut out = [[0.0; 4]; 4];
+        for (o, c) in out.iter_mut().zip(cols) {
+            _mm256_storeu_pd(o.as_mut_ptr(), c);
+        }
+        out
+    }
 }
 
 /// [`lanes_2d`] with two lanes, compiled for SSE2.
@@ -491,6 +645,26 @@ const ROW_STRIDE_PAD: usize = 4;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shuffle transposes move every value to its transposed place (where the CPU has them).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn shuffle_transposes_transpose() {
+        let m8: [[f64; 8]; 8] =
+            std::array::from_fn(|r| std::array::from_fn(|c| (r * 8 + c) as f64));
+        let want8: [[f64; 8]; 8] = std::array::from_fn(|c| std::array::from_fn(|r| m8[r][c]));
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512 F, checked on the line above.
+            assert_eq!(unsafe { transpose8_avx512(&m8) }, want8);
+        }
+        let m4: [[f64; 4]; 4] =
+            std::array::from_fn(|r| std::array::from_fn(|c| (r * 4 + c) as f64));
+        let want4: [[f64; 4]; 4] = std::array::from_fn(|c| std::array::from_fn(|r| m4[r][c]));
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked on the line above.
+            assert_eq!(unsafe { transpose4_avx2(&m4) }, want4);
+        }
+    }
     use crate::math::{SwellRng, TAU, sin_cos};
 
     /// Random Hermitian spectrum with an empty Nyquist column, against a direct 2-D sum.
