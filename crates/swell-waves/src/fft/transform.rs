@@ -379,23 +379,28 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
             // interleaved): transposed, its rows are the lanes' real and imaginary parts of
             // those entries, each stored whole at the entry's place in the plan's order.
             let half = W / 2;
+            assert!(src.len() >= W * n && data.len() >= n && scatter.len() >= n);
+            let base = data.as_mut_ptr();
             for k0 in (0..n).step_by(half) {
-                let t = transpose::<W>(std::array::from_fn(|l| {
-                    let col = &src[l * n + k0..][..half];
-                    std::array::from_fn(|c| {
+                // Complex<f64> is repr(C) (re, im): W/2 entries are W f64 in a row.
+                let from: [*const f64; W] =
+                    std::array::from_fn(|l| src[l * n + k0..][..half].as_ptr().cast::<f64>());
+                let to: [*mut f64; W] = std::array::from_fn(|c| {
+                    // SAFETY: scatter[k] < n = data.len() (a permutation of 0..n), so `d`
+                    // points to a live element of `data`.
+                    unsafe {
+                        let d = base.add(scatter[k0 + c / 2] as usize);
                         if c % 2 == 0 {
-                            col[c / 2].re
+                            std::ptr::addr_of_mut!((*d).re).cast::<f64>()
                         } else {
-                            col[c / 2].im
+                            std::ptr::addr_of_mut!((*d).im).cast::<f64>()
                         }
-                    })
-                }));
-                for c2 in 0..half {
-                    data[scatter[k0 + c2] as usize] = C {
-                        re: t[2 * c2],
-                        im: t[2 * c2 + 1],
-                    };
-                }
+                    }
+                });
+                // SAFETY: each source row is W f64 of `src`; each destination row is the re or
+                // im array (W f64) of a distinct element of `data` (scatter is a permutation),
+                // so none overlap, and `src` is not `data`.
+                unsafe { transpose_rows::<W>(from, to) };
             }
         } else {
             for (d, &k) in data.iter_mut().zip(gather) {
@@ -413,29 +418,27 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
         let (re_o, im_o) = rest.split_at_mut(hh);
         // W × W block transposes: W consecutive even (odd) outputs of the W columns become W
         // consecutive plane entries of each column.
+        assert!(m0 + W <= h && re_e.len() == hh && im_e.len() == hh && re_o.len() == hh);
+        assert!(im_o.len() == hh);
+        let planes = [
+            re_e.as_mut_ptr(),
+            im_e.as_mut_ptr(),
+            re_o.as_mut_ptr(),
+            im_o.as_mut_ptr(),
+        ];
         for (jp0, block) in (0..h).step_by(W).zip(data.chunks_exact(2 * W)) {
-            let planes: [(&mut [f64], [[f64; W]; W]); 4] = [
-                (
-                    &mut *re_e,
-                    transpose(std::array::from_fn(|r| block[2 * r].re)),
-                ),
-                (
-                    &mut *im_e,
-                    transpose(std::array::from_fn(|r| block[2 * r].im)),
-                ),
-                (
-                    &mut *re_o,
-                    transpose(std::array::from_fn(|r| block[2 * r + 1].re)),
-                ),
-                (
-                    &mut *im_o,
-                    transpose(std::array::from_fn(|r| block[2 * r + 1].im)),
-                ),
-            ];
-            for (plane, t) in planes {
-                for (l, row) in t.iter().enumerate() {
-                    plane[(m0 + l) * h + jp0..][..W].copy_from_slice(row);
-                }
+            for (part, &plane) in planes.iter().enumerate() {
+                let (odd, im) = (part / 2, part % 2 == 1);
+                let from: [*const f64; W] = std::array::from_fn(|r| {
+                    let c = &block[2 * r + odd];
+                    if im { c.im.as_ptr() } else { c.re.as_ptr() }
+                });
+                // SAFETY: (m0 + l)·h + jp0 + W ≤ h·h for l < W (m0 + W ≤ h, jp0 + W ≤ h).
+                let to: [*mut f64; W] =
+                    std::array::from_fn(|l| unsafe { plane.add((m0 + l) * h + jp0) });
+                // SAFETY: W rows of W f64 read from `data`, W disjoint rows of W f64 written in
+                // one plane (a separate buffer).
+                unsafe { transpose_rows::<W>(from, to) };
             }
         }
     }
@@ -471,52 +474,85 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
         fft.run(&mut data);
         // Unpacked W outputs at a time: a W × W transpose per part, written W values per row.
         let block = &mut out[a0 * n..(a0 + 2 * W) * n];
+        assert_eq!(block.len(), 2 * W * n);
+        let out_base = block.as_mut_ptr();
         for (i0, d) in (0..n).step_by(W).zip(data.chunks_exact(W)) {
-            let re = transpose::<W>(std::array::from_fn(|k| d[k].re));
-            let im = transpose::<W>(std::array::from_fn(|k| d[k].im));
-            for q in 0..W {
-                block[2 * q * n + i0..][..W].copy_from_slice(&re[q]);
-                block[(2 * q + 1) * n + i0..][..W].copy_from_slice(&im[q]);
+            for im in [false, true] {
+                let from: [*const f64; W] = std::array::from_fn(|k| {
+                    if im {
+                        d[k].im.as_ptr()
+                    } else {
+                        d[k].re.as_ptr()
+                    }
+                });
+                // SAFETY: (2q + 1)·n + i0 + W ≤ 2·W·n for q < W and i0 + W ≤ n.
+                let to: [*mut f64; W] = std::array::from_fn(|q| unsafe {
+                    out_base.add((2 * q + usize::from(im)) * n + i0)
+                });
+                // SAFETY: W rows of W f64 read from `data`, W disjoint rows written in `out`.
+                unsafe { transpose_rows::<W>(from, to) };
             }
         }
     }
     *LaneBuf::<W>::lanes(s) = data;
 }
 
-/// `m` transposed (`out[c][r] = m[r][c]`): moves only, so every level gives the same bits. W = 4
-/// and 8 use AVX2 / AVX-512 shuffles: `lanes_2d::<4>` runs only inside [`lanes_2d_avx2`] and
-/// `lanes_2d::<8>` only inside [`lanes_2d_avx512`], where those instructions are enabled.
+/// Transposes a W × W block given by row pointers, `dst[c][r] = src[r][c]`, through registers
+/// (moves only: the bits are untouched). W = 8 and 4 use AVX-512 / AVX2 shuffles.
+///
+/// # Safety
+/// Each `src[r]` must be valid for reading W f64 and each `dst[c]` for writing W f64; no
+/// destination row may overlap a source row or another destination row. W = 8 needs AVX-512 F
+/// and W = 4 AVX2: `lanes_2d::<8>` and `lanes_2d::<4>` run only inside [`lanes_2d_avx512`] and
+/// [`lanes_2d_avx2`], whose callers checked the CPU.
 #[inline(always)]
-fn transpose<const W: usize>(m: [[f64; W]; W]) -> [[f64; W]; W] {
+unsafe fn transpose_rows<const W: usize>(src: [*const f64; W], dst: [*mut f64; W]) {
     #[cfg(target_arch = "x86_64")]
     {
         if W == 8 {
-            let a: [[f64; 8]; 8] = std::array::from_fn(|r| std::array::from_fn(|c| m[r][c]));
-            // SAFETY: W = 8 only in `lanes_2d_avx512`, which runs where the CPU has AVX-512 F.
-            let t = unsafe { transpose8_avx512(&a) };
-            return std::array::from_fn(|r| std::array::from_fn(|c| t[r][c]));
+            // SAFETY: the caller's contract, with W = 8.
+            unsafe {
+                transpose8_rows_avx512(
+                    std::array::from_fn(|i| src[i]),
+                    std::array::from_fn(|i| dst[i]),
+                )
+            };
+            return;
         }
         if W == 4 {
-            let a: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| m[r][c]));
-            // SAFETY: W = 4 only in `lanes_2d_avx2`, which runs where the CPU has AVX2.
-            let t = unsafe { transpose4_avx2(&a) };
-            return std::array::from_fn(|r| std::array::from_fn(|c| t[r][c]));
+            // SAFETY: the caller's contract, with W = 4.
+            unsafe {
+                transpose4_rows_avx2(
+                    std::array::from_fn(|i| src[i]),
+                    std::array::from_fn(|i| dst[i]),
+                )
+            };
+            return;
         }
     }
-    std::array::from_fn(|c| std::array::from_fn(|r| m[r][c]))
+    for (c, &d) in dst.iter().enumerate() {
+        for (r, &s) in src.iter().enumerate() {
+            // SAFETY: the caller's contract (c, r < W).
+            unsafe { *d.add(r) = *s.add(c) };
+        }
+    }
 }
 
-/// 8 × 8 transpose in AVX-512 registers: pairs interleaved, then 2×2 and 4×4 blocks moved
-/// with two-source permutes (24 shuffles, no arithmetic).
+/// [`transpose_rows`] for W = 8 in AVX-512 registers: pairs interleaved, then 2×2 and 4×4
+/// blocks moved with two-source permutes (24 shuffles, no arithmetic).
+///
+/// # Safety
+/// As [`transpose_rows`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn transpose8_avx512(m: &[[f64; 8]; 8]) -> [[f64; 8]; 8] {
+unsafe fn transpose8_rows_avx512(src: [*const f64; 8], dst: [*mut f64; 8]) {
     use std::arch::x86_64::*;
-    // SAFETY: every pointer is to an array of 8 f64 (unaligned loads and stores are allowed).
+    // SAFETY: the caller's contract: 8 readable f64 at each source row, 8 writable at each
+    // destination row (unaligned access is allowed); the index vectors are 8 i64 each.
     unsafe {
-        let r: [__m512d; 8] = std::array::from_fn(|i| _mm512_loadu_pd(m[i].as_ptr()));
-        // t_lo(a, b) = [a0 b0 a2 b2 a4 b4 a6 b6], t_hi = [a1 b1 a3 b3 a5 b5 a7 b7].
+        let r: [__m512d; 8] = std::array::from_fn(|i| _mm512_loadu_pd(src[i]));
+        // lo(a, b) = [a0 b0 a2 b2 a4 b4 a6 b6], hi = [a1 b1 a3 b3 a5 b5 a7 b7].
         let lo = |a, b| _mm512_unpacklo_pd(a, b);
         let hi = |a, b| _mm512_unpackhi_pd(a, b);
         let t = [
@@ -559,23 +595,25 @@ fn transpose8_avx512(m: &[[f64; 8]; 8]) -> [[f64; 8]; 8] {
             perm(u[1], HIGH, v[1]),
             perm(u[3], HIGH, v[3]),
         ];
-        let mut out = [[0.0; 8]; 8];
-        for (o, c) in out.iter_mut().zip(cols) {
-            _mm512_storeu_pd(o.as_mut_ptr(), c);
+        for (d, c) in dst.into_iter().zip(cols) {
+            _mm512_storeu_pd(d, c);
         }
-        out
     }
 }
 
-/// 4 × 4 transpose in AVX2 registers (unpack, then swap 128-bit halves).
+/// [`transpose_rows`] for W = 4 in AVX2 registers (unpack, then swap 128-bit halves).
+///
+/// # Safety
+/// As [`transpose_rows`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn transpose4_avx2(m: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
+unsafe fn transpose4_rows_avx2(src: [*const f64; 4], dst: [*mut f64; 4]) {
     use std::arch::x86_64::*;
-    // SAFETY: every pointer is to an array of 4 f64 (unaligned loads and stores are allowed).
+    // SAFETY: the caller's contract: 4 readable f64 at each source row, 4 writable at each
+    // destination row (unaligned access is allowed).
     unsafe {
-        let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(m[i].as_ptr()));
+        let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(src[i]));
         let t0 = _mm256_unpacklo_pd(r[0], r[1]);
         let t1 = _mm256_unpackhi_pd(r[0], r[1]);
         let t2 = _mm256_unpacklo_pd(r[2], r[3]);
@@ -586,11 +624,9 @@ fn transpose4_avx2(m: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
             _mm256_permute2f128_pd(t0, t2, 0x31),
             _mm256_permute2f128_pd(t1, t3, 0x31),
         ];
-        let mut out = [[0.0; 4]; 4];
-        for (o, c) in out.iter_mut().zip(cols) {
-            _mm256_storeu_pd(o.as_mut_ptr(), c);
+        for (d, c) in dst.into_iter().zip(cols) {
+            _mm256_storeu_pd(d, c);
         }
-        out
     }
 }
 
@@ -645,27 +681,38 @@ const ROW_STRIDE_PAD: usize = 4;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::{SwellRng, TAU, sin_cos};
 
-    /// The shuffle transposes move every value to its transposed place (where the CPU has them).
-    #[cfg(target_arch = "x86_64")]
+    /// The block transposes move every value to its transposed place, at every width (the
+    /// shuffle ones where the CPU has them).
     #[test]
-    fn shuffle_transposes_transpose() {
-        let m8: [[f64; 8]; 8] =
-            std::array::from_fn(|r| std::array::from_fn(|c| (r * 8 + c) as f64));
-        let want8: [[f64; 8]; 8] = std::array::from_fn(|c| std::array::from_fn(|r| m8[r][c]));
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512 F, checked on the line above.
-            assert_eq!(unsafe { transpose8_avx512(&m8) }, want8);
+    fn block_transposes_transpose() {
+        fn check<const W: usize>() {
+            let m: [[f64; W]; W] =
+                std::array::from_fn(|r| std::array::from_fn(|c| (r * W + c) as f64));
+            let mut out = [[0.0; W]; W];
+            let src: [*const f64; W] = std::array::from_fn(|r| m[r].as_ptr());
+            let base = out.as_mut_ptr();
+            // SAFETY: rows of two separate arrays; `base.add(c)` for c < W is in `out`.
+            let dst: [*mut f64; W] =
+                std::array::from_fn(|c| unsafe { (*base.add(c)).as_mut_ptr() });
+            // SAFETY: W rows of W f64 each, disjoint; the caller below checked the CPU.
+            unsafe { transpose_rows::<W>(src, dst) };
+            let want: [[f64; W]; W] = std::array::from_fn(|c| std::array::from_fn(|r| m[r][c]));
+            assert_eq!(out, want, "W = {W}");
         }
-        let m4: [[f64; 4]; 4] =
-            std::array::from_fn(|r| std::array::from_fn(|c| (r * 4 + c) as f64));
-        let want4: [[f64; 4]; 4] = std::array::from_fn(|c| std::array::from_fn(|r| m4[r][c]));
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, checked on the line above.
-            assert_eq!(unsafe { transpose4_avx2(&m4) }, want4);
+        check::<1>();
+        check::<2>();
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                check::<4>();
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                check::<8>();
+            }
         }
     }
-    use crate::math::{SwellRng, TAU, sin_cos};
 
     /// Random Hermitian spectrum with an empty Nyquist column, against a direct 2-D sum.
     #[test]
