@@ -14,6 +14,7 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlannerScalar};
 use serde_json::json;
 use swell_waves::fft::{FftFields, FftGrid, SampleFilter};
+use swell_waves::simd::{SimdLevel, force_simd_level};
 use swell_waves::wave::SurfaceSample;
 use swell_waves::{
     Inversion, InversionMethod, Layer, QueryFields, QueryOptions, Surface, SurfaceSpec, wave::Wave,
@@ -376,6 +377,16 @@ fn fft(c: &mut Criterion) {
     g.bench_function("native_256_all_fields", |b| {
         b.iter(|| s.fft_frame(0, black_box(10.0), FftFields::ALL))
     });
+    // The portable frame at each SIMD level this CPU has (the same bits at every level; the
+    // rows above run at the widest).
+    let s = fft_surface(256, "portable", 1.0);
+    for level in SimdLevel::available() {
+        force_simd_level(Some(level));
+        g.bench_function(format!("portable_256_all_fields_{}", level.name()), |b| {
+            b.iter(|| s.fft_frame(0, black_box(10.0), FftFields::ALL))
+        });
+    }
+    force_simd_level(None);
     g.finish();
 
     let pts = points();

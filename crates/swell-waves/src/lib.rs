@@ -43,6 +43,7 @@
 //!   ripples (rings that expand, subdivide and fade), both in closed form in t.
 //! - [`velocity`] — orbital velocity of the water at the surface (∂/∂t of the displacement).
 //! - [`error`] — [`SpecError`], the typed validation error.
+//! - [`simd`] — the run-time SIMD level of the batch kernels and FFT, and `SWELL_SIMD`.
 //!
 //! # Conventions
 //! - Right-handed, **y up**, the sea surface lies in x/z. Metres, seconds, radians, kilograms.
@@ -77,10 +78,14 @@
 //!   block of one, so both run the same code and the same arithmetic at every x86-64 level;
 //! - random numbers come from the generator specified in [`math`] (PCG32 keyed by splitmix64),
 //!   pinned by tests; FFT draws are keyed by wave vector, not by grid size;
-//! - FFT frames use RustFFT's scalar planner by default ([`fft::FftBackend::Portable`]); the
-//!   `Native` backend is faster but its low bits depend on the CPU's SIMD support;
-//! - batch loops and FFT frame passes pick an AVX2-compiled copy at run time where the CPU has
-//!   it: `avx2` only (no `fma`), so every operation rounds as in the baseline build (tested).
+//! - FFT frames use the crate's own FFT by default ([`fft::FftBackend::Portable`]): RustFFT's
+//!   scalar plan ported operation for operation, so its bits are the ones RustFFT's scalar
+//!   planner gave (tested), run on 1, 2, 4 or 8 transforms at once; the `Native` backend
+//!   (RustFFT's SIMD planner) has low bits that depend on the CPU's SIMD support;
+//! - batch loops and FFT frames pick an SSE2, AVX2 or AVX-512 compiled copy at run time
+//!   ([`simd::simd_level`]; `SWELL_SIMD` forces one): "vertical" SIMD, each lane doing the
+//!   scalar operation sequence, never `fma`, so every level gives the scalar bits
+//!   (`tests/simd_levels.rs`, run under each level in CI).
 //!
 //! # Precision
 //! [`QueryOptions::precision`] picks the arithmetic: [`Precision::F64`] (the default, the model
@@ -101,6 +106,7 @@ pub mod gerstner;
 pub mod math;
 pub mod particles;
 pub mod query;
+pub mod simd;
 pub mod sine;
 pub mod spectrum;
 pub mod surface;

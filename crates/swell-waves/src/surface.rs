@@ -951,11 +951,12 @@ fn add_fft<const B: usize>(
 /// The last, partial block is padded by repeating its last point; padded lanes are computed and
 /// dropped (lanes never interact, so padding cannot change a result).
 ///
-/// On x86-64 CPUs with AVX2 the loop (and everything `f` inlines) is compiled for AVX2 and chosen
-/// at run time, whatever level the crate was built for: twice the lanes per instruction, the same
-/// bits. The kernels are plain `*`, `+`, `−`, `/` and `sqrt` in a fixed order (no fused
-/// multiply-add: only `avx2` is enabled, never `fma`, and Rust never contracts `a * b + c`), so
-/// each operation rounds exactly as in the baseline build; tests compare the two paths bit for
+/// On x86-64 CPUs with AVX2 or AVX-512 F the loop (and everything `f` inlines) is compiled for
+/// that level and chosen at run time ([`crate::simd::simd_level`]), whatever level the crate was
+/// built for: two or four times the lanes per instruction, the same bits. The kernels are plain
+/// `*`, `+`, `−`, `/` and `sqrt` in a fixed order (no fused multiply-add: only `avx2` or
+/// `avx512f` is enabled, never `fma`, and Rust never contracts `a * b + c`), so each operation
+/// rounds exactly as in the baseline build; `tests/simd_levels.rs` compares every level bit for
 /// bit.
 #[inline]
 pub(crate) fn for_blocks<T>(
@@ -964,10 +965,19 @@ pub(crate) fn for_blocks<T>(
     f: impl FnMut(&[DVec2; BLOCK], &mut [T]),
 ) {
     #[cfg(target_arch = "x86_64")]
-    if simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked on the line above.
-        unsafe { blocks_avx2(points, out, f) };
-        return;
+    match crate::simd::simd_level() {
+        crate::simd::SimdLevel::Avx512 => {
+            // SAFETY: `simd_level` is Avx512 only where the CPU has AVX-512 F (detected at run
+            // time).
+            unsafe { blocks_avx512(points, out, f) };
+            return;
+        }
+        crate::simd::SimdLevel::Avx2 => {
+            // SAFETY: `simd_level` is Avx2 only where the CPU has AVX2 (detected at run time).
+            unsafe { blocks_avx2(points, out, f) };
+            return;
+        }
+        _ => {}
     }
     blocks(points, out, f);
 }
@@ -986,6 +996,13 @@ fn blocks<T>(points: &[DVec2], out: &mut [T], mut f: impl FnMut(&[DVec2; BLOCK],
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn blocks_avx2<T>(points: &[DVec2], out: &mut [T], f: impl FnMut(&[DVec2; BLOCK], &mut [T])) {
+    blocks(points, out, f);
+}
+
+/// [`blocks`] compiled for AVX-512 F: a block's 8 f64 lanes are one register (never FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn blocks_avx512<T>(points: &[DVec2], out: &mut [T], f: impl FnMut(&[DVec2; BLOCK], &mut [T])) {
     blocks(points, out, f);
 }
 

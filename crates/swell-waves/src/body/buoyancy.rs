@@ -82,8 +82,8 @@ pub(crate) fn loads(
         since,
     };
     #[cfg(target_arch = "x86_64")]
-    if crate::surface::simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked on the line above.
+    if crate::simd::simd_level() >= crate::simd::SimdLevel::Avx2 {
+        // SAFETY: `simd_level` is Avx2 or wider only where the CPU has AVX2 (detected at run time).
         unsafe { cells_avx2(&cells, &mut out, warm) };
     } else {
         cells.add_to(&mut out, warm);

@@ -177,8 +177,8 @@ impl FftLayer {
     /// it here; grids not in `fields` go to the old frame's pool (see [`FftLayer::frame`]).
     pub fn frame_into(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         #[cfg(target_arch = "x86_64")]
-        if crate::surface::simd_enabled() && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked on the line above.
+        if crate::simd::simd_level() >= crate::simd::SimdLevel::Avx2 {
+            // SAFETY: `simd_level` is Avx2 or wider only where the CPU has AVX2 (detected at run time).
             unsafe { self.frame_into_avx2(t, fields, frame) };
             return;
         }

@@ -46,12 +46,15 @@
 //!    the frame at t itself instead.
 //!
 //! # Determinism
-//! With [`FftBackend::Portable`] (RustFFT's scalar planner) a frame is the same to the bit on
-//! every CPU, every run and every thread count. [`FftBackend::Native`] uses SIMD kernels chosen at
+//! With [`FftBackend::Portable`] (the crate's own FFT: RustFFT's scalar plan, operation for
+//! operation, run on up to 8 transforms at once by SIMD lanes, see `lanes`) a frame is the same
+//! to the bit on every CPU, every SIMD level, every run and every thread count, and the same as
+//! RustFFT's scalar planner gave. [`FftBackend::Native`] uses SIMD kernels chosen at
 //! run time, and its low bits (~1e-14 relative) depend on the CPU.
 
 mod fields;
 mod frame;
+mod lanes;
 mod layer;
 mod reference;
 mod sample;
@@ -79,7 +82,8 @@ use serde::{Deserialize, Serialize};
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum FftBackend {
-    /// RustFFT's scalar planner: identical bits on every CPU. The default.
+    /// The crate's own FFT (RustFFT's scalar plan, the same bits, run W transforms at a time
+    /// on SIMD lanes): identical bits on every CPU and SIMD level. The default.
     #[default]
     Portable,
     /// RustFFT's planner with run-time SIMD detection: fastest, but the low bits differ between

@@ -14,38 +14,57 @@
 //!    transformed once; `f(·, a) = Re z`, `f(·, b) = Im z`. The row pass costs N/2 complex
 //!    transforms.
 //!
-//! How it is scheduled does not change a bit (every 1-D transform is RustFFT's, on the same
-//! input, and is independent of the others in its batch): columns are transformed out of place
-//! (RustFFT's in-place call is an out-of-place transform plus a copy back), either straight from
-//! a stored half spectrum or one column at a time as the caller makes it; rows are packed,
-//! transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
+//! How it is scheduled does not change a bit (every 1-D transform is independent of the others
+//! in its batch and runs the same operation sequence on the same input).
 //!
-//! We do not use the `realfft` crate: it only plans through RustFFT's SIMD `FftPlanner`, so the
-//! portable backend (the scalar planner, identical bits on every CPU) could not use it.
+//! **Portable backend.** The 1-D transforms are the crate's own ([`super::lanes`]): RustFFT's
+//! scalar plan ported operation for operation, so the bits are those RustFFT's
+//! `FftPlannerScalar` gave, and run W at a time, one transform per SIMD lane: W columns
+//! (`m0 … m0 + W − 1`), then W row pairs. W is 1, 2, 4 or 8 by [`crate::simd::simd_level`];
+//! every width gives the same bits. Inputs are gathered straight into the plan's bit-reversed
+//! order, so no transform needs a copy of its own.
+//!
+//! **Native backend.** RustFFT's run-time dispatched planner, one transform at a time; rows are
+//! packed, transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
+//!
+//! We do not use the `realfft` crate: it only plans through RustFFT's SIMD `FftPlanner`, whose
+//! bits depend on the CPU.
 
 use std::sync::{Arc, Mutex};
 
 use rustfft::num_complex::Complex;
-use rustfft::{Fft, FftPlanner, FftPlannerScalar};
+use rustfft::{Fft, FftPlanner};
 
 use super::FftBackend;
+use super::lanes::{C, LaneFft};
+use crate::simd::{SimdLevel, simd_level};
 
 /// Plans and scratch sizes for inverse real 2-D transforms of one size, and a pool of working
 /// memory so that a frame allocates only the grids it returns.
 pub(crate) struct InverseRealFft2 {
     n: usize,
-    fft: Arc<dyn Fft<f64>>,
+    engine: Engine,
     /// Scratch returned by finished frames. Frames on several threads each take their own (the
     /// pool grows to the number of concurrent frames and no further); the buffers' contents
     /// never reach a result, so reuse cannot change one.
     pool: Mutex<Vec<Scratch>>,
 }
 
+/// Which 1-D transform a 2-D transform runs.
+#[derive(Clone)]
+enum Engine {
+    /// The crate's lane-parallel port of RustFFT's scalar plan, with `scatter[m]`, the position
+    /// input m takes in the plan's gather order.
+    Lanes { fft: LaneFft, scatter: Vec<u32> },
+    /// RustFFT's SIMD planner (the native backend).
+    Rust(Arc<dyn Fft<f64>>),
+}
+
 impl Clone for InverseRealFft2 {
     fn clone(&self) -> Self {
         Self {
             n: self.n,
-            fft: Arc::clone(&self.fft),
+            engine: self.engine.clone(),
             pool: Mutex::new(Vec::new()),
         }
     }
@@ -62,14 +81,24 @@ impl std::fmt::Debug for InverseRealFft2 {
 /// Working memory for [`InverseRealFft2::process`] and for a frame's spectra; reusable across
 /// calls and fields. Nothing read from it ever reaches a result before being overwritten.
 pub(crate) struct Scratch {
-    /// G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
+    /// Native backend: G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
     cols: Vec<Complex<f64>>,
-    /// One column's spectrum (N), filled by the caller of `process_with`.
+    /// Portable backend: G after the column pass as four N/2 × N/2 planes (N² values), laid
+    /// out for the row pass: plane `2·(j mod 2) + c` (c = 0 real, 1 imaginary part) holds
+    /// G[m, j] at `[m·N/2 + j/2]`, so a block of row pairs reads W consecutive values.
+    planes: Vec<f64>,
+    /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
     column: Vec<Complex<f64>>,
-    /// One block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart) and its transform.
+    /// Native backend: one block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart)
+    /// and its transform, and RustFFT's scratch.
     rows_in: Vec<Complex<f64>>,
     rows_out: Vec<Complex<f64>>,
     fft: Vec<Complex<f64>>,
+    /// Portable backend: N values of W lanes, for the width in use (only one is ever sized).
+    lanes1: Vec<C<1>>,
+    lanes2: Vec<C<2>>,
+    lanes4: Vec<C<4>>,
+    lanes8: Vec<C<8>>,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
     pub(crate) htilde: Vec<Complex<f64>>,
     /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
@@ -77,16 +106,31 @@ pub(crate) struct Scratch {
     pub(crate) phases: Vec<(f64, f64)>,
 }
 
+/// Where a 2-D transform's column spectra come from.
+enum Columns<'a, F> {
+    /// A stored half spectrum, column m at `[m·N .. (m+1)·N]`.
+    Half(&'a [Complex<f64>]),
+    /// Made on demand: `f(m, buf)` writes column m into `buf` (N entries, all of them).
+    Made(F),
+}
+
 impl InverseRealFft2 {
-    /// Plans the length-`n` inverse transform with the backend's planner (`n` even, ≥ 2).
+    /// Plans the length-`n` inverse transform for the backend (`n` a power of two, ≥ 16).
     pub(crate) fn new(n: usize, backend: FftBackend) -> Self {
-        let fft = match backend {
-            FftBackend::Portable => FftPlannerScalar::new().plan_fft_inverse(n),
-            FftBackend::Native => FftPlanner::new().plan_fft_inverse(n),
+        let engine = match backend {
+            FftBackend::Portable => {
+                let fft = LaneFft::new(n);
+                let mut scatter = vec![0u32; n];
+                for (p, &s) in fft.gather_order().iter().enumerate() {
+                    scatter[s as usize] = p as u32;
+                }
+                Engine::Lanes { fft, scatter }
+            }
+            FftBackend::Native => Engine::Rust(FftPlanner::new().plan_fft_inverse(n)),
         };
         Self {
             n,
-            fft,
+            engine,
             pool: Mutex::new(Vec::new()),
         }
     }
@@ -95,17 +139,27 @@ impl InverseRealFft2 {
     pub(crate) fn scratch(&self) -> Scratch {
         let zero = Complex::new(0.0, 0.0);
         let half = self.n / 2 * self.n;
-        let pairs = ROW_PAIRS.min(self.n / 2);
-        let fft_len = self
-            .fft
-            .get_outofplace_scratch_len()
-            .max(self.fft.get_immutable_scratch_len());
+        let (rows, fft_len, cols, planes) = match &self.engine {
+            Engine::Rust(fft) => (
+                ROW_PAIRS.min(self.n / 2),
+                fft.get_outofplace_scratch_len()
+                    .max(fft.get_immutable_scratch_len()),
+                half,
+                0,
+            ),
+            Engine::Lanes { .. } => (0, 0, 0, self.n * self.n),
+        };
         Scratch {
-            cols: vec![zero; half],
-            column: vec![zero; self.n],
-            rows_in: vec![zero; pairs * (self.n + ROW_STRIDE_PAD)],
-            rows_out: vec![zero; pairs * self.n],
+            cols: vec![zero; cols],
+            planes: vec![0.0; planes],
+            column: Vec::new(),
+            rows_in: vec![zero; rows * (self.n + ROW_STRIDE_PAD)],
+            rows_out: vec![zero; rows * self.n],
             fft: vec![zero; fft_len],
+            lanes1: Vec::new(),
+            lanes2: Vec::new(),
+            lanes4: Vec::new(),
+            lanes8: Vec::new(),
             htilde: vec![zero; half],
             phases: Vec::new(),
         }
@@ -134,17 +188,27 @@ impl InverseRealFft2 {
     pub(crate) fn process(&self, half: &[Complex<f64>], scratch: &mut Scratch, out: &mut [f64]) {
         let n = self.n;
         debug_assert_eq!(half.len(), n / 2 * n);
-        // Column pass straight from `half` into G: RustFFT's immutable form runs the same
-        // algorithm as its in-place one (which is out of place into scratch, then a copy back).
-        self.fft
-            .process_immutable_with_scratch(half, &mut scratch.cols, &mut scratch.fft);
-        self.row_pass(scratch, out);
+        match &self.engine {
+            Engine::Lanes { fft, scatter } => self.dispatch(
+                fft,
+                scatter,
+                Columns::<fn(usize, &mut [Complex<f64>])>::Half(half),
+                scratch,
+                out,
+            ),
+            Engine::Rust(fft) => {
+                // Column pass straight from `half` into G: RustFFT's immutable form runs the
+                // same algorithm as its in-place one.
+                fft.process_immutable_with_scratch(half, &mut scratch.cols, &mut scratch.fft);
+                self.row_pass_rust(fft, scratch, out);
+            }
+        }
     }
 
     /// [`InverseRealFft2::process`] of the half spectrum whose column m `column(m, buf)` writes
-    /// into `buf` (N entries, every one of them), one column at a time: the column is
-    /// transformed while it is in L1, and no N/2·N spectrum is ever stored. Same bits as
-    /// `process` of the assembled spectrum.
+    /// into `buf` (N entries, every one of them): a few columns at a time, each transformed
+    /// while it is in L1, and no N/2·N spectrum is ever stored. Same bits as `process` of the
+    /// assembled spectrum.
     #[inline(always)]
     pub(crate) fn process_with(
         &self,
@@ -153,21 +217,59 @@ impl InverseRealFft2 {
         out: &mut [f64],
     ) {
         let n = self.n;
-        for (m, g) in scratch.cols.chunks_exact_mut(n).enumerate() {
-            column(m, &mut scratch.column);
-            self.fft
-                .process_outofplace_with_scratch(&mut scratch.column, g, &mut scratch.fft);
+        match &self.engine {
+            Engine::Lanes { fft, scatter } => {
+                self.dispatch(fft, scatter, Columns::Made(column), scratch, out)
+            }
+            Engine::Rust(fft) => {
+                scratch.column.resize(n, Complex::new(0.0, 0.0));
+                for (m, g) in scratch.cols.chunks_exact_mut(n).enumerate() {
+                    column(m, &mut scratch.column);
+                    fft.process_outofplace_with_scratch(&mut scratch.column, g, &mut scratch.fft);
+                }
+                self.row_pass_rust(fft, scratch, out);
+            }
         }
-        self.row_pass(scratch, out);
     }
 
-    /// The row pass from G (`scratch.cols`) into `out`, ROW_PAIRS pairs at a time: pack the
-    /// block (a tiled transpose: for each m the block's 2·ROW_PAIRS values of G[m, ·] are
-    /// contiguous), transform it, unpack it into `out`. The block stays in L1/L2 from packing to
-    /// unpacking. Each row's transform is independent of the others in its batch, so the
-    /// blocking leaves every bit as the one-batch form computed it.
+    /// The portable 2-D transform at the level in use: the same bits at every level.
     #[inline(always)]
-    fn row_pass(&self, scratch: &mut Scratch, out: &mut [f64]) {
+    fn dispatch<F: FnMut(usize, &mut [Complex<f64>])>(
+        &self,
+        fft: &LaneFft,
+        scatter: &[u32],
+        columns: Columns<'_, F>,
+        s: &mut Scratch,
+        out: &mut [f64],
+    ) {
+        match simd_level() {
+            SimdLevel::Scalar => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Sse2 => {
+                // SAFETY: every x86-64 CPU has SSE2.
+                unsafe { lanes_2d_sse2(fft, scatter, columns, s, out) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => {
+                // SAFETY: `simd_level` returns Avx2 only where the CPU has AVX2 (detected).
+                unsafe { lanes_2d_avx2(fft, scatter, columns, s, out) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => {
+                // SAFETY: `simd_level` returns Avx512 only where the CPU has AVX-512 F.
+                unsafe { lanes_2d_avx512(fft, scatter, columns, s, out) }
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+        }
+    }
+
+    /// The row pass from G (`scratch.cols`) into `out` with RustFFT (native backend),
+    /// ROW_PAIRS pairs at a time: pack the block (a tiled transpose: for each m the block's
+    /// 2·ROW_PAIRS values of G[m, ·] are contiguous), transform it, unpack it into `out`. The
+    /// block stays in L1/L2 from packing to unpacking.
+    #[inline(always)]
+    fn row_pass_rust(&self, fft: &Arc<dyn Fft<f64>>, scratch: &mut Scratch, out: &mut [f64]) {
         let n = self.n;
         let h = n / 2;
         debug_assert_eq!(out.len(), n * n);
@@ -194,8 +296,7 @@ impl InverseRealFft2 {
                 }
             }
             for (row, z) in rows.chunks_exact_mut(stride).zip(zs.chunks_exact_mut(n)) {
-                self.fft
-                    .process_outofplace_with_scratch(&mut row[..n], z, &mut scratch.fft);
+                fft.process_outofplace_with_scratch(&mut row[..n], z, &mut scratch.fft);
             }
             let block = &mut out[a0 * n..(a0 + 2 * pairs) * n];
             for (z, pair) in zs.chunks_exact(n).zip(block.chunks_exact_mut(2 * n)) {
@@ -211,6 +312,363 @@ impl InverseRealFft2 {
     }
 }
 
+/// The lane buffer of width W in a scratch.
+trait LaneBuf<const W: usize> {
+    fn lanes(&mut self) -> &mut Vec<C<W>>;
+}
+impl LaneBuf<1> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<1>> {
+        &mut self.lanes1
+    }
+}
+impl LaneBuf<2> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<2>> {
+        &mut self.lanes2
+    }
+}
+impl LaneBuf<4> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<4>> {
+        &mut self.lanes4
+    }
+}
+impl LaneBuf<8> for Scratch {
+    fn lanes(&mut self) -> &mut Vec<C<8>> {
+        &mut self.lanes8
+    }
+}
+
+/// The portable 2-D inverse real transform with W 1-D transforms per step (module docs).
+///
+/// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order,
+/// transformed, and stored into G's planes (`Scratch::planes`). Row pass: row pairs
+/// `p0 … p0 + W − 1` are packed (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar packing's
+/// operations, W lanes per vector operation) into lanes, transformed, and unpacked into `out`.
+#[inline(always)]
+fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) where
+    Scratch: LaneBuf<W>,
+{
+    let n = fft.len();
+    let h = n / 2;
+    debug_assert_eq!(out.len(), n * n);
+    let zero = Complex::new(0.0, 0.0);
+    let mut data = std::mem::take(LaneBuf::<W>::lanes(s));
+    data.resize(n, C::ZERO);
+    let gather = fft.gather_order();
+    let mut columns = columns;
+    if matches!(columns, Columns::Made(_)) {
+        s.column.resize(W * n, zero);
+    }
+    for m0 in (0..h).step_by(W) {
+        let src: &[Complex<f64>] = match &mut columns {
+            Columns::Half(half) => &half[m0 * n..(m0 + W) * n],
+            Columns::Made(f) => {
+                for (l, buf) in s.column.chunks_exact_mut(n).take(W).enumerate() {
+                    f(m0 + l, buf);
+                }
+                &s.column[..W * n]
+            }
+        };
+        if W >= 4 {
+            // W/2 consecutive entries of the W columns are a W × W block of f64 (re, im
+            // interleaved): transposed, its rows are the lanes' real and imaginary parts of
+            // those entries, each stored whole at the entry's place in the plan's order.
+            let half = W / 2;
+            assert!(src.len() >= W * n && data.len() >= n && scatter.len() >= n);
+            let base = data.as_mut_ptr();
+            for k0 in (0..n).step_by(half) {
+                // Complex<f64> is repr(C) (re, im): W/2 entries are W f64 in a row.
+                let from: [*const f64; W] =
+                    std::array::from_fn(|l| src[l * n + k0..][..half].as_ptr().cast::<f64>());
+                let to: [*mut f64; W] = std::array::from_fn(|c| {
+                    // SAFETY: scatter[k] < n = data.len() (a permutation of 0..n), so `d`
+                    // points to a live element of `data`.
+                    unsafe {
+                        let d = base.add(scatter[k0 + c / 2] as usize);
+                        if c % 2 == 0 {
+                            std::ptr::addr_of_mut!((*d).re).cast::<f64>()
+                        } else {
+                            std::ptr::addr_of_mut!((*d).im).cast::<f64>()
+                        }
+                    }
+                });
+                // SAFETY: each source row is W f64 of `src`; each destination row is the re or
+                // im array (W f64) of a distinct element of `data` (scatter is a permutation),
+                // so none overlap, and `src` is not `data`.
+                unsafe { transpose_rows::<W>(from, to) };
+            }
+        } else {
+            for (d, &k) in data.iter_mut().zip(gather) {
+                for l in 0..W {
+                    let v = src[l * n + k as usize];
+                    d.re[l] = v.re;
+                    d.im[l] = v.im;
+                }
+            }
+        }
+        fft.run(&mut data);
+        let hh = h * h;
+        let (re_e, rest) = s.planes.split_at_mut(hh);
+        let (im_e, rest) = rest.split_at_mut(hh);
+        let (re_o, im_o) = rest.split_at_mut(hh);
+        // W × W block transposes: W consecutive even (odd) outputs of the W columns become W
+        // consecutive plane entries of each column.
+        assert!(m0 + W <= h && re_e.len() == hh && im_e.len() == hh && re_o.len() == hh);
+        assert!(im_o.len() == hh);
+        let planes = [
+            re_e.as_mut_ptr(),
+            im_e.as_mut_ptr(),
+            re_o.as_mut_ptr(),
+            im_o.as_mut_ptr(),
+        ];
+        for (jp0, block) in (0..h).step_by(W).zip(data.chunks_exact(2 * W)) {
+            for (part, &plane) in planes.iter().enumerate() {
+                let (odd, im) = (part / 2, part % 2 == 1);
+                let from: [*const f64; W] = std::array::from_fn(|r| {
+                    let c = &block[2 * r + odd];
+                    if im { c.im.as_ptr() } else { c.re.as_ptr() }
+                });
+                // SAFETY: (m0 + l)·h + jp0 + W ≤ h·h for l < W (m0 + W ≤ h, jp0 + W ≤ h).
+                let to: [*mut f64; W] =
+                    std::array::from_fn(|l| unsafe { plane.add((m0 + l) * h + jp0) });
+                // SAFETY: W rows of W f64 read from `data`, W disjoint rows of W f64 written in
+                // one plane (a separate buffer).
+                unsafe { transpose_rows::<W>(from, to) };
+            }
+        }
+    }
+    let hh = h * h;
+    let (re_e, rest) = s.planes.split_at(hh);
+    let (im_e, rest) = rest.split_at(hh);
+    let (re_o, im_o) = rest.split_at(hh);
+    let lanes_at =
+        |plane: &[f64], at: usize| -> [f64; W] { plane[at..at + W].try_into().expect("W values") };
+    for p0 in (0..h).step_by(W) {
+        let a0 = 2 * p0;
+        let (d0, dh) = (scatter[0] as usize, scatter[h] as usize);
+        // m = 0: (G_a[0].re, G_b[0].re); m = N/2: the empty Nyquist entry.
+        data[d0] = C {
+            re: lanes_at(re_e, p0),
+            im: lanes_at(re_o, p0),
+        };
+        data[dh] = C::ZERO;
+        for m in 1..h {
+            let at = m * h + p0;
+            let (ga_re, ga_im) = (lanes_at(re_e, at), lanes_at(im_e, at));
+            let (gb_re, gb_im) = (lanes_at(re_o, at), lanes_at(im_o, at));
+            let (pm, pn) = (scatter[m] as usize, scatter[n - m] as usize);
+            data[pm] = C {
+                re: std::array::from_fn(|q| ga_re[q] - gb_im[q]),
+                im: std::array::from_fn(|q| ga_im[q] + gb_re[q]),
+            };
+            data[pn] = C {
+                re: std::array::from_fn(|q| ga_re[q] + gb_im[q]),
+                im: std::array::from_fn(|q| gb_re[q] - ga_im[q]),
+            };
+        }
+        fft.run(&mut data);
+        // Unpacked W outputs at a time: a W × W transpose per part, written W values per row.
+        let block = &mut out[a0 * n..(a0 + 2 * W) * n];
+        assert_eq!(block.len(), 2 * W * n);
+        let out_base = block.as_mut_ptr();
+        for (i0, d) in (0..n).step_by(W).zip(data.chunks_exact(W)) {
+            for im in [false, true] {
+                let from: [*const f64; W] = std::array::from_fn(|k| {
+                    if im {
+                        d[k].im.as_ptr()
+                    } else {
+                        d[k].re.as_ptr()
+                    }
+                });
+                // SAFETY: (2q + 1)·n + i0 + W ≤ 2·W·n for q < W and i0 + W ≤ n.
+                let to: [*mut f64; W] = std::array::from_fn(|q| unsafe {
+                    out_base.add((2 * q + usize::from(im)) * n + i0)
+                });
+                // SAFETY: W rows of W f64 read from `data`, W disjoint rows written in `out`.
+                unsafe { transpose_rows::<W>(from, to) };
+            }
+        }
+    }
+    *LaneBuf::<W>::lanes(s) = data;
+}
+
+/// Transposes a W × W block given by row pointers, `dst[c][r] = src[r][c]`, through registers
+/// (moves only: the bits are untouched). W = 8 and 4 use AVX-512 / AVX2 shuffles.
+///
+/// # Safety
+/// Each `src[r]` must be valid for reading W f64 and each `dst[c]` for writing W f64; no
+/// destination row may overlap a source row or another destination row. W = 8 needs AVX-512 F
+/// and W = 4 AVX2: `lanes_2d::<8>` and `lanes_2d::<4>` run only inside [`lanes_2d_avx512`] and
+/// [`lanes_2d_avx2`], whose callers checked the CPU.
+#[inline(always)]
+unsafe fn transpose_rows<const W: usize>(src: [*const f64; W], dst: [*mut f64; W]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if W == 8 {
+            // SAFETY: the caller's contract, with W = 8.
+            unsafe {
+                transpose8_rows_avx512(
+                    std::array::from_fn(|i| src[i]),
+                    std::array::from_fn(|i| dst[i]),
+                )
+            };
+            return;
+        }
+        if W == 4 {
+            // SAFETY: the caller's contract, with W = 4.
+            unsafe {
+                transpose4_rows_avx2(
+                    std::array::from_fn(|i| src[i]),
+                    std::array::from_fn(|i| dst[i]),
+                )
+            };
+            return;
+        }
+    }
+    for (c, &d) in dst.iter().enumerate() {
+        for (r, &s) in src.iter().enumerate() {
+            // SAFETY: the caller's contract (c, r < W).
+            unsafe { *d.add(r) = *s.add(c) };
+        }
+    }
+}
+
+/// [`transpose_rows`] for W = 8 in AVX-512 registers: pairs interleaved, then 2×2 and 4×4
+/// blocks moved with two-source permutes (24 shuffles, no arithmetic).
+///
+/// # Safety
+/// As [`transpose_rows`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn transpose8_rows_avx512(src: [*const f64; 8], dst: [*mut f64; 8]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract: 8 readable f64 at each source row, 8 writable at each
+    // destination row (unaligned access is allowed); the index vectors are 8 i64 each.
+    unsafe {
+        let r: [__m512d; 8] = std::array::from_fn(|i| _mm512_loadu_pd(src[i]));
+        // lo(a, b) = [a0 b0 a2 b2 a4 b4 a6 b6], hi = [a1 b1 a3 b3 a5 b5 a7 b7].
+        let lo = |a, b| _mm512_unpacklo_pd(a, b);
+        let hi = |a, b| _mm512_unpackhi_pd(a, b);
+        let t = [
+            lo(r[0], r[1]),
+            hi(r[0], r[1]),
+            lo(r[2], r[3]),
+            hi(r[2], r[3]),
+            lo(r[4], r[5]),
+            hi(r[4], r[5]),
+            lo(r[6], r[7]),
+            hi(r[6], r[7]),
+        ];
+        let perm = |a, idx: [i64; 8], b| {
+            _mm512_permutex2var_pd(a, _mm512_loadu_si512(idx.as_ptr().cast()), b)
+        };
+        const EVEN: [i64; 8] = [0, 1, 8, 9, 4, 5, 12, 13];
+        const ODD: [i64; 8] = [2, 3, 10, 11, 6, 7, 14, 15];
+        // u[k]: rows 0–3 (v: rows 4–7) of columns (c, c + 4) for c = 0, 2, 1, 3.
+        let u = [
+            perm(t[0], EVEN, t[2]),
+            perm(t[0], ODD, t[2]),
+            perm(t[1], EVEN, t[3]),
+            perm(t[1], ODD, t[3]),
+        ];
+        let v = [
+            perm(t[4], EVEN, t[6]),
+            perm(t[4], ODD, t[6]),
+            perm(t[5], EVEN, t[7]),
+            perm(t[5], ODD, t[7]),
+        ];
+        const LOW: [i64; 8] = [0, 1, 2, 3, 8, 9, 10, 11];
+        const HIGH: [i64; 8] = [4, 5, 6, 7, 12, 13, 14, 15];
+        let cols = [
+            perm(u[0], LOW, v[0]),
+            perm(u[2], LOW, v[2]),
+            perm(u[1], LOW, v[1]),
+            perm(u[3], LOW, v[3]),
+            perm(u[0], HIGH, v[0]),
+            perm(u[2], HIGH, v[2]),
+            perm(u[1], HIGH, v[1]),
+            perm(u[3], HIGH, v[3]),
+        ];
+        for (d, c) in dst.into_iter().zip(cols) {
+            _mm512_storeu_pd(d, c);
+        }
+    }
+}
+
+/// [`transpose_rows`] for W = 4 in AVX2 registers (unpack, then swap 128-bit halves).
+///
+/// # Safety
+/// As [`transpose_rows`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn transpose4_rows_avx2(src: [*const f64; 4], dst: [*mut f64; 4]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract: 4 readable f64 at each source row, 4 writable at each
+    // destination row (unaligned access is allowed).
+    unsafe {
+        let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(src[i]));
+        let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+        let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+        let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+        let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+        let cols = [
+            _mm256_permute2f128_pd(t0, t2, 0x20),
+            _mm256_permute2f128_pd(t1, t3, 0x20),
+            _mm256_permute2f128_pd(t0, t2, 0x31),
+            _mm256_permute2f128_pd(t1, t3, 0x31),
+        ];
+        for (d, c) in dst.into_iter().zip(cols) {
+            _mm256_storeu_pd(d, c);
+        }
+    }
+}
+
+/// [`lanes_2d`] with two lanes, compiled for SSE2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse2")]
+fn lanes_2d_sse2<F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) {
+    lanes_2d::<2, F>(fft, scatter, columns, s, out);
+}
+
+/// [`lanes_2d`] with four lanes, compiled for AVX2 (never FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn lanes_2d_avx2<F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) {
+    lanes_2d::<4, F>(fft, scatter, columns, s, out);
+}
+
+/// [`lanes_2d`] with eight lanes, compiled for AVX-512 F (never FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn lanes_2d_avx512<F: FnMut(usize, &mut [Complex<f64>])>(
+    fft: &LaneFft,
+    scatter: &[u32],
+    columns: Columns<'_, F>,
+    s: &mut Scratch,
+    out: &mut [f64],
+) {
+    lanes_2d::<8, F>(fft, scatter, columns, s, out);
+}
+
 /// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
 /// 32 KiB of packed rows plus 32 KiB of their transforms. Any value dividing N/2 (or ≥ N/2)
 /// gives the same bits; this one measured fastest at 256².
@@ -224,6 +682,37 @@ const ROW_STRIDE_PAD: usize = 4;
 mod tests {
     use super::*;
     use crate::math::{SwellRng, TAU, sin_cos};
+
+    /// The block transposes move every value to its transposed place, at every width (the
+    /// shuffle ones where the CPU has them).
+    #[test]
+    fn block_transposes_transpose() {
+        fn check<const W: usize>() {
+            let m: [[f64; W]; W] =
+                std::array::from_fn(|r| std::array::from_fn(|c| (r * W + c) as f64));
+            let mut out = [[0.0; W]; W];
+            let src: [*const f64; W] = std::array::from_fn(|r| m[r].as_ptr());
+            let base = out.as_mut_ptr();
+            // SAFETY: rows of two separate arrays; `base.add(c)` for c < W is in `out`.
+            let dst: [*mut f64; W] =
+                std::array::from_fn(|c| unsafe { (*base.add(c)).as_mut_ptr() });
+            // SAFETY: W rows of W f64 each, disjoint; the caller below checked the CPU.
+            unsafe { transpose_rows::<W>(src, dst) };
+            let want: [[f64; W]; W] = std::array::from_fn(|c| std::array::from_fn(|r| m[r][c]));
+            assert_eq!(out, want, "W = {W}");
+        }
+        check::<1>();
+        check::<2>();
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                check::<4>();
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                check::<8>();
+            }
+        }
+    }
 
     /// Random Hermitian spectrum with an empty Nyquist column, against a direct 2-D sum.
     #[test]

@@ -37,6 +37,24 @@ pub fn tanh(x: f64) -> f64 {
     libm::tanh(x)
 }
 
+/// RustFFT's inverse twiddle `e^{+2πi·index/len}`, bit for bit: the angle `(−2π/len)·index`
+/// formed in f64 exactly as RustFFT's `compute_twiddle` forms it, then `(cos a, −sin a)` from the
+/// platform's `cos` and `sin`, as RustFFT calls them.
+///
+/// The one use of platform trigonometry in frame maths, and not a new one: RustFFT's scalar
+/// planner, which made every frame until the crate had its own FFT, computed its twiddles this
+/// way, and the golden vectors pin frames made with them. Only plan time calls it (a few
+/// thousand values per FFT size). The pure-Rust `libm` crate's cos/sin differ from glibc's in
+/// the last bit for some of these angles (seen at N = 64), which would move every frame; a
+/// test pins the crate's FFT to RustFFT's bit for bit, so a platform whose libm disagreed with
+/// the one the vectors were minted on would fail the golden test rather than drift silently.
+#[inline]
+pub fn fft_inverse_twiddle(index: usize, len: usize) -> (f64, f64) {
+    let constant = -2f64 * std::f64::consts::PI / len as f64;
+    let angle = constant * index as f64;
+    (angle.cos(), -angle.sin())
+}
+
 /// Four-quadrant arctangent of `y / x`, from `libm`.
 #[inline]
 pub fn atan2(y: f64, x: f64) -> f64 {
