@@ -46,7 +46,9 @@ async fn an_impact_ripples_queries_at_any_t_and_survives_a_restart() {
     let dir = tempfile::tempdir().unwrap();
     let s = TestServer::start(config_with_dir(dir.path().to_owned())).await;
     // Impacts are dated near the scene clock's now (issue 27): hold harbour's clock at t = 100.
-    let (st, v) = s.put_clock("harbour", &json!({"t": 100.0, "paused": true})).await;
+    let (st, v) = s
+        .put_clock("harbour", &json!({"t": 100.0, "paused": true}))
+        .await;
     assert_eq!(st, 200, "{v}");
     let before_at = |t| heights(&s, "harbour", t);
     let (b_early, b_late) = (before_at(99.0).await, before_at(102.0).await);
