@@ -31,6 +31,9 @@ use tokio::io::{AsyncReadExt as _, AsyncWriteExt as _};
 use tokio::net::{TcpSocket, TcpStream};
 use tokio_util::sync::CancellationToken;
 
+/// How long after the attack the server's memory is read again.
+const SETTLE: Duration = Duration::from_secs(12);
+
 /// Ceilings on every count, so the tool cannot be turned into a real flood.
 const MAX_SOCKETS: usize = 12_000;
 
@@ -314,8 +317,10 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
     })
     .await;
     tasks.abort_all();
-    eprintln!("hostile: attackers gone; settling 6 s");
-    tokio::time::sleep(Duration::from_secs(6)).await;
+    // Long enough for the server's idle blocking threads to retire (tokio keeps them 10 s) and
+    // for two of its 5 s heap-trim beats.
+    eprintln!("hostile: attackers gone; settling {} s", SETTLE.as_secs());
+    tokio::time::sleep(SETTLE).await;
     report.rss_after_mb = rss_mb(args.server_pid);
     let c = &counters;
     report.slow_body_sockets = c.slow_sockets.load(Ordering::Relaxed);
