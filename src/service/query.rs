@@ -145,7 +145,7 @@ pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
 
 /// Points evaluated between two checks of a sample's deadline: ~1–10 ms of work on one core
 /// without impacts; a block bounds how far past its deadline a batch can run.
-const DEADLINE_BLOCK: usize = 8192;
+pub const DEADLINE_BLOCK: usize = 8192;
 
 /// Answers a sample request at `at` (already resolved and checked). Blocking unless
 /// [`runs_inline`] said otherwise.
