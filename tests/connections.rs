@@ -21,6 +21,11 @@ fn limited(max_connections: usize, idle_timeout_ms: u64) -> swell::Config {
 const HEALTHZ: &[u8] = b"GET /healthz HTTP/1.1\r\nhost: swell\r\n\r\n";
 
 /// Sends `GET /healthz` and reads until the answer's status line and headers are in.
+/// `swell_http_connections` is one gauge for the whole process, and every test here opens and
+/// closes connections: they take turns, or one test's closes land inside another's reading
+/// (seen: `open_connections_are_published` read 2 → 6 for five new connections).
+static ONE_AT_A_TIME: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
 async fn healthz(tcp: &mut TcpStream, within: Duration) -> Option<String> {
     tcp.write_all(HEALTHZ).await.ok()?;
     read_answer(tcp, within).await
@@ -72,6 +77,7 @@ async fn waits_until_freed(s: &TestServer, free: impl FnOnce(), held: &str) {
 
 #[tokio::test]
 async fn beyond_max_connections_a_connection_waits_until_another_closes() {
+    let _turn = ONE_AT_A_TIME.lock().await;
     let s = TestServer::start(limited(2, 60_000)).await;
     let mut a = TcpStream::connect(s.addr).await.unwrap();
     let mut b = TcpStream::connect(s.addr).await.unwrap();
@@ -88,6 +94,7 @@ async fn beyond_max_connections_a_connection_waits_until_another_closes() {
 /// ends (hyper hands the socket on at the upgrade; the place goes with the socket).
 #[tokio::test]
 async fn a_websocket_holds_its_connection_slot_until_it_closes() {
+    let _turn = ONE_AT_A_TIME.lock().await;
     let s = TestServer::start(limited(2, 60_000)).await;
     let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
     let (ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
@@ -105,6 +112,7 @@ async fn a_websocket_holds_its_connection_slot_until_it_closes() {
 
 #[tokio::test]
 async fn idle_connections_are_closed_after_the_idle_timeout_and_busy_ones_are_not() {
+    let _turn = ONE_AT_A_TIME.lock().await;
     let s = TestServer::start(limited(100, 400)).await;
     // Kept busy: a request every 150 ms for 1.2 s, three idle timeouts' worth.
     let mut busy = TcpStream::connect(s.addr).await.unwrap();
@@ -152,6 +160,7 @@ async fn idle_connections_are_closed_after_the_idle_timeout_and_busy_ones_are_no
 
 #[tokio::test]
 async fn open_connections_are_published() {
+    let _turn = ONE_AT_A_TIME.lock().await;
     let s = TestServer::start(limited(100, 60_000)).await;
     let before = open_connections(&s).await;
     let mut held = Vec::new();
