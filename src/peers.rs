@@ -137,6 +137,57 @@ impl PeerPolicy {
     }
 }
 
+/// One token bucket: `rate` tokens a second up to `burst`, one taken per request. Shared by the
+/// per-key [`RateLimiter`] and a WebSocket session's own message rate.
+#[derive(Debug, Clone, Copy)]
+pub struct TokenBucket {
+    rate: f64,
+    burst: f64,
+    tokens: f64,
+    at: Instant,
+}
+
+impl TokenBucket {
+    /// A full bucket of `rate` per second with bursts of `burst` (at least 1). A rate of 0 or
+    /// less never refuses.
+    pub fn new(rate: f64, burst: f64, now: Instant) -> TokenBucket {
+        let burst = burst.max(1.0);
+        TokenBucket {
+            rate,
+            burst,
+            tokens: burst,
+            at: now,
+        }
+    }
+
+    /// Tokens at `now`, refilled since the last take.
+    fn refilled(&self, now: Instant) -> f64 {
+        (self.tokens + now.saturating_duration_since(self.at).as_secs_f64() * self.rate)
+            .min(self.burst)
+    }
+
+    /// Whether the bucket is full at `now` (its client has been quiet for `burst / rate`).
+    pub fn is_full(&self, now: Instant) -> bool {
+        self.refilled(now) >= self.burst
+    }
+
+    /// Takes one token at `now`. `Err(seconds)`: none left; one will be after that long.
+    pub fn take(&mut self, now: Instant) -> Result<(), f64> {
+        if self.rate <= 0.0 {
+            return Ok(());
+        }
+        let refilled = self.refilled(now);
+        self.at = now;
+        if refilled >= 1.0 {
+            self.tokens = refilled - 1.0;
+            Ok(())
+        } else {
+            self.tokens = refilled;
+            Err((1.0 - refilled) / self.rate)
+        }
+    }
+}
+
 /// A token-bucket rate limiter per key: `rate` requests a second on average, bursts of up to
 /// `burst`. Keys are forgotten once their bucket is full again, so the table holds only clients
 /// active within the last `burst / rate` seconds, and at most [`RateLimiter::MAX_KEYS`].
@@ -144,7 +195,7 @@ impl PeerPolicy {
 pub struct RateLimiter<K> {
     rate: f64,
     burst: f64,
-    buckets: Mutex<HashMap<K, (f64, Instant)>>,
+    buckets: Mutex<HashMap<K, TokenBucket>>,
 }
 
 impl<K: std::hash::Hash + Eq + Copy> RateLimiter<K> {
@@ -157,7 +208,7 @@ impl<K: std::hash::Hash + Eq + Copy> RateLimiter<K> {
     pub fn new(rate: f64, burst: f64) -> Self {
         Self {
             rate,
-            burst: burst.max(1.0),
+            burst,
             buckets: Mutex::new(HashMap::new()),
         }
     }
@@ -170,25 +221,14 @@ impl<K: std::hash::Hash + Eq + Copy> RateLimiter<K> {
         }
         let mut map = self.buckets.lock().unwrap_or_else(|p| p.into_inner());
         if map.len() >= Self::MAX_KEYS && !map.contains_key(&key) {
-            let (rate, burst) = (self.rate, self.burst);
-            map.retain(|_, (tokens, at)| {
-                *tokens + now.saturating_duration_since(*at).as_secs_f64() * rate < burst
-            });
+            map.retain(|_, b| !b.is_full(now));
             if map.len() >= Self::MAX_KEYS {
                 return Err(1.0);
             }
         }
-        let (tokens, at) = map.entry(key).or_insert((self.burst, now));
-        let refilled = (*tokens + now.saturating_duration_since(*at).as_secs_f64() * self.rate)
-            .min(self.burst);
-        *at = now;
-        if refilled >= 1.0 {
-            *tokens = refilled - 1.0;
-            Ok(())
-        } else {
-            *tokens = refilled;
-            Err((1.0 - refilled) / self.rate)
-        }
+        map.entry(key)
+            .or_insert_with(|| TokenBucket::new(self.rate, self.burst, now))
+            .take(now)
     }
 }
 

@@ -651,41 +651,25 @@ async fn sleep_until(at: Option<tokio::time::Instant>) {
 
 /// A socket's message rate: a token bucket, and a count of messages refused in a row.
 struct MessageRate {
-    rate: f64,
+    bucket: crate::peers::TokenBucket,
     burst: f64,
-    tokens: f64,
-    at: std::time::Instant,
     refused: u32,
 }
 
 impl MessageRate {
     fn new(rate: f64, burst: f64) -> Self {
-        let burst = burst.max(1.0);
         Self {
-            rate,
-            burst,
-            tokens: burst,
-            at: std::time::Instant::now(),
+            bucket: crate::peers::TokenBucket::new(rate, burst, std::time::Instant::now()),
+            burst: burst.max(1.0),
             refused: 0,
         }
     }
 
     /// Takes one message at `now`; false when over the rate.
     fn allow(&mut self, now: std::time::Instant) -> bool {
-        if self.rate <= 0.0 {
-            return true;
-        }
-        let dt = now.saturating_duration_since(self.at).as_secs_f64();
-        self.tokens = (self.tokens + dt * self.rate).min(self.burst);
-        self.at = now;
-        if self.tokens >= 1.0 {
-            self.tokens -= 1.0;
-            self.refused = 0;
-            true
-        } else {
-            self.refused += 1;
-            false
-        }
+        let ok = self.bucket.take(now).is_ok();
+        self.refused = if ok { 0 } else { self.refused + 1 };
+        ok
     }
 
     /// Whether the client kept going after being told: more refused in a row than twice the
