@@ -149,6 +149,8 @@ export class ImpactSet {
   window(t: number, lifetime: number): Impact[];
 }
 export function canonicalCmp(a: Impact, b: Impact): number;
+/** Rings that count at one point at most: where more cover it, the newest this many. */
+export const MAX_RINGS_PER_POINT: number;
 export class ParticleLayer {
   constructor(derivedLayer: Record<string, any>, dispersion?: { gravity?: number; depth?: number | null }, where?: string);
   readonly count: number; readonly tile: number; readonly radius: number; readonly scales: number[];
@@ -158,6 +160,8 @@ export class ParticleLayer {
   ring(impact: Impact): Ring;
   position(i: number, t: number): Vec2;
   liveRings(t: number, impacts: ImpactSet): LiveRing[];
+  /** Whether a live ring's annulus covers (x, z); at most MAX_RINGS_PER_POINT covering rings count there. */
+  covers(ring: LiveRing, x: number, z: number): boolean;
   sample(x: number, z: number, t: number, rings?: LiveRing[], out?: number[]): [number, number, number];
   shaderBlock(t: number, origin: Vec2, impacts: ImpactSet): { values: Float32Array; ringsDropped: number };
 }

@@ -14,7 +14,7 @@ export { SwellSession, ClockSync } from './session.js';
 export { BodyInterpolator } from './interp.js';
 export { Surface, normalOf, jacobianOf, DEFAULT_INVERSION } from './surface.js';
 export { FftLayer, parseSpectrum, ifft2 } from './fft.js';
-export { ParticleLayer, ImpactSet, Ring, canonicalCmp } from './particles.js';
+export { ParticleLayer, ImpactSet, Ring, canonicalCmp, MAX_RINGS_PER_POINT } from './particles.js';
 export { ArgumentError, SwellError, TransportError } from './errors.js';
 export { reducePhase, sinCos, roundTiesAway, bitsHex, fromBitsHex } from './math.js';
 export {

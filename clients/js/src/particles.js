@@ -18,6 +18,11 @@ import { ArgumentError } from './errors.js';
 const MAX_CELLS = 128;
 /** Live rings above which the server indexes rings in a grid; the grid never changes a result. */
 export const MAX_LIVE_RINGS = 4096;
+/**
+ * Rings that count at one point at most (field.rs `MAX_RINGS_PER_POINT`): where more rings'
+ * annuli cover a point, only the newest this many (last in canonical order) add to it.
+ */
+export const MAX_RINGS_PER_POINT = 32;
 /** Ambient particles and live rings the exported shader carries (swell-shaders particles.rs). */
 export const MAX_SHADER_PARTICLES = 512;
 export const MAX_SHADER_RINGS = 32;
@@ -334,12 +339,30 @@ export class ParticleLayer {
         }
       }
     }
-    for (const r of rings) {
-      const acc = this._ring(r, x, z, kv);
+    // The newest MAX_RINGS_PER_POINT rings whose annulus covers the point (field.rs
+    // `visit_rings`), then summed oldest first, in canonical order.
+    let first = 0;
+    if (rings.length > MAX_RINGS_PER_POINT) {
+      let found = 0;
+      first = rings.length;
+      for (let i = rings.length - 1; i >= 0 && found < MAX_RINGS_PER_POINT; i--) {
+        if (this.covers(rings[i], x, z)) { found++; first = i; }
+      }
+    }
+    for (let i = first; i < rings.length; i++) {
+      const acc = this._ring(rings[i], x, z, kv);
       if (acc) for (let j = 0; j < acc.length; j += 3) { h += acc[j]; gx += acc[j + 1]; gz += acc[j + 2]; }
     }
     out[0] = h; out[1] = gx; out[2] = gz;
     return out;
+  }
+
+  /** Whether live ring r's annulus covers (x, z): `|ρ − d| < r` (field.rs `reaches`). */
+  covers(r, x, z) {
+    const relx = x - r.ring.center[0];
+    const relz = z - r.ring.center[1];
+    const rho = Math.sqrt(relx * relx + relz * relz);
+    return Math.abs(rho - r.state.distance) < r.ring.radius;
   }
 
   // One ring's particles near (x, z) (field.rs `visit_ring`): their kernels `[h, gx, gz, ...]`

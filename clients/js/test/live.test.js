@@ -4,7 +4,7 @@
 import { describe, test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { SwellProcess, available, freePort } from './server.js';
-import { SwellClient, SwellSession, Surface, SwellError, ArgumentError, BodyInterpolator, bitsHex } from '../src/index.js';
+import { SwellClient, SwellSession, Surface, SwellError, ArgumentError, BodyInterpolator, bitsHex, MAX_RINGS_PER_POINT } from '../src/index.js';
 import { VECTORS, checkCase } from './golden.js';
 
 const EPOCH = 1767225600; // built-in scenes' epoch (README): t = unix − epoch at rate 1
@@ -154,6 +154,41 @@ describe('live server', { skip }, () => {
       assert.ok(touched >= 12, `only ${touched} probes were inside a live ring`);
     });
   }
+
+  // More rings over a point than MAX_RINGS_PER_POINT: only the newest count there, on the
+  // server and here alike.
+  test('piled-up rings: the per-point cap gives /sample\'s bits', async () => {
+    const scene = 'ring-pile';
+    const detail = await admin.putScene(scene, {
+      description: 'splashes piled on one spot', seed: 5,
+      layers: [{ kind: 'particles', count: 16, tile_size: 20, radius: 0.8,
+        ripples: { particles: 8, decay: 30, floor: 1e-4, lifetime: 60 } }],
+    });
+    const surface = Surface.fromDerived(detail.derived);
+    const { t } = await http.clock(scene);
+    for (let i = 0; i < 60; i++) {
+      const a = i * 2.399;
+      await admin.addImpact(scene, { t: t + 0.5 + 0.01 * i, position: [1.5 * Math.cos(a), 1.5 * Math.sin(a)],
+        strength: 0.3, radius: 1.5 });
+    }
+    const list = await http.impacts(scene, { t: t - 30 });
+    assert.equal(list.impacts.length, 60);
+    surface.impacts.addAll(list.impacts);
+    const tt = t + 2.0;
+    const pts = [];
+    for (let i = 0; i < 400; i++) pts.push([(i % 20) * 0.6 - 6, Math.floor(i / 20) * 0.6 - 6]);
+    const server = await http.sample(scene, { t: tt, points: pts, fields: ['height', 'normal'] });
+    const layer = surface.impactLayer.particles;
+    const rings = layer.liveRings(tt, surface.impacts);
+    let capped = 0;
+    pts.forEach(([x, z], i) => {
+      if (rings.filter((r) => layer.covers(r, x, z)).length > MAX_RINGS_PER_POINT) capped++;
+      const r = surface.query(x, z, tt);
+      assert.equal(bitsHex(r.height), bitsHex(server.height[i]), `height (${x}, ${z})`);
+      assert.equal(bits(r.normal), bits(server.normal[i]), `normal (${x}, ${z})`);
+    });
+    assert.ok(capped >= 20, `only ${capped} points had more than ${MAX_RINGS_PER_POINT} rings over them`);
+  });
 
   test('golden lake_gerstner_cascade bit for bit from the server-built cascade waves', async () => {
     const c = VECTORS.cases.find((k) => k.name === 'lake_gerstner_cascade');

@@ -284,6 +284,7 @@ impl SurfaceAt<'_> {
                 FftReads::every(derivatives),
                 &[true; B],
                 velocity,
+                true,
             );
             return std::array::from_fn(|l| Inverted {
                 source: targets[l],
@@ -302,11 +303,16 @@ impl SurfaceAt<'_> {
         let mut seen = [false; B];
         let mut active = [true; B];
         let mut it = 0;
+        // Particle layers move the surface vertically only: the rounds, which steer by the
+        // horizontal displacement, leave them out, and one last evaluation at the points kept
+        // adds them (the same function at the same point, so the same bits as evaluating them
+        // every round, at a fraction of the cost).
+        let later = self.surface.has_particles();
         while active.iter().any(|&a| a) {
             let mut round = [[0.0; B]; 3];
             // Lanes that have converged keep their best round: only the others read the FFT
             // frames again (the analytic kernel does all lanes at once either way).
-            let lanes = self.round_lanes::<B, V>(&p, reads, &active, &mut round);
+            let lanes = self.round_lanes::<B, V>(&p, reads, &active, &mut round, !later);
             for l in 0..B {
                 if !active[l] {
                     continue;
@@ -338,6 +344,17 @@ impl SurfaceAt<'_> {
             }
             it += 1;
         }
+        if later {
+            let kept: [DVec2; B] = std::array::from_fn(|l| best[l].source);
+            let mut round = [[0.0; B]; 3];
+            let full = self.round_lanes::<B, V>(&kept, reads, &[true; B], &mut round, true);
+            for (l, b) in best.iter_mut().enumerate() {
+                b.sample = full.get(l);
+            }
+            if V {
+                *velocity = round;
+            }
+        }
         best
     }
 
@@ -351,11 +368,13 @@ impl SurfaceAt<'_> {
         reads: FftReads,
         wanted: &[bool; B],
         velocity: &mut [[f64; B]; 3],
+        particles: bool,
     ) -> crate::wave::Lanes<B> {
         if V || self.options.precision == crate::Precision::F64 {
-            self.sample_lanes_f64::<B, V>(p, reads, wanted, velocity)
+            self.sample_lanes_f64::<B, V>(p, reads, wanted, velocity, particles)
         } else {
-            self.lanes_f32(p, reads != FftReads::Displacement).widen()
+            self.lanes_f32_with(p, reads != FftReads::Displacement, particles)
+                .widen()
         }
     }
 

@@ -700,6 +700,7 @@ impl SurfaceAt<'_> {
             FftReads::every(derivatives),
             &[true; B],
             &mut [[0.0; B]; 3],
+            true,
         )
     }
 
@@ -709,7 +710,9 @@ impl SurfaceAt<'_> {
     /// no velocity here: the caller adds theirs at the point it keeps
     /// ([`SurfaceAt::water_lanes`]). FFT layers are read only for the lanes `wanted` marks (a
     /// frame read is scalar, one lane at a time); the others' FFT terms are left out, so only
-    /// wanted lanes carry the full sample.
+    /// wanted lanes carry the full sample. Without `particles`, particle layers are left out
+    /// too: they move the surface vertically only, so an inversion round, which reads the
+    /// horizontal displacement and its slopes, does not need them.
     #[inline(always)]
     pub(crate) fn sample_lanes_f64<const B: usize, const V: bool>(
         &self,
@@ -717,6 +720,7 @@ impl SurfaceAt<'_> {
         reads: FftReads,
         wanted: &[bool; B],
         velocity: &mut [[f64; B]; 3],
+        particles: bool,
     ) -> Lanes<B> {
         let derivatives = reads != FftReads::Displacement;
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
@@ -745,7 +749,9 @@ impl SurfaceAt<'_> {
                     }
                 }
                 (Layer::Particles(p), _) => {
-                    self.add_particles(i, p, points, derivatives, &mut out);
+                    if particles {
+                        self.add_particles(i, p, points, derivatives, &mut out);
+                    }
                 }
                 (_, Some(soa)) if V => soa.accumulate_lanes_with_velocity(
                     &x,
@@ -768,6 +774,18 @@ impl SurfaceAt<'_> {
     /// only on `points[l]`.
     #[inline(always)]
     pub fn lanes_f32<const B: usize>(&self, points: &[DVec2; B], derivatives: bool) -> LanesF32<B> {
+        self.lanes_f32_with(points, derivatives, true)
+    }
+
+    /// [`SurfaceAt::lanes_f32`], leaving particle layers out unless `particles` (see
+    /// [`SurfaceAt::sample_lanes_f64`]).
+    #[inline(always)]
+    pub(crate) fn lanes_f32_with<const B: usize>(
+        &self,
+        points: &[DVec2; B],
+        derivatives: bool,
+        particles: bool,
+    ) -> LanesF32<B> {
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = LanesF32::<B>::default();
@@ -797,6 +815,7 @@ impl SurfaceAt<'_> {
                         out.add(l, &one.get(0));
                     }
                 }
+                (Layer::Particles(_), _) if !particles => {}
                 (Layer::Particles(p), _) => {
                     // Summed in f64 like an FFT layer's grid read, then joins the f32 sums.
                     for (l, &p0) in points.iter().enumerate() {

@@ -281,3 +281,69 @@ proptest! {
         }
     }
 }
+
+/// Inversion leaves particle layers out of its rounds (they move the surface vertically only)
+/// and adds them once at the point it keeps. That is the same answer as evaluating them every
+/// round: the source found is the particle-free surface's, to the bit, and the sample is a full
+/// evaluation there, to the bit, in f64 and f32, with and without derivatives, in single points
+/// and in batches.
+#[test]
+fn inversion_adds_particles_once_at_the_point_it_keeps() {
+    let spec = harbour();
+    let mut bare_spec = spec.clone();
+    bare_spec.layers.truncate(1);
+    let (s, bare) = (
+        Surface::new(&spec).unwrap(),
+        Surface::new(&bare_spec).unwrap(),
+    );
+    let bits = |v: glam::DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    for precision in [swell_waves::Precision::F64, swell_waves::Precision::F32] {
+        let options = QueryOptions {
+            precision,
+            ..QueryOptions::default()
+        };
+        let t = 12.0;
+        let sea = s
+            .at(t, QueryFields::ALL, &options)
+            .unwrap()
+            .with_impacts(&impacts())
+            .unwrap();
+        let flat = bare.at(t, QueryFields::ALL, &options).unwrap();
+        let targets: Vec<DVec2> = (0..64)
+            .map(|i| DVec2::new(i as f64 * 0.71 - 20.0, (i * 7 % 64) as f64 * 0.43 - 12.0))
+            .collect();
+        for derivatives in [false, true] {
+            for &target in &targets {
+                let inv = sea.invert(target, derivatives);
+                let free = flat.invert(target, derivatives);
+                assert_eq!(
+                    (
+                        inv.source.x.to_bits(),
+                        inv.source.y.to_bits(),
+                        inv.iterations
+                    ),
+                    (
+                        free.source.x.to_bits(),
+                        free.source.y.to_bits(),
+                        free.iterations
+                    ),
+                    "{precision:?} {target}"
+                );
+                let full = sea.sample_lanes(&[inv.source], derivatives).get(0);
+                assert_eq!(bits(inv.sample.displacement), bits(full.displacement));
+                if derivatives {
+                    assert_eq!(bits(inv.sample.d_dx), bits(full.d_dx));
+                    assert_eq!(bits(inv.sample.d_dz), bits(full.d_dz));
+                }
+            }
+            // The batch path answers the same bits.
+            let batch = sea.query_batch(&targets, QueryFields::ALL);
+            for (r, &target) in batch.iter().zip(&targets) {
+                assert_eq!(
+                    r.height.to_bits(),
+                    sea.query(target, QueryFields::ALL).height.to_bits()
+                );
+            }
+        }
+    }
+}

@@ -28,6 +28,15 @@ use crate::math::{TAU, atan2};
 /// one distance test, cheaper than a grid lookup).
 pub const RING_GRID_MIN: usize = 8;
 
+/// Rings that count at one point at most. Where more than this many rings' annuli
+/// (`|ρ − d| < r`) cover a point, only the newest ones (the last in canonical order) add to it,
+/// still summed oldest first; the older ones have lost the most to decay. This bounds a query's
+/// cost whatever the number of live rings: at most this many rings' angular windows per point
+/// (issue 27: 1,024 rings of the largest size stacked over a harbour made a 2,000-point sample
+/// cost 600× one without). Below the cap nothing changes, so seas with ordinary splash counts
+/// keep their bits.
+pub const MAX_RINGS_PER_POINT: usize = 32;
+
 /// One live ring at the field's time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct LiveRing {
@@ -51,6 +60,15 @@ struct RingGrid {
     cells: HashMap<(i64, i64), Vec<u32>>,
 }
 
+/// Rings of at most this many particles read their directions `(cos, sin)(2π·i/N)` from a table
+/// shared by every ring of that count in the field, built on first use (the same values
+/// [`direction`] computes, so the same bits). Larger rings are visited in a narrow angular
+/// window, where computing the few directions needed costs less than a table.
+const DIRECTION_TABLE_MAX: u32 = 72;
+/// Tables per field: particle counts `N_min·3^k` for k below this (a field's rings all share
+/// the layer's `N0`, so their counts are `N0·3^g`).
+const DIRECTION_TABLES: usize = 4;
+
 /// A particle layer frozen at one time.
 #[derive(Debug)]
 pub struct ParticleField {
@@ -58,16 +76,38 @@ pub struct ParticleField {
     rings: Vec<LiveRing>,
     ambient: OnceLock<AmbientGrid>,
     ring_grid: OnceLock<Option<RingGrid>>,
+    /// The smallest particle count among the rings: table k holds `n_min·3^k` directions.
+    n_min: u32,
+    directions: [OnceLock<Box<[DVec2]>>; DIRECTION_TABLES],
 }
 
 impl ParticleField {
     pub(crate) fn new(t: f64, rings: Vec<LiveRing>) -> ParticleField {
         ParticleField {
             t,
+            n_min: rings.iter().map(|r| r.n).min().unwrap_or(1).max(1),
             rings,
             ambient: OnceLock::new(),
             ring_grid: OnceLock::new(),
+            directions: Default::default(),
         }
+    }
+
+    /// The direction table for rings of `n` particles, if such rings use one.
+    #[inline]
+    fn direction_table(&self, n: u32) -> Option<&[DVec2]> {
+        if n > DIRECTION_TABLE_MAX {
+            return None;
+        }
+        let (mut k, mut m) = (0, self.n_min);
+        while m < n && k < DIRECTION_TABLES {
+            m *= 3;
+            k += 1;
+        }
+        if m != n || k >= DIRECTION_TABLES {
+            return None;
+        }
+        Some(self.directions[k].get_or_init(|| (0..n).map(|i| direction(i, n)).collect()))
     }
 
     /// The time, s.
@@ -111,11 +151,7 @@ impl ParticleField {
         if self.rings.is_empty() {
             return;
         }
-        let mut ring = |r: &LiveRing| {
-            if 4.0 * r.ring.radius >= min_wavelength {
-                visit_ring(r, x, &mut f);
-            }
-        };
+        let kept = |r: &LiveRing| 4.0 * r.ring.radius >= min_wavelength;
         match self.ring_grid() {
             Some(grid) => {
                 let key = (
@@ -123,12 +159,21 @@ impl ParticleField {
                     (x.y / grid.cell).floor() as i64,
                 );
                 if let Some(list) = grid.cells.get(&key) {
+                    let list = &list[newest_reaching(list, &self.rings, x, &kept)..];
                     for &i in list {
-                        ring(&self.rings[i as usize]);
+                        let r = &self.rings[i as usize];
+                        if kept(r) {
+                            visit_ring(r, self.direction_table(r.n), x, &mut f);
+                        }
                     }
                 }
             }
-            None => self.rings.iter().for_each(ring),
+            // At most RING_GRID_MIN < MAX_RINGS_PER_POINT rings: no cap to apply.
+            None => self
+                .rings
+                .iter()
+                .filter(|r| kept(r))
+                .for_each(|r| visit_ring(r, self.direction_table(r.n), x, &mut f)),
         }
     }
 
@@ -136,7 +181,7 @@ impl ParticleField {
     #[cfg(test)]
     pub(crate) fn visit_rings_only(&self, x: DVec2, f: &mut impl FnMut(f64, DVec2)) {
         for r in &self.rings {
-            visit_ring(r, x, &mut |h, g, _, _| f(h, g));
+            visit_ring(r, None, x, &mut |h, g, _, _| f(h, g));
         }
     }
 
@@ -169,7 +214,13 @@ impl ParticleField {
     /// (the sums run in another order).
     pub fn sample_reference(&self, layer: &ParticleLayer, x: DVec2) -> (f64, DVec2, f64) {
         let (mut h, mut g, mut v) = layer.ambient().sample_reference(x, self.t, 0.0);
-        for r in &self.rings {
+        // The newest MAX_RINGS_PER_POINT rings covering x, by a plain scan of all of them.
+        let covering: Vec<usize> = (0..self.rings.len())
+            .filter(|&i| reaches(&self.rings[i], x))
+            .collect();
+        let skip = covering.len().saturating_sub(MAX_RINGS_PER_POINT);
+        let oldest = covering.get(skip).copied().unwrap_or(self.rings.len());
+        for r in self.rings[oldest..].iter().filter(|r| reaches(r, x)) {
             for (i, (p, a)) in r.ring.particles(self.t).into_iter().enumerate() {
                 if let Some((hk, gk)) = kernel(a, x - p, r.inv_r2) {
                     h += hk;
@@ -183,14 +234,54 @@ impl ParticleField {
     }
 }
 
+/// Whether ring `r`'s annulus covers x: `|ρ − d| < r` with `ρ = |x − c|`, the test
+/// [`visit_ring`] starts with (the same operations, so the same answer).
+#[inline]
+fn reaches(r: &LiveRing, x: DVec2) -> bool {
+    let rho = (x - r.ring.center).length();
+    (rho - r.d).abs() < r.ring.radius
+}
+
+/// The start of the tail of `list` (ring indices in canonical order) that holds its newest
+/// [`MAX_RINGS_PER_POINT`] rings covering x and passing `kept`: 0 when there are no more than
+/// that. Scans from the newest end and stops at the cap, so it costs O(cap) where rings pile up.
+#[inline]
+fn newest_reaching(
+    list: &[u32],
+    rings: &[LiveRing],
+    x: DVec2,
+    kept: &impl Fn(&LiveRing) -> bool,
+) -> usize {
+    if list.len() <= MAX_RINGS_PER_POINT {
+        return 0;
+    }
+    let mut found = 0;
+    for (at, &i) in list.iter().enumerate().rev() {
+        let r = &rings[i as usize];
+        if kept(r) && reaches(r, x) {
+            found += 1;
+            if found == MAX_RINGS_PER_POINT {
+                return at;
+            }
+        }
+    }
+    0
+}
+
 /// The particles of ring `r` near x. With `rel = x − c`, `ρ = |rel|`: nothing when
 /// `|ρ − d| ≥ r`; otherwise the particles within the angular window around `atan2(rel)` that
 /// can reach x: a particle at angle Δ from x's is at distance² `(d − ρ)² + 4dρ·sin²(Δ/2)`, so
 /// `|Δ| ≤ 2·asin(r/(2√(dρ))) ≤ π·r/(2√(dρ))` (all of them when `r² ≥ 4dρ`), widened by one index
 /// each side against rounding. Particle i is at `c + d·(cos, sin)(2π·i/N)`, its offset
 /// `rel − d·(cos, sin)`.
+/// `table`, when given, holds the ring's `N` directions ([`ParticleField::direction_table`]).
 #[inline]
-fn visit_ring(r: &LiveRing, x: DVec2, f: &mut impl FnMut(f64, DVec2, DVec2, f64)) {
+fn visit_ring(
+    r: &LiveRing,
+    table: Option<&[DVec2]>,
+    x: DVec2,
+    f: &mut impl FnMut(f64, DVec2, DVec2, f64),
+) {
     let rel = x - r.ring.center;
     let rho = rel.length();
     let rad = r.ring.radius;
@@ -200,7 +291,7 @@ fn visit_ring(r: &LiveRing, x: DVec2, f: &mut impl FnMut(f64, DVec2, DVec2, f64)
     let n = r.n;
     let dr = r.d * rho;
     let mut each = |i: u32| {
-        let dir = direction(i, n);
+        let dir = table.map_or_else(|| direction(i, n), |t| t[i as usize]);
         if let Some((h, g)) = kernel(r.amp, rel - dir * r.d, r.inv_r2) {
             f(h, g, dir * r.ring.speed, r.amp_rate);
         }

@@ -17,7 +17,9 @@
 //! other layers: they are evaluated at the undisplaced point like every layer.
 //!
 //! Per evaluated time a [`ParticleField`] indexes the particles in uniform grids, so a query
-//! costs O(particles near the point), not O(all particles).
+//! costs O(particles near the point), not O(all particles); at most [`MAX_RINGS_PER_POINT`]
+//! rings (the newest covering the point) add to one point, so piled-up splashes cannot make a
+//! query arbitrarily expensive.
 //!
 //! Impacts reach a snapshot through [`crate::SurfaceAt::with_impacts`]; the first particle
 //! layer of a surface carries them (its [`RippleSpec`] shapes the rings). A surface without a
@@ -33,7 +35,7 @@ mod tests;
 
 pub use ambient::Ambient;
 pub use body_impacts::{BodyImpactSpec, BodyStep};
-pub use field::{ParticleField, RING_GRID_MIN};
+pub use field::{MAX_RINGS_PER_POINT, ParticleField, RING_GRID_MIN};
 pub use ripple::{Impact, Impacts, Ring, RingState, RippleSpec};
 
 use glam::DVec2;

@@ -341,6 +341,79 @@ fn grid_paths_match_the_reference() {
     }
 }
 
+/// Where more than `MAX_RINGS_PER_POINT` rings cover a point, the newest that many add to it,
+/// oldest first: the fast path gives the bits of that selection summed ring by ring, and equals
+/// the reference (which applies the same rule by a plain scan) to rounding.
+#[test]
+fn stacked_rings_count_only_the_newest_per_point() {
+    let l = layer(&ParticleLayerSpec::default());
+    let mut rng = SwellRng::new(9, 9);
+    // 200 splashes within 3 m of the origin over 1 s: their rings pile up near it.
+    let events: Vec<Impact> = (0..200)
+        .map(|_| {
+            impact(
+                10.0 + rng.uniform(),
+                rng.uniform() * 6.0 - 3.0,
+                rng.uniform() * 6.0 - 3.0,
+                0.05 + rng.uniform(),
+                1.0 + rng.uniform(),
+            )
+        })
+        .collect();
+    let impacts = Impacts::from_events(events).unwrap();
+    let t = 11.5;
+    let f = l.field(t, Some(&impacts)).unwrap();
+    let live = l.live_rings(t, &impacts);
+    assert!(live.len() > 2 * MAX_RINGS_PER_POINT, "{}", live.len());
+    let one = |ring: &Ring, s: &RingState| {
+        ParticleField::new(
+            t,
+            vec![field::LiveRing {
+                ring: *ring,
+                d: s.distance,
+                n: s.count,
+                amp: s.amplitude,
+                inv_r2: 1.0 / (ring.radius * ring.radius),
+                amp_rate: 0.0,
+            }],
+        )
+    };
+    let empty = l.field(t, None).unwrap();
+    let (mut capped, mut worst) = (0, 0.0_f64);
+    for _ in 0..2000 {
+        let x = DVec2::new(rng.uniform() * 40.0 - 20.0, rng.uniform() * 40.0 - 20.0);
+        let covering: Vec<usize> = (0..live.len())
+            .filter(|&i| {
+                let (ring, s) = &live[i];
+                ((x - ring.center).length() - s.distance).abs() < ring.radius
+            })
+            .collect();
+        let chosen = &covering[covering.len().saturating_sub(MAX_RINGS_PER_POINT)..];
+        if covering.len() > MAX_RINGS_PER_POINT {
+            capped += 1;
+        }
+        let (mut hs, mut gs) = empty.sample(&l, x, 0.0);
+        for &i in chosen {
+            let (ring, s) = &live[i];
+            one(ring, s).visit_rings_only(x, &mut |hk, gk| {
+                hs += hk;
+                gs += gk;
+            });
+        }
+        let (h, g) = f.sample(&l, x, 0.0);
+        assert_eq!(
+            (h.to_bits(), g.x.to_bits(), g.y.to_bits()),
+            (hs.to_bits(), gs.x.to_bits(), gs.y.to_bits()),
+            "{x}: {} rings cover it",
+            covering.len()
+        );
+        let (hr, gr, _) = f.sample_reference(&l, x);
+        worst = worst.max((h - hr).abs()).max((g - gr).length());
+    }
+    assert!(capped > 100, "only {capped} points had more than the cap");
+    assert!(worst < 1e-12, "fast vs reference: {worst}");
+}
+
 #[test]
 fn defaults_are_valid_and_errors_name_fields() {
     let l = layer(&ParticleLayerSpec::default());
