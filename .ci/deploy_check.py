@@ -156,6 +156,11 @@ def main():
     check("--appendonly" in redis_cmd and redis_cmd[redis_cmd.index("--appendonly") + 1] == "yes", "compose Redis has AOF on")
     check(any(str(v).endswith(":/data") for v in services.get("redis", {}).get("volumes", [])), "compose Redis keeps /data on a volume")
 
+    subnets = [c.get("subnet") for c in compose.get("networks", {}).get("default", {}).get("ipam", {}).get("config", [])]
+    compose_limits = tomllib.loads(compose.get("configs", {}).get("scenes", {}).get("content", "")).get("limits", {})
+    check(subnets and all(n in compose_limits.get("trusted_proxies", []) for n in subnets),
+          f"compose replicas trust nginx's network {subnets} for X-Forwarded-For ({compose_limits.get('trusted_proxies')})")
+
     # --- nginx.conf
     ngx = (DOCKER / "nginx.conf").read_text()
     upstream = re.findall(r"^\s*server\s+([\w.-]+):(\d+)", ngx, re.M)

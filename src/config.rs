@@ -95,6 +95,14 @@ pub struct Limits {
     /// Largest request body, bytes; beyond it: 413. 8 MiB holds 65,536 points written with
     /// full f64 precision (about 45 bytes each) with room to spare.
     pub max_body_bytes: usize,
+    /// Longest request URI (path and query), bytes; beyond it: 414 `uri_too_long`.
+    pub max_uri_bytes: usize,
+    /// Most bytes of request headers (names, values and separators); beyond it: 431
+    /// `headers_too_large`.
+    pub max_header_bytes: usize,
+    /// Most request headers; beyond it: 431 `headers_too_large`. The HTTP parser itself stops
+    /// at 4× this (at least 100) and past 400 KiB of head, answering a bare 431/414.
+    pub max_headers: usize,
     /// Requests served at once; more are shed with 503 rather than queued without bound.
     pub max_in_flight: usize,
     /// Longest a request may take, ms; then 503.
@@ -200,6 +208,9 @@ impl Default for Limits {
             max_bodies: 1024,
             max_scene_bodies: 1000,
             max_body_bytes: 8 * 1024 * 1024,
+            max_uri_bytes: 8 * 1024,
+            max_header_bytes: 32 * 1024,
+            max_headers: 64,
             max_in_flight: 512,
             request_timeout_ms: 30_000,
             frame_cache_entries: 32,

@@ -353,6 +353,7 @@ impl Server {
             per_peer: state.limits.max_connections_per_peer,
             send_stall: state.limits.http_send_stall(),
             policy: state.peer_policy.clone(),
+            parser_max_headers: (4 * state.limits.max_headers).max(100),
         };
         let result = api::serve::serve(self.listener, app, limits, async move {
             shutdown.await;

@@ -545,6 +545,32 @@ async fn an_impact_through_one_replica_ripples_identically_on_every_replica() {
     assert_eq!(harbour_heights(&c, &late, at).await, after);
     assert_eq!(get(&c, &late, &path).await.1, l1);
 
+    // Issue 27: the list in Redis held every impact ever made, so after 100,000 a scene
+    // refused every splash. An impact more than a ring lifetime (60 s on harbour) newer than
+    // the first drops it from the list, as every replica drops it from its set.
+    let llen =
+        || procs::redis_line(redis.port, "LLEN swell:impacts:harbour:list").unwrap_or_default();
+    assert_eq!(llen(), ":1");
+    let (st, v) = admin(
+        &c,
+        &rs[1],
+        Method::PUT,
+        "/v1/scenes/harbour/clock",
+        Some(json!({"t": t0 + 100.0})),
+    )
+    .await;
+    assert_eq!(st, 200, "{v}");
+    let (st, v) = admin(
+        &c,
+        &rs[1],
+        Method::POST,
+        "/v1/scenes/harbour/impacts",
+        Some(json!({"position": [5.0, 5.0], "t": t0 + 100.0, "strength": 0.2, "radius": 0.5})),
+    )
+    .await;
+    assert_eq!(st, 202, "{v}");
+    assert_eq!(llen(), ":1", "the expired impact is still in Redis");
+
     // Replacing the scene through replica 3 starts its impacts afresh everywhere (and in
     // Redis: the late replica agrees).
     let (_, spec) = get(&c, &rs[0], "/v1/scenes/harbour").await;

@@ -299,6 +299,44 @@ async fn every_rejection_is_the_json_error() {
         let (_, b) = into_json(r).await;
         assert!(b["error"]["code"].is_string(), "{path}: {b}");
     }
+    // An over-long URI and over-large or too many headers: 414 and 431, as JSON naming the
+    // limit.
+    let long = format!("/v1/scenes/calm/height?x=1&z=1&pad={}", "a".repeat(9000));
+    let (st, b) = s.get_json(&long).await;
+    assert_eq!((st, code(&b)), (414, "uri_too_long"), "{b}");
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("max_uri_bytes")
+    );
+    let r = s
+        .client
+        .get(s.url("/healthz"))
+        .header("x-big", "b".repeat(40_000))
+        .send()
+        .await
+        .unwrap();
+    let (st, b) = into_json(r).await;
+    assert_eq!((st, code(&b)), (431, "headers_too_large"), "{b}");
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("max_header_bytes")
+    );
+    let mut many = s.client.get(s.url("/v1/scenes/calm/height?x=1&z=1"));
+    for i in 0..80 {
+        many = many.header(format!("x-h{i}"), "1");
+    }
+    let (st, b) = into_json(many.send().await.unwrap()).await;
+    assert_eq!((st, code(&b)), (431, "headers_too_large"), "{b}");
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("max_headers")
+    );
     s.stop().await;
 }
 
@@ -564,5 +602,194 @@ async fn a_client_that_never_reads_is_cut_off_and_its_answer_freed() {
         "the stalled answer was not cut off"
     );
     drop(t);
+    s.stop().await;
+}
+
+/// A reqwest client whose requests come from loopback address `ip`.
+fn client_from(ip: [u8; 4]) -> reqwest::Client {
+    reqwest::Client::builder()
+        .no_proxy()
+        .local_address(IpAddr::V4(Ipv4Addr::from(ip)))
+        .build()
+        .unwrap()
+}
+
+/// `--probe-bind`: the probes and `/metrics` answer on their own listener, which serves nothing
+/// else, while `/metrics` on the client port needs an admin token when it is not public.
+#[tokio::test]
+async fn the_probe_listener_serves_probes_and_metrics_only() {
+    let mut c = hostile_config();
+    c.probe_bind = Some("127.0.0.1:0".parse().unwrap());
+    c.limits.metrics_public = false;
+    let s = TestServer::start(c).await;
+    let probe = s.probe.expect("a probe listener");
+    assert_ne!(probe, s.addr);
+    let http = client_from([127, 0, 0, 1]);
+    for path in ["/healthz", "/readyz", "/metrics"] {
+        let r = http
+            .get(format!("http://{probe}{path}"))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200, "{path} on the probe listener");
+    }
+    let r = http
+        .get(format!("http://{probe}/v1/scenes/calm/height?x=0&z=0"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 404, "the probe listener answers queries");
+    // On the client port, /metrics is for admins only here.
+    let (st, b) = s.admin(Method::GET, "/metrics", None, None).await;
+    assert_eq!((st, code(&b)), (401, "unauthorized"), "{b}");
+    let r = http
+        .get(s.url("/metrics"))
+        .bearer_auth(TOKEN)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    s.stop().await;
+}
+
+/// One token is limited across every address it comes from (`token_requests_per_s`), so a
+/// leaked game token spread over many clients is still bounded; other tokens are not affected.
+#[tokio::test]
+async fn a_token_is_rate_limited_across_addresses() {
+    let mut c = hostile_config();
+    c.env_tokens = vec![
+        (swell::access::Role::Game, "game-token-shared-0001".into()),
+        (swell::access::Role::Game, "game-token-other-00001".into()),
+    ];
+    c.limits.token_requests_per_s = 2.0;
+    c.limits.token_requests_burst = 10.0;
+    let s = TestServer::start(c).await;
+    let url = s.url("/v1/scenes/calm/height?x=1&z=1");
+    let mut limited = None;
+    // 40 requests from 20 addresses: 2 each, far under the per-address limit.
+    'outer: for i in 0..20u8 {
+        let http = client_from([127, 0, 8, 1 + i]);
+        for _ in 0..2 {
+            let r = http
+                .get(&url)
+                .bearer_auth("game-token-shared-0001")
+                .send()
+                .await
+                .unwrap();
+            if r.status() == 429 {
+                limited = Some(r);
+                break 'outer;
+            }
+            assert_eq!(r.status(), 200);
+        }
+    }
+    let r = limited.expect("429 within 40 requests at a token burst of 10");
+    assert!(r.headers().contains_key("retry-after"));
+    let (_, b) = into_json(r).await;
+    assert_eq!(code(&b), "rate_limited");
+    assert!(
+        b["error"]["message"].as_str().unwrap().contains("token"),
+        "{b}"
+    );
+    // Another token from the same address is served.
+    let r = client_from([127, 0, 8, 1])
+        .get(&url)
+        .bearer_auth("game-token-other-00001")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    s.stop().await;
+}
+
+/// An answer larger than what its client may hold unread (`max_buffered_bytes_per_peer`) is a
+/// 503 naming the limit, not a buffer the server keeps; small answers still flow.
+#[tokio::test]
+async fn an_answer_over_the_peers_byte_budget_is_refused() {
+    let mut c = hostile_config();
+    c.limits.max_buffered_bytes_per_peer = 256 * 1024;
+    let s = TestServer::start(c).await;
+    let http = client_from([127, 0, 9, 1]);
+    let points: Vec<Value> = (0..8000).map(|i| json!([i as f64 * 0.5, 1.0])).collect();
+    let big = json!({"points": points, "fields": ["height", "normal", "displacement"]});
+    let r = http
+        .post(s.url("/v1/scenes/calm/sample"))
+        .json(&big)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.headers()["retry-after"], "1");
+    let (st, b) = into_json(r).await;
+    assert_eq!((st, code(&b)), (503, "overloaded"), "{b}");
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("max_buffered_bytes_per_peer"),
+        "{b}"
+    );
+    let small = json!({"points": [[0.0, 0.0], [1.0, 2.0]], "fields": ["height"]});
+    let r = http
+        .post(s.url("/v1/scenes/calm/sample"))
+        .json(&small)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    // Another client's big answer fits its own budget.
+    let r = client_from([127, 0, 9, 2])
+        .post(s.url("/v1/scenes/calm/sample"))
+        .json(&json!({"points": (0..1000).map(|i| [f64::from(i), 0.0]).collect::<Vec<_>>()}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    s.stop().await;
+}
+
+/// Rotating tokens without a restart: the tokens file is read again when it changes; the old
+/// token stops working and the new one starts, within the upkeep beat (5 s).
+#[tokio::test]
+async fn the_tokens_file_is_reloaded_while_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("tokens");
+    std::fs::write(&path, "game game-token-before-01\n").unwrap();
+    let mut c = hostile_config();
+    c.tokens_file = Some(path.clone());
+    let s = TestServer::start(c).await;
+    let impact = |t: f64| json!({"t": t, "position": [0, 0], "strength": 0.2, "radius": 1.0});
+    let splash = |token: &'static str| {
+        let s = &s;
+        async move {
+            let (_, clock) = s.get_json("/v1/scenes/harbour/clock").await;
+            let now = clock["t"].as_f64().unwrap();
+            s.admin(
+                Method::POST,
+                "/v1/scenes/harbour/impacts",
+                Some(&impact(now)),
+                Some(token),
+            )
+            .await
+            .0
+        }
+    };
+    // A token that is not (yet) ours: 403.
+    assert_eq!(splash("game-token-before-01").await, 202);
+    assert_eq!(splash("game-token-after-001").await, 403);
+    std::fs::write(&path, "game game-token-after-001\n").unwrap();
+    // Make sure the change is visible even on a file system with coarse timestamps.
+    let later = std::time::SystemTime::now() + Duration::from_secs(2);
+    std::fs::File::options()
+        .write(true)
+        .open(&path)
+        .unwrap()
+        .set_modified(later)
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(15);
+    while splash("game-token-after-001").await != 202 {
+        assert!(Instant::now() < deadline, "the new token never took effect");
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
+    assert_eq!(splash("game-token-before-01").await, 403);
     s.stop().await;
 }

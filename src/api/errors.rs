@@ -8,6 +8,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use http_body_util::BodyExt as _;
 
+use crate::Limits;
 use crate::error::{ApiError, ErrorCode};
 
 /// Longest plain-text rejection kept as the JSON error's message, bytes.
@@ -74,4 +75,70 @@ pub async fn json_errors(req: Request, next: Next) -> Response {
         }
     }
     out
+}
+
+/// The request-head limits [`check_head`] applies (from [`Limits`]).
+#[derive(Debug, Clone, Copy)]
+pub struct HeadLimits {
+    uri_bytes: usize,
+    header_bytes: usize,
+    headers: usize,
+}
+
+impl From<&Limits> for HeadLimits {
+    fn from(l: &Limits) -> HeadLimits {
+        HeadLimits {
+            uri_bytes: l.max_uri_bytes,
+            header_bytes: l.max_header_bytes,
+            headers: l.max_headers,
+        }
+    }
+}
+
+/// Answers a request whose URI or headers are over the limits with the JSON 414 or 431,
+/// before anything reads them further. (The HTTP parser's own, larger limits answer a bare
+/// status: past them there is no request to route.)
+pub async fn check_head(limits: HeadLimits, req: Request, next: Next) -> Response {
+    let uri = req
+        .uri()
+        .path_and_query()
+        .map_or(req.uri().path().len(), |p| p.as_str().len());
+    if uri > limits.uri_bytes {
+        return ApiError::new(
+            ErrorCode::UriTooLong,
+            format!(
+                "the request URI is {uri} bytes; at most {} (max_uri_bytes)",
+                limits.uri_bytes
+            ),
+        )
+        .into_response();
+    }
+    let headers = req.headers();
+    if headers.len() > limits.headers {
+        return ApiError::new(
+            ErrorCode::HeadersTooLarge,
+            format!(
+                "{} request headers; at most {} (max_headers)",
+                headers.len(),
+                limits.headers
+            ),
+        )
+        .into_response();
+    }
+    // Each header as written on the wire: `name: value\r\n`.
+    let bytes: usize = headers
+        .iter()
+        .map(|(n, v)| n.as_str().len() + v.len() + 4)
+        .sum();
+    if bytes > limits.header_bytes {
+        return ApiError::new(
+            ErrorCode::HeadersTooLarge,
+            format!(
+                "the request headers are {bytes} bytes; at most {} (max_header_bytes)",
+                limits.header_bytes
+            ),
+        )
+        .into_response();
+    }
+    next.run(req).await
 }

@@ -102,7 +102,13 @@ pub async fn create(
             .map_err(refused)?;
         let wanted = state.read_clock(&entry).tick + 1;
         fleet
-            .add_impact(&id, impact, MAX_SCENE_IMPACTS, wanted)
+            .add_impact(
+                &id,
+                impact,
+                MAX_SCENE_IMPACTS,
+                wanted,
+                layer.ripples().lifetime,
+            )
             .await?;
         metrics::counter!("swell_impacts_total").increment(1);
         return Ok((

@@ -46,6 +46,7 @@ use tower_http::trace::TraceLayer;
 
 use crate::error::{ApiError, ErrorCode};
 use crate::state::AppState;
+use errors::HeadLimits;
 
 /// The router over `state`: every endpoint and middleware.
 pub fn router(state: AppState) -> Router {
@@ -101,8 +102,12 @@ pub fn router(state: AppState) -> Router {
         .layer(middleware::from_fn_with_state(gate, admission::admit))
         .layer(middleware::from_fn(errors::json_errors))
         .layer(middleware::from_fn(wire::protobuf_errors));
+    let head = HeadLimits::from(&limits);
     probes()
         .merge(api)
+        .layer(middleware::from_fn(move |req: Request, next: Next| {
+            errors::check_head(head, req, next)
+        }))
         .layer(middleware::from_fn(track_metrics))
         .layer(TraceLayer::new_for_http())
         .layer(CatchPanicLayer::custom(|_panic| {

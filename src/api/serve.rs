@@ -56,6 +56,9 @@ pub struct ConnectionLimits {
     pub send_stall: Option<Duration>,
     /// Who is exempt from `per_peer`.
     pub policy: PeerPolicy,
+    /// Most headers the HTTP parser reads ([`crate::Limits::max_headers`] answers below it
+    /// with the JSON error; this is the backstop, answered bare).
+    pub parser_max_headers: usize,
 }
 
 /// Serves `app` on `listener` until `shutdown` completes, then stops accepting and waits for
@@ -122,6 +125,7 @@ pub async fn serve(
         });
         let (stop, done) = (stop_tx.clone(), done_rx.clone());
         let idle_timeout = limits.idle_timeout;
+        let parser_max_headers = limits.parser_max_headers;
         let tcp = Counted {
             tcp,
             _slot: Slot::take(permit, open.clone()),
@@ -133,7 +137,8 @@ pub async fn serve(
             let mut builder = hyper::server::conn::http1::Builder::new();
             builder
                 .timer(TokioTimer::new())
-                .header_read_timeout(idle_timeout);
+                .header_read_timeout(idle_timeout)
+                .max_headers(parser_max_headers);
             let conn = builder
                 .serve_connection(TokioIo::new(tcp), service)
                 .with_upgrades();

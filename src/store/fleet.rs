@@ -99,10 +99,22 @@ return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], '
 /// its bodies feel it, sequenced as any body command is (at the tick asked for, or one past the
 /// watermark: see [`crate::store::bodies`]). One script, so queries and bodies never disagree
 /// on whether an acknowledged impact exists.
+/// Impacts at the head of the list more than a ring lifetime older than the new one are
+/// dropped first: every replica drops them from its set anyway (an impact more than a lifetime
+/// older than the newest cannot ripple), so the list holds live impacts only and a scene does
+/// not fill up over a long match. (The list is in arrival order, which is nearly time order;
+/// an older impact behind a newer one waits until it reaches the head.)
 /// KEYS: the scene's impact list, the impact index set, feed, the scene's body log, its
 /// watermark. ARGV: impact JSON, op JSON, nonce, scene id, most impacts, max feed length, body
-/// command JSON, wanted tick. Returns the new feed entry's id, or `full:<n>`.
+/// command JSON, wanted tick, the impact's t minus the ring lifetime. Returns the new feed
+/// entry's id, or `full:<n>`.
 const IMPACT_SCRIPT: &str = r"
+local oldest = tonumber(ARGV[9])
+while true do
+  local head = redis.call('LINDEX', KEYS[1], 0)
+  if not head or cjson.decode(head).t >= oldest then break end
+  redis.call('LPOP', KEYS[1])
+end
 local n = redis.call('LLEN', KEYS[1])
 if n >= tonumber(ARGV[5]) then return 'full:' .. n end
 redis.call('RPUSH', KEYS[1], ARGV[1])
@@ -423,6 +435,7 @@ impl Fleet {
         impact: swell_waves::particles::Impact,
         max: usize,
         wanted: i64,
+        lifetime: f64,
     ) -> Result<(), ApiError> {
         let impact_json = serde_json::to_string(&impact).map_err(ApiError::internal)?;
         let op_json = serde_json::to_string(&Op::Impact {
@@ -445,7 +458,9 @@ impl Fleet {
             .arg(max)
             .arg(FEED_MAXLEN)
             .arg(&cmd_json)
-            .arg(wanted);
+            .arg(wanted)
+            // Printed in full (Rust's shortest round-trip form), so Lua reads the same double.
+            .arg(format!("{:?}", impact.t - lifetime));
         self.write_and_apply(call, &nonce).await
     }
 

@@ -55,6 +55,8 @@ pub struct TestServer {
     pub addr: SocketAddr,
     pub client: Client,
     pub state: swell::AppState,
+    /// The `--probe-bind` listener's address, when the config asked for one.
+    pub probe: Option<SocketAddr>,
     stop: Option<oneshot::Sender<()>>,
     task: Option<JoinHandle<std::io::Result<()>>>,
 }
@@ -63,6 +65,7 @@ impl TestServer {
     pub async fn start(config: swell::Config) -> TestServer {
         let server = swell::Server::bind(config).await.expect("server starts");
         let addr = server.local_addr();
+        let probe = server.probe_addr();
         let state = server.state().clone();
         let (tx, rx) = oneshot::channel::<()>();
         let task = tokio::spawn(server.run(async move {
@@ -73,6 +76,7 @@ impl TestServer {
             addr,
             client,
             state,
+            probe,
             stop: Some(tx),
             task: Some(task),
         }
