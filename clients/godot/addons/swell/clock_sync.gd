@@ -23,6 +23,10 @@ var rate: float = 1.0
 var paused: bool = false
 ## The server's clock generation this fit describes (-1: a server that sends none).
 var generation: int = -1
+## The shortest span of samples (s) a drift is fitted over. The JS client's 1 s suits samples
+## stamped as they arrive (sub-millisecond noise); SwellSession raises it, since its samples are
+## stamped at frame polls (milliseconds of noise, which over 1 s would fit a drift of 1 %).
+var min_drift_span: float = 1.0
 ## Before the first sample of a generation announced by a `clock` event: the event's reading
 ## {"at": client time of its arrival less the previous one-way delay, "t": scene time}.
 var provisional = null
@@ -47,10 +51,12 @@ func synced() -> bool:
 
 
 ## Adds a sample: ping sent at `sent`, pong received at `received` (client clock), the pong's
-## scene time.
-func add(sent: float, received: float, scene_time: float) -> void:
+## scene time. `at`: the client time the scene time is taken to belong to, when the caller
+## knows better than the midpoint (SwellSession: the earliest the pong can have arrived);
+## `received − sent` still ranks the samples.
+func add(sent: float, received: float, scene_time: float, at: float = NAN) -> void:
 	var r := received - sent
-	var mid := sent + r / 2.0
+	var mid := sent + r / 2.0 if is_nan(at) else at
 	samples.append({"rtt": r, "mid": mid, "offset": scene_time - slope() * mid})
 	if samples.size() > window:
 		samples.pop_front()
@@ -83,7 +89,7 @@ func add(sent: float, received: float, scene_time: float) -> void:
 		sxx += (s.mid - m0) * (s.mid - m0)
 		sxy += (s.mid - m0) * (s.offset - o0)
 	var span: float = within[within.size() - 1].mid - within[0].mid if within.size() > 1 else 0.0
-	drift = sxy / sxx if slope() != 0.0 and span >= 1.0 and sxx > 0.0 else 0.0
+	drift = sxy / sxx if slope() != 0.0 and span >= min_drift_span and sxx > 0.0 else 0.0
 	# Offset at `ref` from the lowest-RTT samples, each carried to ref along the drift.
 	ref = 0.0
 	for s in good:

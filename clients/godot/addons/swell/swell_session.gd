@@ -48,7 +48,7 @@ signal closed(code: int)
 var interpolator = null
 ## The client clock in seconds (monotonic). Tests replace it.
 var now: Callable = func() -> float: return Time.get_ticks_usec() / 1000000.0
-var clock = ClockSync.new()
+var clock = _new_clock()
 ## The fit of the previous connection, answering server_time() until the new one has a sample.
 var previous_clock = null
 var last_tick = null
@@ -67,6 +67,16 @@ var _ping_due: float = 0.0
 var _retry_at: float = -1.0
 ## The client time of the previous poll (see _process).
 var _last_poll: float = -INF
+
+
+## Seconds of samples before the fit estimates a drift (see ClockSync.min_drift_span).
+const DRIFT_SPAN := 20.0
+
+
+static func _new_clock(window: int = 32, best: int = 4, rate: float = 1.0, paused: bool = false, generation: int = -1):
+	var c = ClockSync.new(window, best, rate, paused, generation)
+	c.min_drift_span = DRIFT_SPAN
+	return c
 
 
 class _Waiter:
@@ -158,7 +168,7 @@ func _reopen() -> void:
 		# A fresh estimate for the new connection (another server or path may have another
 		# offset and round trip): the old fit answers until the new one has a sample.
 		previous_clock = clock
-		clock = ClockSync.new(clock.window, clock.best)
+		clock = _new_clock(clock.window, clock.best)
 		await sync_now(sync_pings)
 		previous_clock = null
 
@@ -199,6 +209,7 @@ func sync_now(n: int = sync_pings):
 
 
 func _on_message(text: String, seen_after: float) -> void:
+	# The earliest it can have arrived (see _process); _last_poll is this poll, the latest.
 	var received: float = seen_after if seen_after > -INF else _last_poll
 	var m = JSON.parse_string(text)
 	if not m is Dictionary:
@@ -230,8 +241,10 @@ func _on_message(text: String, seen_after: float) -> void:
 				clock.rate = float(m.get("rate", 1.0))
 				clock.paused = bool(m.get("paused", false))
 				clock.generation = g
+			# Ranked by the whole window it may have arrived in (send to this poll), placed at the
+			# earliest moment in it.
 			var sent := float(m.client_time)
-			clock.add(sent, maxf(sent, received), float(m.scene_time))
+			clock.add(sent, maxf(sent, _last_poll), float(m.scene_time), maxf(sent, received))
 		last_pong = m
 	w.done.emit(m)
 
@@ -241,7 +254,7 @@ func _on_message(text: String, seen_after: float) -> void:
 func _restart_fit(c: Dictionary, received: float) -> void:
 	var prev = clock
 	var g: int = int(c.generation) if c.get("generation") != null else -1
-	clock = ClockSync.new(prev.window, prev.best, float(c.get("rate", 1.0)), bool(c.get("paused", false)), g)
+	clock = _new_clock(prev.window, prev.best, float(c.get("rate", 1.0)), bool(c.get("paused", false)), g)
 	if not is_nan(received):
 		# The event left the server about one one-way delay before it arrived.
 		var one_way: float = prev.min_rtt / 2.0 if not is_nan(prev.min_rtt) else 0.0
