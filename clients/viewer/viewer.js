@@ -71,14 +71,15 @@ function quatMat(q, s, p) {
 // exported. The exported `swell_sample` includes the FFT layers: it reads naga's samplers
 // `_group_1_binding_0_vs` / `_1_vs` (Catmull–Rom), which the page points at the textures its CPU
 // FFT worker fills (same layout as the exported GPU passes' output, docs/clients.md).
-function seaVertexShader(exported) {
+function seaVertexShader(exported, far = false) {
   const at = exported.lastIndexOf('void main()');
   if (at < 0) throw new Error('exported shader has no main()');
-  return `${exported.slice(0, at)}
+  const head = exported.slice(0, at);
+  return `${far ? farVariant(head) : head}
 uniform mat4 u_view_proj;         // the camera (the exported block's name is naga's to choose)
 void main() {
   vec2 p_local = _p2vs_location0;
-  SwellSample s = swell_sample(p_local);
+  SwellSample s = ${far ? 'swell_sample_far' : 'swell_sample'}(p_local);
   vec3 pos = vec3(p_local.x, 0.0, p_local.y) + s.displacement;
   gl_Position = u_view_proj * vec4(pos, 1.0);
   _vs2fs_location0 = pos;
@@ -86,6 +87,21 @@ void main() {
   _vs2fs_location2 = swell_jacobian(s);
 }
 `;
+}
+
+/**
+ * The exported shader with a `swell_sample_far`: `swell_sample` without its wave-particle terms
+ * (ambient particles and impact rings: sub-metre ripples of millimetres to centimetres, which
+ * the far field's metres-apart vertices could not resolve anyway, and which cost 3 × 512 kernel
+ * evaluations per vertex). The far field beyond the particle mesh is drawn with it.
+ */
+function farVariant(exported) {
+  const start = exported.indexOf('SwellSample swell_sample(vec2');
+  if (start < 0) throw new Error('exported shader has no swell_sample');
+  const end = exported.indexOf('\n}\n', start) + 3;
+  const far = exported.slice(start, end).replace('swell_sample(', 'swell_sample_far(')
+    .replace(/swell_ambient\((\w+),[^;]*\);/g, '$1;').replace(/swell_rings\((\w+),[^;]*\);/g, '$1;');
+  return exported.slice(0, end) + far + exported.slice(end);
 }
 
 /** Points a program's exported FFT samplers (`_group_1_binding_B_{vs,fs}`) at texture unit B. */
@@ -172,12 +188,53 @@ let gl = null;
 let floatTargets = null;
 
 const camera = { yaw: 0.9, pitch: 0.42, dist: 70, target: [0, 0] };
+state.camera = camera;
 // The sea mesh: GRID² vertices over SPAN metres; the origin moves in whole grid cells (SNAP), so
-// vertices stay put. Scenes with wave particles (radius ~1 m, rings of 0.5–1.3 m) get a finer,
-// smaller mesh (0.6 m spacing, as many vertices), else the particles alias between vertices.
+// vertices stay put. Beyond it a far field carries the sea to the horizon (FAR metres, past the
+// fog): a ring of cells that grow by FAR_GROWTH per step outwards, drawn with the same exported
+// waves. Scenes with wave particles (radius ~1 m, rings of 0.5–1.3 m) get a finer, smaller inner
+// mesh (0.5 m spacing over 20 m around the camera's target): every vertex there sums 3 × 512
+// particle kernels, which is what made harbour draw at 0.5–1 fps on SwiftShader with 160²
+// vertices (15× the vertices now); the far field draws without particles (farVariant).
 let GRID = 160;
 let SPAN = 480;
 let SNAP = SPAN / (GRID - 1);
+const FAR = 4000;
+const FAR_GROWTH = 1.18;
+
+/**
+ * The sea's vertices (local x/z) and triangles: the GRID² inner grid first (`inner` indices),
+ * then the far ring. The ring's grid lines are every 4th inner line inside the inner square and
+ * grow geometrically outside it; cells wholly inside the inner square are left out.
+ */
+function seaMesh() {
+  const verts = [];
+  for (let j = 0; j < GRID; j++) for (let i = 0; i < GRID; i++) verts.push(-SPAN / 2 + i * SNAP, -SPAN / 2 + j * SNAP);
+  const idx = [];
+  for (let j = 0; j < GRID - 1; j++) for (let i = 0; i < GRID - 1; i++) {
+    const a = j * GRID + i, b = a + 1, c = a + GRID, d = c + 1;
+    idx.push(a, c, b, b, c, d);
+  }
+  const inner = idx.length;
+  const half = SPAN / 2;
+  const line = [];
+  for (let i = 0; i < GRID; i += 4) line.push(-half + i * SNAP);
+  if (line[line.length - 1] < half - 1e-9) line.push(half);
+  const out = [];
+  for (let step = 4 * SNAP, x = half; x < FAR; step *= FAR_GROWTH) { x = Math.min(FAR, x + step); out.push(x); }
+  const coords = [...out.map((v) => -v).reverse(), ...line, ...out];
+  const n = coords.length;
+  const base = verts.length / 2;
+  for (let j = 0; j < n; j++) for (let i = 0; i < n; i++) verts.push(coords[i], coords[j]);
+  const eps = 1e-6;
+  for (let j = 0; j < n - 1; j++) for (let i = 0; i < n - 1; i++) {
+    const inside = coords[i] >= -half - eps && coords[i + 1] <= half + eps && coords[j] >= -half - eps && coords[j + 1] <= half + eps;
+    if (inside) continue;
+    const a = base + j * n + i, b = a + 1, c = a + n, d = c + 1;
+    idx.push(a, c, b, b, c, d);
+  }
+  return { verts: new Float32Array(verts), idx: new Uint32Array(idx), inner, reach: FAR, innerVertices: GRID * GRID, farVertices: n * n };
+}
 
 function sceneFromPath() {
   const m = location.pathname.match(/^\/viewer\/([a-z0-9-]{1,64})\/?$/);
@@ -211,29 +268,25 @@ async function setup() {
   const surface = Surface.fromDerived(detail.derived, { fft });
   const particles = surface.impactLayer?.particles ?? null;
   if (particles) {
-    GRID = 160; SPAN = 96; SNAP = SPAN / (GRID - 1);
+    GRID = 41; SPAN = 20; SNAP = SPAN / (GRID - 1);
     camera.dist = 32;
   }
   // The renderer: WebGPU where the browser has an adapter and the scene has no FFT layer (the
   // WebGPU path does not read the FFT textures yet), else WebGL2; `?gpu=webgl2` or
   // `?gpu=webgpu` forces one.
-  const asked = new URLSearchParams(location.search).get('gpu');
+  const params = new URLSearchParams(location.search);
+  const asked = params.get('gpu');
+  // Why an earlier load of this page left WebGPU (see fallBack), shown in the HUD.
+  const fallback = params.get('fallback');
+  state.fallback = fallback;
   const device = asked === 'webgl2' || (asked !== 'webgpu' && fftLayers.length) ? null : await webGpuDevice();
   if (asked === 'webgpu' && !device) throw new Error('WebGPU is not available in this browser (?gpu=webgpu)');
   state.backend = device ? 'webgpu' : 'webgl2';
 
-  // Sea mesh: GRID² vertices in local x/z, triangles as an index list.
-  const verts = new Float32Array(GRID * GRID * 2);
-  for (let j = 0; j < GRID; j++) for (let i = 0; i < GRID; i++) {
-    verts[2 * (j * GRID + i)] = -SPAN / 2 + i * SNAP;
-    verts[2 * (j * GRID + i) + 1] = -SPAN / 2 + j * SNAP;
-  }
-  const idx = new Uint32Array((GRID - 1) * (GRID - 1) * 6);
-  let k = 0;
-  for (let j = 0; j < GRID - 1; j++) for (let i = 0; i < GRID - 1; i++) {
-    const a = j * GRID + i, b = a + 1, c = a + GRID, d = c + 1;
-    idx.set([a, c, b, b, c, d], k); k += 6;
-  }
+  // Sea mesh: the inner grid and the far ring, in local x/z, triangles as an index list.
+  const mesh = seaMesh();
+  const { verts, idx } = mesh;
+  state.mesh = { reach: mesh.reach, innerVertices: mesh.innerVertices, farVertices: mesh.farVertices, span: SPAN };
   // Unit box for hulls (±0.5), with face normals.
   const boxV = [];
   const faces = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[-1, 0, 0], [0, 1, 0], [0, 0, -1]], [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
@@ -248,7 +301,27 @@ async function setup() {
   let requestFft = () => {};
   if (device) {
     const wgsl = await client.shader(id, 'wgsl');
+    // An adapter that cannot draw (seen: SwiftShader without Vulkan, whose first present loses
+    // the device) would leave a blank canvas: on a lost device, a validation error, or a GPU
+    // probe that reads nothing, the page reloads itself on WebGL2 and the HUD says why. A
+    // canvas keeps the context kind it was first given, hence the reload.
+    let leaving = false;
+    const fallBack = (reason) => {
+      if (leaving || asked === 'webgpu') return;
+      leaving = true;
+      state.errors.push(`WebGPU fell back: ${reason}`);
+      location.replace(`/viewer/${id}?gpu=webgl2&fallback=${encodeURIComponent(`WebGPU: ${reason}; drawing with WebGL2`)}`);
+    };
+    state.fallBack = fallBack;
+    device.lost.then((info) => { if (info.reason !== 'destroyed') fallBack(`device lost (${info.message || info.reason})`); });
+    device.addEventListener?.('uncapturederror', (e) => fallBack(`error: ${e.error?.message ?? e}`));
     renderer = await createWebGpuRenderer(canvas, device, { wgsl: wgsl.text, verts, idx, box: new Float32Array(boxV) });
+    renderer.check = async () => {
+      const { u } = frameUniforms(state.t);
+      const gpu = await renderer.probe([0.25, -0.5], u.block);
+      if (!Number.isFinite(gpu) || gpu === 0) fallBack(`its probe drew nothing (read ${gpu})`);
+      return gpu;
+    };
   } else {
     gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true });
     if (!gl) throw new Error('WebGL2 is not available');
@@ -259,8 +332,10 @@ async function setup() {
       client.shader(id, 'glsl_es', { entry: 'swell_probe_fs' }),
     ]);
     const sea = compile(gl, seaVertexShader(vs.text), SEA_FS, 'sea');
+    const far = particles ? compile(gl, seaVertexShader(vs.text, true), SEA_FS, 'far field') : sea;
     const probe = compile(gl, pvs.text, pfs.text, 'probe');
     bindFftSamplers(gl, sea);
+    bindFftSamplers(gl, far);
     bindFftSamplers(gl, probe);
     const body = compile(gl, BODY_VS, BODY_FS, 'body');
     const seaVao = gl.createVertexArray();
@@ -338,14 +413,25 @@ async function setup() {
         gl.clearColor(0.5, 0.66, 0.8, 1);
         gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
         gl.enable(gl.DEPTH_TEST);
-        gl.useProgram(sea);
-        gl.uniform3fv(gl.getUniformLocation(sea, 'u_eye'), eye);
-        gl.uniformMatrix4fv(gl.getUniformLocation(sea, 'u_view_proj'), false, viewProj);
         // The exported shader samples the FFT layer at units 0 and 1 (zeros until the first frame).
         gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, fftTex[0]);
         gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, fftTex[1]);
         gl.bindVertexArray(seaVao);
-        gl.drawElements(gl.TRIANGLES, idx.length, gl.UNSIGNED_INT, 0);
+        // The inner grid, then the far ring (without wave particles on particle scenes).
+        // `swellViewer.timeDraws = true` (tests): each part waited for (a 1-pixel readPixels: in
+        // Chromium gl.finish() does not wait for the GPU) and timed into swellViewer.drawMs,
+        // which shows where a frame's time goes.
+        const timing = state.timeDraws ? {} : null;
+        const sync = () => gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+        for (const [part, prog, first, count] of [['inner', sea, 0, mesh.inner], ['far', far, mesh.inner, idx.length - mesh.inner]]) {
+          const t0 = timing && (sync(), performance.now());
+          gl.useProgram(prog);
+          gl.uniform3fv(gl.getUniformLocation(prog, 'u_eye'), eye);
+          gl.uniformMatrix4fv(gl.getUniformLocation(prog, 'u_view_proj'), false, viewProj);
+          gl.drawElements(gl.TRIANGLES, count, gl.UNSIGNED_INT, first * 4);
+          if (timing) { sync(); timing[part] = performance.now() - t0; }
+        }
+        if (timing) state.drawMs = timing;
         gl.useProgram(body);
         gl.uniformMatrix4fv(gl.getUniformLocation(body, 'u_view_proj'), false, viewProj);
         gl.bindVertexArray(boxVao);
@@ -432,6 +518,9 @@ async function setup() {
   };
 
   let viewProj = null;
+  // Ring markers float at the sum of the analytic waves' amplitudes (the swell's highest crest).
+  let ringY = 0.05;
+  for (const l of detail.derived.layers) for (const w of l.waves ?? []) ringY += w.amplitude;
   const frameUniforms = (t) => {
     const origin = [Math.round(camera.target[0] / SNAP) * SNAP, Math.round(camera.target[1] / SNAP) * SNAP];
     state.origin = origin;
@@ -439,23 +528,26 @@ async function setup() {
   };
 
   /** GPU (exported probe shader) vs server (/sample) vs this client (CPU) at world (x, z). */
-  state.probeAt = async (wx, wz, t = session.serverTime()) => {
+  state.probeAt = async (wx, wz, tNow = session.serverTime()) => {
+    // Scenes with FFT layers: the GPU reads the FFT textures, which hold the worker's last
+    // frame (scene time state.fftT, up to a few tenths of a second behind on a slow machine), so
+    // the whole probe (GPU, server, CPU) is evaluated at that frame's own time: the three then
+    // describe the same sea, and the HUD says which time it was.
+    const t = fftLayers.length && Number.isFinite(state.fftT) ? state.fftT : tNow;
     const { origin, u } = frameUniforms(t);
     const local = [wx - origin[0], wz - origin[1]];
     const gpu = await renderer.probe(local, u.block);
     const server = (await client.sample(id, { t, points: [[wx, wz]] })).height[0];
     const cpu = surface.height(wx, wz, t);
-    // Scenes with FFT layers: the exported shader samples the FFT textures, which hold the
-    // worker's last frame (scene time state.fftT, up to 0.1 s from t), so the GPU probe is the
-    // whole sea at that frame; the client's CPU evaluation (FFT from the spectrum) is exact in t.
     state.probe = {
-      world: [wx, wz], t, server, gpu, cpu, ringsDropped: u.ringsDropped,
-      gpuLayers: fftLayers.length ? `FFT frame at t = ${state.fftT}` : u.ringsDropped ? `all layers, ${u.ringsDropped} rings left out` : 'all layers',
+      world: [wx, wz], t, asked: tNow, server, gpu, cpu, ringsDropped: u.ringsDropped,
+      gpuLayers: fftLayers.length ? `at the FFT frame's time t = ${t}` : u.ringsDropped ? `all layers, ${u.ringsDropped} rings left out` : 'all layers',
     };
     const mm = (v) => (v == null ? 'n/a' : `${v.toFixed(4)} m`);
     $('probe').innerHTML = `probe (${wx.toFixed(2)}, ${wz.toFixed(2)}) at t = ${t.toFixed(3)} s<br>`
-      + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}${fftLayers.length ? ' (FFT: last frame)' : ''}`
-      + (gpu != null && !fftLayers.length ? ` · Δ ${((gpu - server) * 1000).toFixed(3)} mm` : '')
+      + (fftLayers.length ? `(the FFT frame's time, ${((tNow - t) * 1000).toFixed(0)} ms before now)<br>` : '')
+      + `server <b>${mm(server)}</b> · GPU ${mm(gpu)}`
+      + (gpu != null ? ` · Δ ${((gpu - server) * 1000).toFixed(3)} mm` : '')
       + `<br>client CPU ${mm(cpu)} · Δ ${((cpu - server) * 1000).toFixed(3)} mm`;
     return state.probe;
   };
@@ -511,6 +603,7 @@ async function setup() {
     // `swellViewer.paused = true` (tests and tools) stops drawing: on SwiftShader a particle
     // scene's frame takes seconds, and probes (which draw too) would queue behind frames.
     if (state.paused) { requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } }); return; }
+    const started = performance.now();
     const dpr = Math.min(window.devicePixelRatio || 1, 2);
     const w = Math.floor(canvas.clientWidth * dpr), h = Math.floor(canvas.clientHeight * dpr);
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
@@ -523,7 +616,7 @@ async function setup() {
     const tl = [camera.target[0] - origin[0], camera.target[1] - origin[1]];
     const eye = [tl[0] + camera.dist * Math.cos(camera.pitch) * Math.cos(camera.yaw), camera.dist * Math.sin(camera.pitch),
       tl[1] + camera.dist * Math.cos(camera.pitch) * Math.sin(camera.yaw)];
-    viewProj = mul(perspective(0.9, w / h, 0.5, 3000), lookAt(eye, [tl[0], 0, tl[1]], [0, 1, 0]));
+    viewProj = mul(perspective(0.9, w / h, 0.5, 2 * FAR), lookAt(eye, [tl[0], 0, tl[1]], [0, 1, 0]));
 
     // Bodies at server time minus the interpolation delay, each as its hull's bounding box.
     const bodies = interp.at(t);
@@ -545,10 +638,32 @@ async function setup() {
       boxes.push({ model: quatMat(b.rotation, size, p), color: [0.86, 0.42, 0.16] });
       drawn.push({ id: b.id, size });
     }
+    // Impact rings: each live ring's front as a circle of thin white segments just above the
+    // swell's crest height. The ripples themselves are millimetres to centimetres high under a
+    // swell of decimetres: drawn, but not visible from the default camera without a marker.
+    let ringsDrawn = 0;
+    if (particles && state.showRings !== false) {
+      for (const r of surface.liveRings(t)) {
+        const c = [r.ring.center[0] - origin[0], r.ring.center[1] - origin[1]];
+        const rad = r.state.distance;
+        const segs = 48;
+        const chord = 2 * Math.PI * rad / segs;
+        for (let i = 0; i < segs; i++) {
+          const a = (2 * Math.PI * (i + 0.5)) / segs;
+          const yaw = -a; // the segment's long axis (x) along the tangent
+          const q = [0, Math.sin(yaw / 2 + Math.PI / 4), 0, Math.cos(yaw / 2 + Math.PI / 4)];
+          boxes.push({ model: quatMat(q, [chord, 0.08, 0.2], [c[0] + rad * Math.cos(a), ringY, c[1] + rad * Math.sin(a)]), color: [1.25, 1.25, 1.25] });
+        }
+        ringsDrawn++;
+      }
+    }
+    state.ringsDrawn = ringsDrawn;
     renderer.frame({ w, h, block: u.block, viewProj, eye, origin, bodies: boxes });
     state.bodies = bodies;
     state.drawn = drawn;
     state.frames++;
+    state.renderMs = performance.now() - started;
+    if (state.frames === 2 && renderer.check) renderer.check().catch((e) => state.fallBack?.(String(e?.message ?? e)));
 
     const st = session.clockStats();
     const tick = state.lastTick;
@@ -557,11 +672,16 @@ async function setup() {
       + `RTT ${(st.rtt * 1000).toFixed(2)} ms (min ${(st.minRtt * 1000).toFixed(2)})<br>`
       + `clock offset ${st.offset.toFixed(4)} s ± ${(st.minRtt * 500).toFixed(2)} ms · drift ${(st.drift * 1e6).toFixed(1)} ppm<br>`
       + (particles ? `particles ${particles.count} · impacts ${surface.impacts.size} · rings ${surface.liveRings(t).length}<br>` : '')
-      + `bodies ${bodies.size}${[...bodies.values()].slice(0, 3).map((b) => `<br>#${b.id} (${b.position.map((v) => v.toFixed(2)).join(', ')}) ${b.mode}`).join('')}`;
+      + (fallback ? `<span class="warn">${escapeHtml(fallback)}</span><br>` : '')
+      + `bodies ${bodies.size}${[...bodies.values()].map((b) => `<br>#${b.id} (${b.position.map((v) => v.toFixed(2)).join(', ')}) ${b.mode}`).join('')}`;
     state.ready = true;
     requestAnimationFrame(() => { try { render(); } catch (e) { report(e); } });
   };
   render();
+}
+
+function escapeHtml(s) {
+  return String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' }[c]));
 }
 
 function report(e) {

@@ -24,6 +24,21 @@ try { execFileSync(CHROMIUM, ['--version'], { stdio: 'ignore' }); } catch { hasC
 const skip = !available() ? 'no swell binary' : !hasChromium ? `no chromium (${CHROMIUM})` : false;
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const hull = (length, beam, height) => ({ kind: 'box', length, beam, height });
+// The canvas's clear colour, (0.5, 0.66, 0.8) as 8-bit: wherever it shows, no sea was drawn.
+const CLEAR = [128, 168, 204];
+const isClear = (px, i) => Math.abs(px[i] - CLEAR[0]) <= 1 && Math.abs(px[i + 1] - CLEAR[1]) <= 1 && Math.abs(px[i + 2] - CLEAR[2]) <= 1;
+/** Pixels of the clear colour in rows [y0, y1) of a decoded PNG. */
+function clearPixels(png, y0, y1) {
+  let n = 0;
+  for (let y = Math.floor(y0); y < y1; y++) for (let x = 0; x < png.width; x++) if (isClear(png.pixels, (y * png.width + x) * png.channels)) n++;
+  return n;
+}
+/** Near-white pixels (every channel ≥ 235). */
+function whitePixels(png) {
+  let n = 0;
+  for (let i = 0; i < png.pixels.length; i += png.channels) if (png.pixels[i] >= 235 && png.pixels[i + 1] >= 235 && png.pixels[i + 2] >= 235) n++;
+  return n;
+}
 
 describe('viewer in headless chromium', { skip }, () => {
   let srv; let http; let admin; let browser;
@@ -115,8 +130,52 @@ describe('viewer in headless chromium', { skip }, () => {
     // tick frames. Their rings live about 47 and 45 s (the strength and radius set that: a ring
     // dies when its particles fall below the 0.1 mm floor), long enough for slow SwiftShader
     // frames (the probes run about 30 s after the splash here).
+    console.log(`harbour ready at ${((Date.now() - started) / 1000).toFixed(1)} s, frames ${await page.eval('swellViewer.frames')}`);
+
+    // Frame rate on SwiftShader (issue 28: 0.5–1 fps with 160² vertices each summing 3 × 512
+    // particle kernels). What the fix controls is the count of such vertices: the inner mesh.
+    // The draw time of each part says where it goes: the far field, without particle terms,
+    // must cost a fraction of the particle mesh per vertex.
+    const mesh = await page.eval('swellViewer.mesh');
+    assert.ok(mesh.innerVertices <= 41 * 41, `particle-summing vertices ${mesh.innerVertices}: the inner mesh grew back`);
+    await page.eval('swellViewer.timeDraws = true');
+    const fps0 = [await page.eval('swellViewer.frames'), Date.now()];
+    await page.waitFor(`swellViewer.frames >= ${fps0[0] + 2}`, 60000);
+    const spf = (Date.now() - fps0[1]) / 1000 / 2;
+    const ms = await page.eval('swellViewer.drawMs');
+    await page.eval('swellViewer.timeDraws = false');
+    console.log(`harbour on SwiftShader: ${spf.toFixed(2)} s a frame; particle mesh ${mesh.innerVertices} vertices ${ms.inner.toFixed(0)} ms, far field ${mesh.farVertices} vertices to ${mesh.reach} m ${ms.far.toFixed(0)} ms`);
+    assert.ok(ms.far / mesh.farVertices < 0.25 * (ms.inner / mesh.innerVertices), `the far field pays for particles: ${JSON.stringify(ms)}`);
+
+    // The sea reaches the horizon (issue 28: harbour's 96 m tile showed as a square whose corner
+    // poked into the sky): from a low camera, no clear-colour pixel below the horizon.
+    assert.ok(mesh.reach >= 2000, `far field reaches ${mesh.reach} m`);
+    await page.eval('swellViewer.camera.pitch = 0.06; swellViewer.camera.yaw = 0.3');
+    const fh = await page.eval('swellViewer.frames');
+    await page.waitFor(`swellViewer.frames > ${fh + 1}`, 30000);
+    const low = decodePng(await page.screenshot());
+    // The horizon's row: the camera looks down at its pitch through a vertical field of view of
+    // 0.9 rad. The old 96 m square ended ~14 px below it at this pitch; the far field ends
+    // within a pixel of it.
+    const horizon = low.height / 2 - (low.height / 2) * Math.tan(0.06) / Math.tan(0.45);
+    // A row where the sea stops short shows the clear colour across much of its width; the
+    // sea's own grazing reflections match it in scattered pixels only (a few percent of a row).
+    let worstRow = 0;
+    for (let y = Math.ceil(horizon + 3); y < low.height; y++) worstRow = Math.max(worstRow, clearPixels(low, y, y + 1) / low.width);
+    console.log(`harbour from a low camera: at most ${(worstRow * 100).toFixed(1)} % of a row below the horizon (row ${horizon.toFixed(1)}) is the clear colour`);
+    assert.ok(worstRow < 0.2, 'sky shows through below the horizon: the sea stops short');
+    // And geometrically: every screen point from 3 px below the horizon down hits the water
+    // within the mesh (the old tile reached 48 m from its centre).
+    const far = await page.eval(`(() => { let m = 0; const r = document.getElementById('sea').getBoundingClientRect();
+      for (const fy of [${(horizon + 3) / low.height}, 0.6, 0.99]) for (const fx of [0.01, 0.5, 0.99]) {
+        const w = swellViewer.pick(r.left + fx * r.width, r.top + fy * r.height);
+        if (!w) return Infinity;
+        m = Math.max(m, Math.abs(w[0] - swellViewer.origin[0]), Math.abs(w[1] - swellViewer.origin[1]));
+      } return m; })()`);
+    console.log(`harbour from a low camera: the screen below the horizon reaches ${far.toFixed(0)} m; the mesh ${mesh.reach} m`);
+    assert.ok(far <= mesh.reach, `the view below the horizon reaches ${far} m, the mesh ${mesh.reach} m`);
+    await page.eval('swellViewer.camera.pitch = 0.42; swellViewer.camera.yaw = 0.9');
     const t = await page.eval('swellViewer.t');
-    console.log(`harbour ready at ${((Date.now() - started) / 1000).toFixed(1)} s, frames ${await page.eval('swellViewer.frames')}, t ${t}`);
     await admin.addImpact('harbour', { position: [4, -3], t: t + 0.5, strength: 8, radius: 1.5 });
     await admin.addImpact('harbour', { position: [-6, 5], t: t + 1, strength: 6, radius: 1.2 });
     await page.waitFor(`/particles 512 · impacts 2 · rings 2/.test(document.getElementById('hud').textContent)`, 30000);
@@ -125,6 +184,19 @@ describe('viewer in headless chromium', { skip }, () => {
     // too) would otherwise queue behind frames while the rings age.
     const f0 = await page.eval('swellViewer.frames');
     await page.waitFor(`swellViewer.frames > ${f0 + 1}`, 30000);
+    // The rings are visible (issue 28: they were not): each live ring's front is drawn, and the
+    // frame with them has more white than the next one drawn without them.
+    assert.equal(await page.eval('swellViewer.ringsDrawn'), 2, 'both live rings drawn');
+    const withRings = whitePixels(decodePng(await page.screenshot()));
+    await page.eval('swellViewer.showRings = false');
+    const f1 = await page.eval('swellViewer.frames');
+    await page.waitFor(`swellViewer.frames > ${f1 + 1}`, 30000);
+    const without = whitePixels(decodePng(await page.screenshot()));
+    await page.eval('swellViewer.showRings = true');
+    const f2 = await page.eval('swellViewer.frames');
+    await page.waitFor(`swellViewer.frames > ${f2 + 1}`, 30000);
+    console.log(`harbour rings: ${withRings} white pixels with the ring markers, ${without} without`);
+    assert.ok(withRings - without > 150, `rings not visible: ${withRings} vs ${without} white pixels`);
     await page.eval('swellViewer.paused = true');
     console.log(`rings seen and drawn at ${((Date.now() - started) / 1000).toFixed(1)} s, t ${await page.eval('swellViewer.t')}`);
     const png = decodePng(await page.screenshot());
@@ -206,6 +278,25 @@ describe('viewer in headless chromium', { skip }, () => {
     } finally { await gpuBrowser.close(); }
   });
 
+  // Issue 28: a WebGPU adapter that cannot draw left a blank canvas and no message. Chromium on
+  // SwiftShader without Vulkan has such an adapter (its first present loses the device): the
+  // page must fall back to WebGL2 and say so.
+  test('a WebGPU adapter that cannot draw: the page falls back to WebGL2 and the HUD says why', async (t) => {
+    const noVulkan = await Browser.launch({ extraArgs: WEBGPU_FLAGS.slice(0, 2) });
+    try {
+      const probePage = await noVulkan.open(`${srv.url}/healthz`);
+      const has = await probePage.eval('(async () => !!(navigator.gpu && await navigator.gpu.requestAdapter()))()');
+      if (!has) { t.skip(`no WebGPU adapter in ${CHROMIUM} with ${WEBGPU_FLAGS.slice(0, 2).join(' ')}`); return; }
+      const page = await noVulkan.open(`${srv.url}/viewer/calm`);
+      await page.waitFor(`window.swellViewer && swellViewer.backend === 'webgl2' && swellViewer.ready && swellViewer.frames > 3`, 60000);
+      const hud = await page.eval(`document.getElementById('hud').textContent`);
+      console.log(`WebGPU without Vulkan: ${hud.match(/WebGPU:[^·]*WebGL2/)?.[0]}`);
+      assert.match(hud, /WebGPU: .*drawing with WebGL2/);
+      const stats = pixelStats(decodePng(await page.screenshot()));
+      assert.ok(stats.std > 8 && stats.colours > 100, `canvas looks blank after the fallback: ${JSON.stringify(stats)}`);
+    } finally { await noVulkan.close(); }
+  });
+
   test('open-sea (FFT + Gerstner) with boats: renders without errors', async () => {
     const boats = [[0, 0, 0.3], [22, -14, 1.2], [-18, 20, -0.8], [40, 25, 2.2]];
     for (const [x, z, yaw] of boats) {
@@ -220,8 +311,21 @@ describe('viewer in headless chromium', { skip }, () => {
     console.log(`open-sea screenshot: luma mean ${stats.mean.toFixed(1)}, std ${stats.std.toFixed(1)}, ${stats.colours} colours`);
     assert.ok(stats.std > 8 && stats.colours > 100, JSON.stringify(stats));
     if (process.env.SWELL_VIEWER_SHOT) writeFileSync(process.env.SWELL_VIEWER_SHOT, shot);
-    const p = await page.eval('swellViewer.probeAt(swellViewer.origin[0] + 5, swellViewer.origin[1] - 3)');
-    assert.ok(Math.abs(p.cpu - p.server) < 1e-6, `client FFT height vs server: ${JSON.stringify(p)}`);
+    // The HUD lists every body (issue 28: it listed 3 of 4).
+    const hud = await page.eval(`document.getElementById('hud').textContent`);
+    assert.equal((hud.match(/#\d+ \(/g) ?? []).length, 4, hud);
+    // The probe on an FFT scene is evaluated at the time of the FFT frame the GPU draws (issue
+    // 28: it compared that frame, up to 0.35 s old, with the server at now: 13–140 mm off).
+    let worst = 0;
+    for (const [x, z] of [[5, -3], [-17.5, 9.25], [31, 22]]) {
+      const p = await page.eval(`swellViewer.probeAt(swellViewer.origin[0] + ${x}, swellViewer.origin[1] + ${z})`);
+      assert.ok(Math.abs(p.cpu - p.server) < 1e-6, `client FFT height vs server: ${JSON.stringify(p)}`);
+      assert.ok(p.t <= p.asked, JSON.stringify(p));
+      assert.ok(Math.abs(p.gpu - p.server) <= HEIGHT_BOUND_M, `GPU vs server at the FFT frame's time: ${JSON.stringify(p)}`);
+      worst = Math.max(worst, Math.abs(p.gpu - p.server));
+      console.log(`open-sea probe: the FFT frame ${((p.asked - p.t) * 1e3).toFixed(0)} ms old, |GPU − server| ${(Math.abs(p.gpu - p.server) * 1e3).toFixed(4)} mm`);
+    }
+    assert.match(await page.eval(`document.getElementById('probe').textContent`), /FFT frame's time/);
     assert.deepEqual(page.errors, []);
   });
 });
