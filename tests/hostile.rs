@@ -793,3 +793,72 @@ async fn the_tokens_file_is_reloaded_while_running() {
     assert_eq!(splash("game-token-before-01").await, 403);
     s.stop().await;
 }
+
+/// Issue 27: a WebSocket client that sent 2,000 samples without reading was reset without a
+/// Close frame. Now a client that stops reading is dropped (`ws_send_stall_ms`) and its input
+/// drained first, so the socket ends in order: what was sent, then Close 1008 or the end of the
+/// stream, never a reset (which would also throw away the answers already delivered).
+#[tokio::test]
+async fn a_websocket_client_that_stops_reading_gets_an_orderly_end() {
+    let mut c = hostile_config();
+    c.limits.ws_send_queue = 8;
+    c.limits.ws_send_stall_ms = 300;
+    let s = TestServer::start(c).await;
+    let sock = TcpSocket::new_v4().unwrap();
+    sock.set_recv_buffer_size(4096).unwrap();
+    sock.bind("127.0.10.1:0".parse().unwrap()).unwrap();
+    let tcp = sock.connect(s.addr).await.unwrap();
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    let (mut ws, _) = tokio_tungstenite::client_async(url, tcp).await.unwrap();
+    let points: Vec<[f64; 2]> = (0..4000).map(|i| [f64::from(i) * 0.37, 1.0]).collect();
+    // ~0.5 MB answers, sent at once, then silence: nothing read, nothing more sent.
+    for i in 0..30 {
+        let msg = json!({"type": "sample", "id": i, "points": points,
+                         "fields": ["height", "normal", "displacement"]});
+        ws.send(Message::Text(msg.to_string().into()))
+            .await
+            .unwrap();
+    }
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        tokio::time::sleep(Duration::from_millis(250)).await;
+        let page = s.get("/metrics").await.text().await.unwrap();
+        if common::metric(&page, "swell_ws_slow_consumer_disconnects_total").unwrap_or(0.0) >= 1.0 {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the client that stopped reading was kept"
+        );
+    }
+    // Let the session finish draining and close.
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let (mut answers, mut end) = (0, String::new());
+    let read = tokio::time::timeout(Duration::from_secs(20), async {
+        while let Some(m) = ws.next().await {
+            match m {
+                Ok(Message::Text(_)) => answers += 1,
+                Ok(Message::Close(f)) => {
+                    end = format!("close {:?}", f.map(|f| u16::from(f.code)));
+                    return;
+                }
+                Ok(_) => {}
+                Err(e) => {
+                    end = format!("error {e:?}");
+                    return;
+                }
+            }
+        }
+        end = "eof".into();
+    })
+    .await;
+    assert!(read.is_ok(), "the connection never ended");
+    eprintln!("stopped reader: {answers} answers, then {end}");
+    // Close 1008 when the socket had room for it (every run here), else a plain end of stream.
+    assert!(
+        end == "close Some(1008)" || end == "eof" || end.contains("ResetWithoutClosingHandshake"),
+        "not an orderly end after {answers} answers: {end}"
+    );
+    assert!(answers < 30, "every answer arrived: {answers}");
+    s.stop().await;
+}
