@@ -55,6 +55,8 @@ namespace Swell.Tests
         {
             string vectors = args.Length > 0 ? args[0] : Path.Combine("..", "..", "proto", "vectors");
             Offline.Run(vectors);
+            if (Environment.GetEnvironmentVariable("SWELL_NATIVE") == "1") NativeTests.Run(vectors);
+            else Console.WriteLine("skip native tests: SWELL_NATIVE is not 1 (needs libswell_ffi on the library path)");
             string url = Environment.GetEnvironmentVariable("SWELL_URL");
             if (!string.IsNullOrEmpty(url)) Live.Run(url, Environment.GetEnvironmentVariable("SWELL_TOKEN"), vectors);
             else Console.WriteLine("skip live tests: SWELL_URL is not set");
