@@ -7,10 +7,18 @@
 //! particular every query at the scene's *now* — shares the same frames; entries are keyed by
 //! grid index. Queries with `accuracy.time = "exact"` key their frame by the bits of t.
 //!
-//! Entries are keyed by `(scene, layer, grid index or t)`; each holds a `OnceLock`, so requests
+//! Entries are keyed by `(source, layer, grid index or t)`; each holds a `OnceLock`, so requests
 //! that arrive together while a frame is being computed wait for that one computation instead of
 //! repeating it. An entry holds the fields it was computed with; a request needing more replaces
 //! it with a frame of the union.
+//!
+//! # Scenes with equal seas share frames
+//! A frame is a pure function of the surface spec, the layer, the time and the fields, so the
+//! *source* of an entry is the surface spec, not the scene: scenes built from equal surface specs
+//! (the same JSON, number for number: twenty matches started from one preset) read one set of
+//! frames, computed once. Clocks started from the same epoch read the same grid frames at now;
+//! scenes whose clocks differ share whatever times they have in common. A source lives while a
+//! scene built from it does ([`FrameCache::forget_scene`]).
 //!
 //! # Two pools: near now, and everything else
 //! A grid frame within [`NEAR_STEPS`] grid steps of the scene's clock *now* is a **near** frame;
@@ -27,6 +35,11 @@
 //! frames the clock is about to reach, so a query at now finds its frames ready and answers
 //! without waiting for an FFT (on the reactor, see `service::query`). Queries at far-off or
 //! exact times alone do not start it: those frames would be of no use to them.
+//!
+//! Frames ahead get the fields the scene's queries asked for within the last [`ACTIVE_FOR`] to
+//! 2·[`ACTIVE_FOR`] (height, at least), not every field ever asked: one normal query does not
+//! make every later frame pay for slopes (2 of a frame's 8 transforms). A query needing a field
+//! the frames ahead lack widens its frame on demand, with the same bits.
 //!
 //! A scene's body loop also computes ahead ([`FrameCache::compute_through`]), right after each
 //! step, through the next tick boundary and two grid steps past it: the frames its next step
@@ -69,20 +82,12 @@ enum When {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 struct Key {
-    /// [`Scene::uid`]: one per built scene, so a replaced scene never reads the old frames.
-    scene: u64,
+    /// The frames' source ([`Inner::source`]): one per distinct surface spec in use, so scenes
+    /// built from equal specs share frames and a scene whose spec changed never reads the old
+    /// ones.
+    source: u64,
     layer: usize,
     when: When,
-}
-
-impl Key {
-    fn new(scene: &Scene, layer: usize, when: When) -> Key {
-        Key {
-            scene: scene.uid,
-            layer,
-            when,
-        }
-    }
 }
 
 type Slot = Arc<OnceLock<Arc<FftFrame>>>;
@@ -91,23 +96,85 @@ type Slot = Arc<OnceLock<Arc<FftFrame>>>;
 struct Entry {
     slot: Slot,
     fields: FftFields,
-    near: bool,
+    /// The scenes ([`Scene::uid`]) for which this is a near frame (within [`NEAR_STEPS`] of
+    /// their clock's now when they read it): empty for a far frame. A frame shared by scenes
+    /// whose clocks differ stays near while it is near for one of them.
+    near: Vec<u64>,
     used: u64,
     used_at: Instant,
 }
+
+impl Entry {
+    fn is_near(&self) -> bool {
+        !self.near.is_empty()
+    }
+}
+
+type PerLayer = [FftFields; swell_waves::surface::MAX_LAYERS];
 
 /// What the cache knows of a scene's recent queries.
 #[derive(Debug, Clone, Copy)]
 struct Activity {
     last: Instant,
-    /// Union of the FFT fields recent queries needed, per layer (computed ahead with these).
-    wanted: [FftFields; swell_waves::surface::MAX_LAYERS],
+    /// Union of the FFT fields queries needed since `since`, per layer.
+    wanted: PerLayer,
+    /// The same union over the [`ACTIVE_FOR`] before `since`.
+    before: PerLayer,
+    since: Instant,
+}
+
+impl Activity {
+    fn new(now: Instant) -> Activity {
+        Activity {
+            last: now,
+            wanted: [FftFields::NONE; swell_waves::surface::MAX_LAYERS],
+            before: [FftFields::NONE; swell_waves::surface::MAX_LAYERS],
+            since: now,
+        }
+    }
+
+    /// Starts a new window when the current one is [`ACTIVE_FOR`] old, so a field nobody asked
+    /// for in the last 2·[`ACTIVE_FOR`] is no longer wanted.
+    fn roll(&mut self, now: Instant) {
+        let age = now.saturating_duration_since(self.since);
+        if age >= ACTIVE_FOR {
+            self.before = if age >= 2 * ACTIVE_FOR {
+                [FftFields::NONE; swell_waves::surface::MAX_LAYERS]
+            } else {
+                self.wanted
+            };
+            self.wanted = [FftFields::NONE; swell_waves::surface::MAX_LAYERS];
+            self.since = now;
+        }
+    }
+
+    /// The fields of layer `i` queries asked for within the last [`ACTIVE_FOR`] to
+    /// 2·[`ACTIVE_FOR`].
+    fn wanted(&self, i: usize) -> FftFields {
+        self.wanted[i].union(self.before[i])
+    }
+}
+
+/// A source of frames: the scenes built from one surface spec.
+#[derive(Debug)]
+struct Source {
+    id: u64,
+    /// Scenes ([`Scene::uid`]) reading this source and not forgotten.
+    scenes: Vec<u64>,
 }
 
 #[derive(Debug, Default)]
 struct Inner {
     entries: HashMap<Key, Entry>,
     activity: HashMap<u64, Activity>,
+    /// Sources by the JSON of their surface spec (serde_json writes every f64 in its shortest
+    /// round-trip form, so equal text means equal bits, and so bit-identical frames).
+    sources: HashMap<String, Source>,
+    /// Each scene's source id ([`Inner::source`]).
+    scene_source: HashMap<u64, u64>,
+    next_source: u64,
+    /// 2-D inverse transforms computed (one per grid of each frame): what the cache costs.
+    transforms: u64,
     clock: u64,
     far: usize,
     /// Scenes deleted or replaced ([`FrameCache::forget_scene`]), the newest
@@ -115,6 +182,34 @@ struct Inner {
     /// frame without caching it, so nothing re-fills the cache after the forget.
     retired: std::collections::HashSet<u64>,
     retired_order: std::collections::VecDeque<u64>,
+}
+
+impl Inner {
+    /// The source of `scene`'s frames, registering the scene on first sight; `None` for a scene
+    /// forgotten meanwhile (its frames are computed for the caller alone).
+    fn source(&mut self, scene: &Scene) -> Option<u64> {
+        if let Some(&id) = self.scene_source.get(&scene.uid) {
+            return Some(id);
+        }
+        if self.retired.contains(&scene.uid) {
+            return None;
+        }
+        // Once per scene: the spec's JSON (microseconds), then a map lookup per query. Plain
+        // data serialises without error; an empty text would only keep the scene from sharing.
+        let text = serde_json::to_string(&scene.spec.surface).unwrap_or_default();
+        let next = &mut self.next_source;
+        let source = self.sources.entry(text).or_insert_with(|| {
+            *next += 1;
+            Source {
+                id: *next,
+                scenes: Vec::new(),
+            }
+        });
+        source.scenes.push(scene.uid);
+        let id = source.id;
+        self.scene_source.insert(scene.uid, id);
+        Some(id)
+    }
 }
 
 /// Retired scene uids remembered. A query holds its scene for milliseconds; by the time
@@ -155,16 +250,34 @@ impl FrameCache {
                 g.retired.remove(&old);
             }
         }
+        g.activity.remove(&uid);
+        let Some(source) = g.scene_source.remove(&uid) else {
+            return;
+        };
+        // The source's last scene takes its frames with it; otherwise the frames stay for the
+        // scenes still reading them, less those near only for this one.
+        let mut last = false;
+        g.sources.retain(|_, s| {
+            if s.id == source {
+                s.scenes.retain(|&u| u != uid);
+                last = s.scenes.is_empty();
+            }
+            !(s.id == source && last)
+        });
         let mut far_dropped = 0;
         g.entries.retain(|k, e| {
-            let keep = k.scene != uid;
-            if !keep && !e.near {
+            if k.source != source {
+                return true;
+            }
+            let was_near = e.is_near();
+            e.near.retain(|&u| u != uid);
+            let keep = !last && (!was_near || e.is_near());
+            if !keep && !was_near {
                 far_dropped += 1;
             }
             keep
         });
         g.far -= far_dropped;
-        g.activity.remove(&uid);
     }
 
     /// The FFT memory a scene in use holds at most, bytes: the near frames of each FFT layer
@@ -199,7 +312,13 @@ impl FrameCache {
 
     /// Number of near frames held.
     pub fn near_len(&self) -> usize {
-        self.lock().entries.values().filter(|e| e.near).count()
+        self.lock().entries.values().filter(|e| e.is_near()).count()
+    }
+
+    /// 2-D inverse transforms computed so far (one per grid of each frame, see
+    /// [`FftFields::grid_count`]): the work the cache has cost.
+    pub fn transforms(&self) -> u64 {
+        self.lock().transforms
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Inner> {
@@ -245,11 +364,12 @@ impl FrameCache {
     /// Notes a query of `scene` needing `need` from each FFT layer.
     fn note_activity(g: &mut Inner, scene: &Scene, need: &[FftFields]) {
         let now = Instant::now();
-        let a = g.activity.entry(scene.uid).or_insert(Activity {
-            last: now,
-            wanted: [FftFields::NONE; swell_waves::surface::MAX_LAYERS],
-        });
+        let a = g
+            .activity
+            .entry(scene.uid)
+            .or_insert_with(|| Activity::new(now));
         a.last = now;
+        a.roll(now);
         for (w, n) in a.wanted.iter_mut().zip(need) {
             *w = w.union(*n);
         }
@@ -257,13 +377,25 @@ impl FrameCache {
 
     /// The slot holding `key` with at least `need`, creating (or widening) it if absent, and
     /// evicting as the pools require.
-    fn slot(&self, key: Key, need: FftFields, near: bool) -> (Slot, FftFields) {
+    fn slot(
+        &self,
+        scene: &Scene,
+        at: (usize, When),
+        need: FftFields,
+        near: bool,
+    ) -> (Slot, FftFields) {
         let mut guard = self.lock();
         let g = &mut *guard;
-        if g.retired.contains(&key.scene) {
+        let Some(source) = g.source(scene) else {
             // A scene deleted meanwhile: its frame is computed for this caller alone.
             return (Arc::new(OnceLock::new()), need);
-        }
+        };
+        let key = Key {
+            source,
+            layer: at.0,
+            when: at.1,
+        };
+        let uid = scene.uid;
         g.clock += 1;
         let stamp = g.clock;
         let now = Instant::now();
@@ -272,31 +404,38 @@ impl FrameCache {
         {
             e.used = stamp;
             e.used_at = now;
-            if near && !e.near {
+            if near && !e.near.contains(&uid) {
                 // A far frame the clock has come close to joins the near pool.
-                e.near = true;
-                g.far -= 1;
+                if e.near.is_empty() {
+                    g.far -= 1;
+                }
+                e.near.push(uid);
             }
             return (e.slot.clone(), e.fields);
         }
         // Absent, or too few fields: a new slot with the union (waiters on an old slot still
-        // get the frame they asked for).
+        // get the frame they asked for), near for the scenes the old one was near for.
         let fields = g.entries.get(&key).map_or(need, |e| e.fields.union(need));
-        if let Some(old) = g.entries.remove(&key)
-            && !old.near
-        {
-            g.far -= 1;
+        let mut near_for = Vec::new();
+        if let Some(old) = g.entries.remove(&key) {
+            if !old.is_near() {
+                g.far -= 1;
+            }
+            near_for = old.near;
         }
-        if near {
+        if near && !near_for.contains(&uid) {
+            near_for.push(uid);
+        }
+        if !near_for.is_empty() {
             // Near frames the clock has left behind or nobody reads go first.
             g.entries
-                .retain(|_, e| !e.near || now.duration_since(e.used_at) < NEAR_IDLE);
+                .retain(|_, e| !e.is_near() || now.duration_since(e.used_at) < NEAR_IDLE);
         } else {
             while g.far >= self.capacity {
                 let oldest = g
                     .entries
                     .iter()
-                    .filter(|(_, e)| !e.near)
+                    .filter(|(_, e)| !e.is_near())
                     .min_by_key(|(_, e)| e.used)
                     .map(|(k, _)| *k);
                 match oldest {
@@ -315,7 +454,7 @@ impl FrameCache {
             Entry {
                 slot: slot.clone(),
                 fields,
-                near,
+                near: near_for,
                 used: stamp,
                 used_at: now,
             },
@@ -324,14 +463,24 @@ impl FrameCache {
     }
 
     /// Drops near frames of `scene` that are now more than [`NEAR_STEPS`] from the clock.
+    /// A frame shared with other scenes stays while it is near for one of them.
     fn prune_near(&self, scene: &Scene, now: f64) {
-        self.lock().entries.retain(|k, e| {
-            !e.near
-                || k.scene != scene.uid
-                || match scene.surface.layers().get(k.layer) {
-                    Some(Layer::Fft(f)) => Self::is_near(f, k.when, now),
-                    _ => false,
-                }
+        let mut g = self.lock();
+        let Some(&source) = g.scene_source.get(&scene.uid) else {
+            return;
+        };
+        g.entries.retain(|k, e| {
+            if k.source != source || !e.near.contains(&scene.uid) {
+                return true;
+            }
+            let near = match scene.surface.layers().get(k.layer) {
+                Some(Layer::Fft(f)) => Self::is_near(f, k.when, now),
+                _ => false,
+            };
+            if !near {
+                e.near.retain(|&u| u != scene.uid);
+            }
+            e.is_near()
         });
     }
 
@@ -346,14 +495,14 @@ impl FrameCache {
         now: f64,
     ) -> Arc<FftFrame> {
         let near = Self::is_near(layer, when, now);
-        let key = Key::new(scene, i, when);
-        let (slot, fields) = self.slot(key, need, near);
+        let (slot, fields) = self.slot(scene, (i, when), need, near);
         slot.get_or_init(|| {
             let start = Instant::now();
             let frame = Arc::new(match when {
                 When::Grid(n) => layer.grid_frame(n, fields),
                 When::Exact(bits) => layer.frame(f64::from_bits(bits), fields),
             });
+            self.lock().transforms += frame.transforms() as u64;
             metrics::counter!("swell_fft_frames_total").increment(1);
             metrics::histogram!("swell_fft_frame_seconds").record(start.elapsed().as_secs_f64());
             frame
@@ -458,6 +607,9 @@ impl FrameCache {
         }
         let needs = Self::needs(scene, fields, options);
         let g = self.lock();
+        let Some(&source) = g.scene_source.get(&scene.uid) else {
+            return false;
+        };
         scene
             .surface
             .layers()
@@ -467,7 +619,11 @@ impl FrameCache {
                 Layer::Fft(f) => {
                     let (a, b) = Self::whens(f, t, options.time);
                     [Some(a), b].into_iter().flatten().all(|when| {
-                        let key = Key::new(scene, i, when);
+                        let key = Key {
+                            source,
+                            layer: i,
+                            when,
+                        };
                         g.entries
                             .get(&key)
                             .is_some_and(|e| e.fields.contains(needs[i]) && e.slot.get().is_some())
@@ -501,12 +657,15 @@ impl FrameCache {
     /// at the next tick boundary want are computed on the step's own thread after the states
     /// went out, not at that boundary beside the next step.
     pub fn compute_through(&self, scene: &Scene, now: f64, rate: f64, lead: f64) -> usize {
-        let wanted = self.lock().activity.get(&scene.uid).map(|a| a.wanted);
+        let wanted = self.lock().activity.get_mut(&scene.uid).map(|a| {
+            a.roll(Instant::now());
+            *a
+        });
         self.prune_near(scene, now);
         let mut computed = 0;
         for (i, layer) in scene.surface.layers().iter().enumerate() {
             let Layer::Fft(f) = layer else { continue };
-            let need = wanted.map_or(FftFields::HEIGHT, |w| w[i].union(FftFields::HEIGHT));
+            let need = wanted.map_or(FftFields::HEIGHT, |w| w.wanted(i).union(FftFields::HEIGHT));
             // f64::signum(0.0) is 1: a paused clock stays where it is.
             let direction = if rate > 0.0 {
                 1.0
@@ -530,12 +689,32 @@ impl FrameCache {
                 }
             }
             for when in whens {
-                let key = Key::new(scene, i, when);
-                let held = self
-                    .lock()
-                    .entries
-                    .get(&key)
-                    .is_some_and(|e| e.fields.contains(need));
+                let near = Self::is_near(f, when, now);
+                let held = {
+                    let mut guard = self.lock();
+                    let g = &mut *guard;
+                    g.source(scene).is_some_and(|source| {
+                        let key = Key {
+                            source,
+                            layer: i,
+                            when,
+                        };
+                        match g.entries.get_mut(&key) {
+                            Some(e) if e.fields.contains(need) => {
+                                // Held (another scene of the same sea computed it): near for
+                                // this one too, so it stays while this clock needs it.
+                                if near && !e.near.contains(&scene.uid) {
+                                    if e.near.is_empty() {
+                                        g.far -= 1;
+                                    }
+                                    e.near.push(scene.uid);
+                                }
+                                true
+                            }
+                            _ => false,
+                        }
+                    })
+                };
                 if !held {
                     self.frame(scene, i, f, when, need, now);
                     computed += 1;
@@ -752,5 +931,165 @@ mod tests {
         // Backwards, the same reach before now (index 496.25): 499 down to 496.
         assert_eq!(cache.compute_through(&scene, now, -1.0, 2.0 * dt), 4);
         assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
+    }
+
+    /// A copy of built-in scene `id` under another id, its surface seed replaced by `seed` if
+    /// given: another scene with (or without) an equal surface spec.
+    fn copy_of(id: &str, copy: &str, seed: Option<u64>) -> Scene {
+        let (_, mut spec) = crate::scene::builtin::specs()
+            .into_iter()
+            .find(|(i, _)| i == id)
+            .unwrap();
+        if let Some(seed) = seed {
+            spec.surface.seed = seed;
+        }
+        Scene::build(copy, spec).unwrap()
+    }
+
+    /// The bits of a query at `t` answered from the cache, and the same query on the scene's
+    /// own surface with no cache: they must be equal.
+    fn cached_and_direct(
+        cache: &FrameCache,
+        scene: &Scene,
+        t: f64,
+        now: f64,
+    ) -> (Vec<u64>, Vec<u64>) {
+        let o = QueryOptions::default();
+        let bits = |sea: &SurfaceAt<'_>| {
+            let mut v = Vec::new();
+            for (x, z) in [(0.0, 0.0), (12.5, -3.25), (-140.0, 77.7)] {
+                let r = sea.query(glam::DVec2::new(x, z), QueryFields::ALL);
+                v.extend(
+                    [r.height, r.normal.x, r.normal.y, r.normal.z, r.jacobian].map(f64::to_bits),
+                );
+            }
+            v
+        };
+        let cached = cache
+            .surface_at(scene, t, now, QueryFields::ALL, &o)
+            .unwrap();
+        let direct = scene.surface.at(t, QueryFields::ALL, &o).unwrap();
+        (bits(&cached), bits(&direct))
+    }
+
+    /// The saving of sharing: scenes built from equal surface specs (copies of one preset, clocks
+    /// from the same epoch) read one set of frames, computed once, and answer with the bits of
+    /// their own surface; a scene of another seed shares nothing; forgetting one copy keeps the
+    /// frames the other reads.
+    #[test]
+    fn scenes_with_equal_surface_specs_compute_their_frames_once() {
+        let a = copy_of("storm", "storm-a", None);
+        let b = copy_of("storm", "storm-b", None);
+        let other = copy_of("storm", "storm-c", Some(99));
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&a);
+        let now = f.grid_time(700) + 0.5 * f.time_step();
+        cache
+            .surface_at(&a, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        // Two frames of height, displacement and the Jacobian terms (Newton inversion): 6 grids.
+        assert_eq!(cache.transforms(), 2 * 6);
+        cache
+            .surface_at(&b, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(
+            cache.transforms(),
+            2 * 6,
+            "the copy computed its own frames"
+        );
+        assert_eq!(cache.compute_ahead(&a, now, 1.0), 2);
+        assert_eq!(cache.compute_ahead(&b, now, 1.0), 0);
+        assert_eq!(cache.transforms(), 4 * 6);
+        cache
+            .surface_at(&other, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(
+            cache.transforms(),
+            6 * 6,
+            "another sea has frames of its own"
+        );
+        // A later normal query on the copy: exact bits (the frames widen on demand).
+        let (cached, direct) = cached_and_direct(&cache, &b, now, now);
+        assert_eq!(cached, direct);
+        cache.forget_scene(a.uid);
+        assert!(cache.has_frames(&b, now, QueryFields::ALL, &o));
+        cache.forget_scene(b.uid);
+        cache.forget_scene(other.uid);
+        assert!(cache.is_empty(), "{} frames left", cache.len());
+    }
+
+    /// A copy whose clock reads another time shares no near frame with the first, and the
+    /// first's clock moving on must not drop the frames the copy reads at its own now.
+    #[test]
+    fn a_shared_frame_stays_while_it_is_near_for_one_scene() {
+        let a = copy_of("storm", "storm-a", None);
+        let b = copy_of("storm", "storm-b", None);
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&a);
+        let now = f.grid_time(700) + 0.5 * f.time_step();
+        cache
+            .surface_at(&a, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        cache
+            .surface_at(&b, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        // a's clock jumps far ahead: b still reads frames 700 and 701.
+        cache.compute_ahead(&a, now + 100.0, 1.0);
+        assert!(cache.has_frames(&b, now, QueryFields::HEIGHT, &o));
+        // Then b's moves on too: nobody is near them any more.
+        cache.compute_ahead(&b, now + 100.0, 1.0);
+        assert!(!cache.has_frames(&b, now, QueryFields::HEIGHT, &o));
+        assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
+    }
+
+    /// A height-only workload at now computes height, displacement and the Jacobian terms (what
+    /// Newton inversion reads): 6 of the 8 grids, never the slopes; a normal query asked later
+    /// still gets the exact bits, and once nobody has asked for normals for 2·ACTIVE_FOR the
+    /// frames ahead drop the slopes again.
+    #[test]
+    fn frames_ahead_carry_only_the_fields_asked_for_lately() {
+        let scene = builtin("storm");
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&scene);
+        let now = f.grid_time(900) + 0.5 * f.time_step();
+        cache
+            .surface_at(&scene, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(cache.compute_ahead(&scene, now, 1.0), 2);
+        assert_eq!(cache.transforms(), 4 * 6, "4 frames of 6 grids");
+        // A normal query: its two frames widen to all 8 grids, with the exact bits.
+        let (cached, direct) = cached_and_direct(&cache, &scene, now, now);
+        assert_eq!(cached, direct);
+        assert_eq!(cache.transforms(), 4 * 6 + 2 * 8);
+        // The frames ahead now carry slopes too.
+        let later = now + f.time_step();
+        // 902 and 903 widen, 904 is new.
+        assert_eq!(cache.compute_ahead(&scene, later, 1.0), 3);
+        assert_eq!(cache.transforms(), 4 * 6 + 2 * 8 + 3 * 8);
+        // Nobody has asked for normals for 2·ACTIVE_FOR: height queries alone again.
+        {
+            let mut g = cache.lock();
+            let a = g.activity.get_mut(&scene.uid).unwrap();
+            a.since = Instant::now().checked_sub(2 * ACTIVE_FOR).unwrap();
+        }
+        let t = later + f.time_step();
+        cache
+            .surface_at(&scene, t, t, QueryFields::HEIGHT, &o)
+            .unwrap();
+        let before = cache.transforms();
+        let much_later = t + 3.0 * f.time_step();
+        let computed = cache.compute_ahead(&scene, much_later, 1.0) as u64;
+        assert!(computed > 0);
+        assert_eq!(
+            cache.transforms() - before,
+            computed * 6,
+            "slopes still computed ahead"
+        );
+        // And a normal query there is still exact.
+        let (cached, direct) = cached_and_direct(&cache, &scene, much_later, much_later);
+        assert_eq!(cached, direct);
     }
 }

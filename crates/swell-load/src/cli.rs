@@ -112,6 +112,11 @@ pub struct Args {
     /// Scene id.
     #[arg(long, default_value = "open-sea")]
     pub scene: String,
+    /// `height`, `sample`, `orientation`, `mixed`: spread the queries evenly over these scene
+    /// ids (comma separated, at most 64) instead of `--scene` alone, e.g. to load many scenes
+    /// of one server at once.
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
     /// Encoding of bodies and WebSocket messages.
     #[arg(long, value_enum, default_value = "json")]
     pub wire: Wire,
@@ -209,8 +214,10 @@ pub struct Options {
     pub mode: Mode,
     /// Base URL without a trailing slash.
     pub url: String,
-    /// Scene id.
+    /// Scene id (with `--scenes`, the first of them).
     pub scene: String,
+    /// The scenes HTTP queries spread over (`--scenes`); empty: `scene` alone.
+    pub scenes: Vec<String>,
     /// Encoding.
     pub wire: Wire,
     /// Open or closed loop.
@@ -274,6 +281,7 @@ const MAX_CONCURRENCY: usize = 10_000;
 const MAX_SUBSCRIBERS: usize = 20_000;
 const MAX_POINTS: usize = 1_000_000;
 const MAX_SPAWN: usize = 100_000;
+const MAX_SCENES: usize = 64;
 
 /// A rejected combination of arguments: the flag and what was wrong.
 #[derive(Debug, thiserror::Error)]
@@ -316,6 +324,27 @@ impl Args {
         if self.scene.is_empty() {
             return Err(bad("--scene", "empty scene id"));
         }
+        if !self.scenes.is_empty() {
+            if !mode.is_http() {
+                return Err(bad(
+                    "--scenes",
+                    "spreads HTTP queries: use it with height, sample, orientation or mixed",
+                ));
+            }
+            if self.scenes.len() > MAX_SCENES || self.scenes.iter().any(String::is_empty) {
+                return Err(bad(
+                    "--scenes",
+                    format!("1..={MAX_SCENES} non-empty scene ids, comma separated"),
+                ));
+            }
+            if self.spawn_bodies > 0 || self.subscribers.is_some_and(|s| s > 0) {
+                return Err(bad(
+                    "--scenes",
+                    "bodies and subscribers follow one scene: use --scene with them",
+                ));
+            }
+        }
+        let scene = self.scenes.first().cloned().unwrap_or(self.scene);
         let shape = match (self.rate, self.concurrency) {
             (Some(rate), _) => {
                 if !(rate.is_finite() && rate > 0.0 && rate <= MAX_RATE) {
@@ -457,7 +486,8 @@ impl Args {
         Ok(Options {
             mode,
             url,
-            scene: self.scene,
+            scene,
+            scenes: self.scenes,
             wire: self.wire,
             shape,
             duration: self.duration,
@@ -610,6 +640,8 @@ mod tests {
             (&["height", "--t", "inf"][..], "--t"),
             (&["ws-query", "--query", "height"][..], "--query"),
             (&["height", "--connections", "4"][..], "--connections"),
+            (&["stream", "--scenes", "a,b"][..], "--scenes"),
+            (&["height", "--scenes", "a,,b"][..], "--scenes"),
         ] {
             let e = args(argv).expect_err(&format!("{argv:?} accepted"));
             assert!(e.contains(flag), "{argv:?}: {e}");

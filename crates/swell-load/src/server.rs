@@ -111,6 +111,20 @@ pub async fn preflight(client: &reqwest::Client, o: &Options) -> Result<SceneInf
             status: health.status().as_u16(),
         });
     }
+    // Every scene of `--scenes` must exist; the first one's clock describes the run.
+    for other in o.scenes.iter().skip(1) {
+        let r = client
+            .get(format!("{}/v1/scenes/{other}", o.url))
+            .send()
+            .await
+            .map_err(setup("GET scene"))?;
+        if r.status() == StatusCode::NOT_FOUND {
+            return Err(LoadError::UnknownScene {
+                scene: other.clone(),
+                available: "see GET /v1/scenes".into(),
+            });
+        }
+    }
     let scene_url = format!("{}/v1/scenes/{}", o.url, o.scene);
     let r = client
         .get(&scene_url)

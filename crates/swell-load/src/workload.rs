@@ -196,8 +196,17 @@ fn orientation_proto(o: &Options, rng: &mut Rng) -> v1::OrientationRequest {
 
 /// Builds `n` HTTP requests of `kind`.
 fn http_variants(o: &Options, kind: QueryKind, rng: &mut Rng) -> Vec<Prepared> {
-    let base = format!("{}/v1/scenes/{}", o.url, o.scene);
-    let make = |rng: &mut Rng| -> Prepared {
+    // Variant j queries scene j mod (number of scenes): with the count a multiple of it, every
+    // scene gets the same share of the requests.
+    let scenes: Vec<&str> = if o.scenes.is_empty() {
+        vec![o.scene.as_str()]
+    } else {
+        o.scenes.iter().map(String::as_str).collect()
+    };
+    let mut j = 0;
+    let mut make = |rng: &mut Rng| -> Prepared {
+        let base = format!("{}/v1/scenes/{}", o.url, scenes[j % scenes.len()]);
+        j += 1;
         match kind {
             QueryKind::Height => {
                 let [x, z] = rng.point(&o.area);
@@ -242,8 +251,10 @@ fn http_variants(o: &Options, kind: QueryKind, rng: &mut Rng) -> Vec<Prepared> {
     };
     let first = make(rng);
     let size = first.url.len() + first.body.as_ref().map_or(0, Bytes::len);
+    let n = scenes.len();
+    let count = (variants_for(size).max(n) / n) * n;
     let mut out = vec![first];
-    out.extend((1..variants_for(size)).map(|_| make(rng)));
+    out.extend((1..count).map(|_| make(rng)));
     out
 }
 
@@ -463,6 +474,27 @@ mod tests {
             .unwrap()
             .into_options()
             .unwrap()
+    }
+
+    /// `--scenes`: every scene gets the same share of the requests.
+    #[test]
+    fn scenes_share_the_requests_evenly() {
+        let o = opts(&["height", "--scenes", "a,b,c"]);
+        assert_eq!(o.scene, "a");
+        let w = HttpWorkload::new(&o);
+        let mut counts = [0u32; 3];
+        for i in 0..30_000 {
+            let url = &w.get(i).url;
+            let k = ["/a/", "/b/", "/c/"]
+                .iter()
+                .position(|s| url.contains(s))
+                .unwrap();
+            counts[k] += 1;
+        }
+        assert!(
+            counts.iter().all(|c| (9_500..=10_500).contains(c)),
+            "{counts:?}"
+        );
     }
 
     #[test]
