@@ -81,10 +81,7 @@ fn code_of(text: &str) -> String {
         out.push('\n');
     }
     // Drop `#[cfg(test)] mod name { … }` by matching braces.
-    loop {
-        let Some(at) = out.find("#[cfg(test)]") else {
-            break;
-        };
+    while let Some(at) = out.find("#[cfg(test)]") {
         let rest = &out[at..];
         let header_end = rest
             .find(['{', ';'])

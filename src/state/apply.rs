@@ -38,7 +38,7 @@ pub enum Prepared {
     #[default]
     Nothing,
     /// A put's scene, built from the op's spec.
-    Scene(Scene),
+    Scene(Box<Scene>),
     /// A clock change as the writer computed it (the record's reading anchored where the
     /// writer's clock was: the same `t` at every instant, to the bit of the live clock).
     Clock(Clock),
@@ -64,7 +64,7 @@ impl AppState {
         match op {
             Op::ScenePut { scene: id, spec } => {
                 let scene = match prepared {
-                    Prepared::Scene(s) => Some(s),
+                    Prepared::Scene(s) => Some(*s),
                     _ => build(id, spec),
                 };
                 if let Some(scene) = scene {

@@ -357,7 +357,7 @@ impl AppState {
             spec,
         };
         self.store()
-            .commit(self, op, Prepared::Scene(scene), moved)
+            .commit(self, op, Prepared::Scene(Box::new(scene)), moved)
             .await?;
         Ok((outcome, self.applied_scene(id)?))
     }

@@ -691,12 +691,12 @@ impl Fleet {
 /// this replica built it already (`built`: the writer hands its scene over).
 async fn apply_built(state: &AppState, op: Op, built: Option<Scene>) {
     let prepared = match (&op, built) {
-        (_, Some(scene)) => Prepared::Scene(scene),
+        (_, Some(scene)) => Prepared::Scene(Box::new(scene)),
         (Op::ScenePut { scene, spec }, None) => {
             let (id, spec) = (scene.clone(), spec.clone());
             match tokio::task::spawn_blocking(move || crate::state::apply::build(&id, &spec)).await
             {
-                Ok(Some(scene)) => Prepared::Scene(scene),
+                Ok(Some(scene)) => Prepared::Scene(Box::new(scene)),
                 // Logged by `build`: every replica skips it alike.
                 _ => return,
             }

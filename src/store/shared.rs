@@ -42,7 +42,7 @@ impl Store for Shared {
             // The feed applies it here as on every replica (a put's scene built by the caller
             // is handed over, not rebuilt); a put that moves the epoch drops the stored clock.
             let built = match prepared {
-                Prepared::Scene(s) => Some(s),
+                Prepared::Scene(s) => Some(*s),
                 _ => None,
             };
             let deleted = match &op {
