@@ -33,7 +33,7 @@ pub struct Config {
     pub data_dir: Option<PathBuf>,
     /// A shared store (Redis) for a fleet of replicas; when set, admin changes live there and
     /// `data_dir` is not used (see [`crate::store`]).
-    pub store: Option<crate::store::StoreUrl>,
+    pub store: Option<crate::store::url::StoreUrl>,
     /// Bearer token for admin endpoints; `None` generates one at start (see
     /// [`crate::Server::admin_token`]).
     pub admin_token: Option<String>,
@@ -53,7 +53,7 @@ pub struct Config {
     /// Request limits.
     pub limits: Limits,
     /// When the journal takes snapshots (with a data dir).
-    pub snapshots: crate::journal::snapshot::SnapshotPolicy,
+    pub snapshots: SnapshotPolicy,
     /// Longest the server waits at shutdown for its tasks (WebSocket sessions flushing their
     /// Close, loops finishing a step) before it writes the final snapshot anyway. 10 s: well
     /// inside Kubernetes' default 30 s grace period, with room for in-flight requests first.
@@ -244,7 +244,47 @@ impl Default for Limits {
     }
 }
 
+/// When snapshots are taken.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SnapshotPolicy {
+    /// A snapshot at least this often while anything was journaled. Bounds the replay after a
+    /// crash to this much wall time of changes (body steps between changes are replayed too:
+    /// an idle scene with bodies replays at most this long a stretch of its trajectory).
+    pub interval: Duration,
+    /// A snapshot as soon as this many records were journaled since the last: bounds the log.
+    pub max_records: usize,
+}
+
+impl Default for SnapshotPolicy {
+    /// Every 30 s or 10,000 records: a replay of at most ~900 ticks per scene at 30 Hz (well
+    /// under a second for 100 bodies) and a log of a few MiB at most.
+    fn default() -> Self {
+        SnapshotPolicy {
+            interval: Duration::from_secs(30),
+            max_records: 10_000,
+        }
+    }
+}
+
 impl Limits {
+    /// Checks a time given by a client.
+    ///
+    /// # Errors
+    /// 400 naming `field` if `t` is not finite or beyond [`Limits::max_time`].
+    pub fn check_time(&self, t: f64, field: &str) -> Result<f64, crate::error::ApiError> {
+        if t.is_finite() && t.abs() <= self.max_time {
+            Ok(t)
+        } else {
+            Err(crate::error::ApiError::invalid(
+                field,
+                format!(
+                    "{field} = {t} is out of range: a finite time with |t| <= {}",
+                    self.max_time
+                ),
+            ))
+        }
+    }
+
     /// The request timeout as a duration.
     pub fn request_timeout(&self) -> Duration {
         Duration::from_millis(self.request_timeout_ms)

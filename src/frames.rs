@@ -31,7 +31,7 @@
 //!
 //! # Computing ahead
 //! While a scene is queried near its clock's now ([`FrameCache::active_scenes`]: a query or a
-//! body step reading a near grid frame within [`ACTIVE_FOR`]), [`run_ahead`] computes the grid
+//! body step reading a near grid frame within [`ACTIVE_FOR`]), [`run_ahead`](crate::state::ahead::run_ahead) computes the grid
 //! frames the clock is about to reach, so a query at now finds its frames ready and answers
 //! without waiting for an FFT (on the reactor, see `service::query`). Queries at far-off or
 //! exact times alone do not start it: those frames would be of no use to them.
@@ -732,43 +732,9 @@ pub const AHEAD_STEPS: f64 = 2.0;
 /// within [`NEAR_STEPS`] of now; it stops short of them.
 pub const MAX_AHEAD_STEPS: f64 = NEAR_STEPS as f64 - 1.0;
 
-/// How often [`run_ahead`] looks at the clocks: well inside one grid step (17 ms by default),
+/// How often [`run_ahead`](crate::state::ahead::run_ahead) looks at the clocks: well inside one grid step (17 ms by default),
 /// so the next frames are ready long before the clock reaches them.
 pub const AHEAD_PERIOD: Duration = Duration::from_millis(5);
-
-/// The frame-ahead loop: every [`AHEAD_PERIOD`], for each FFT scene queried within
-/// [`ACTIVE_FOR`], computes the grid frames its clock reaches next
-/// ([`FrameCache::compute_ahead`], on the blocking pool). Ends when `state.shutdown` fires.
-pub async fn run_ahead(state: crate::state::AppState) {
-    let mut interval = tokio::time::interval(AHEAD_PERIOD);
-    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    loop {
-        tokio::select! {
-            () = state.shutdown.cancelled() => return,
-            _ = interval.tick() => {}
-        }
-        let active = state.frames.active_scenes();
-        if active.is_empty() {
-            continue;
-        }
-        for entry in state.scenes() {
-            if !active.contains(&entry.scene.uid) || !entry.scene.has_fft() {
-                continue;
-            }
-            let reading = state.read_clock(&entry);
-            let rate = if reading.paused { 0.0 } else { reading.rate };
-            let st = state.clone();
-            let scene = Arc::clone(&entry.scene);
-            let done = tokio::task::spawn_blocking(move || {
-                st.frames.compute_ahead(&scene, reading.t, rate)
-            })
-            .await;
-            if let Err(e) = done {
-                tracing::error!(error = %e, "computing frames ahead failed");
-            }
-        }
-    }
-}
 
 #[cfg(test)]
 mod tests {

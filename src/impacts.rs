@@ -22,7 +22,6 @@ use std::sync::{Arc, RwLock};
 
 use serde::{Deserialize, Serialize};
 
-use crate::state::AppState;
 use swell_waves::SurfaceAt;
 use swell_waves::error::SpecError;
 use swell_waves::particles::{Impact, Impacts};
@@ -243,17 +242,23 @@ impl SceneImpacts {
         }
     }
 
-    /// Mirrors the impacts `bodies` derived (call under its lock, after stepping and before
-    /// publishing its states, so a tick frame that waited for the states also finds the
-    /// impacts). The ones made since the last call are numbered as new (tick frames carry
-    /// them) when `announce`; a restore passes false. Cheap when nothing changed.
-    pub fn sync_bodies(&self, bodies: &mut crate::bodies::SceneBodies, announce: bool) {
-        let fresh = bodies.take_fresh_impacts();
-        let version = bodies.impacts_version();
+    /// Mirrors the impacts a scene's bodies derived ([`crate::bodies::SceneBodies::sync_impacts`]
+    /// calls it under the world's lock, after stepping and before publishing its states, so a
+    /// tick frame that waited for the states also finds the impacts): `fresh`, the ones made
+    /// since the last call, are numbered as new (tick frames carry them) when `announce`; a
+    /// restore passes false. `derived` (all of them) is asked for only when `version` moved.
+    /// Cheap when nothing changed.
+    pub fn sync_bodies(
+        &self,
+        fresh: Vec<Impact>,
+        version: u64,
+        derived: impl FnOnce() -> Impacts,
+        announce: bool,
+    ) {
         if version == self.read().body_version && fresh.is_empty() {
             return;
         }
-        let derived = Arc::new(bodies.derived_impacts());
+        let derived = Arc::new(derived());
         let mut g = self.write();
         g.bodies = derived;
         g.body_version = version;
@@ -364,19 +369,6 @@ fn missing(old: &[Impact], new: &[Impact]) -> Vec<Impact> {
     out
 }
 
-/// Adds journaled impacts to scene `id` at start-up (one that no longer validates is logged and
-/// skipped; an unknown scene's are dropped, as its other records are).
-pub fn restore_into(state: &AppState, id: &str, impacts: &[Impact]) {
-    let Ok(entry) = state.scene(id) else {
-        return;
-    };
-    for i in impacts {
-        if let Err(e) = entry.scene.impacts.add(*i) {
-            tracing::error!(scene = %id, error = %e, "journal: skipping an impact");
-        }
-    }
-}
-
 /// The impacts a scene's next tick frame carries: those added since `seen`, which is moved on.
 /// A replaced scene starts its numbering afresh, so a number above the scene's count means
 /// "from the start".
@@ -392,31 +384,9 @@ pub fn frame_events(scene: &crate::scene::Scene, seen: &mut u64) -> Vec<ImpactEv
         .collect()
 }
 
-/// The protobuf form of frame impacts.
-pub fn to_proto(events: &[ImpactEvent]) -> Vec<crate::wire::v1::ImpactEvent> {
-    events
-        .iter()
-        .map(|e| crate::wire::v1::ImpactEvent {
-            tick: e.tick,
-            t: e.t,
-            x: e.position[0],
-            z: e.position[1],
-            strength: e.strength,
-            radius: e.radius,
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
-    use std::sync::Arc;
-
-    use axum::extract::ws::Message;
-
     use super::*;
-    use crate::service::types::Tick;
-    use crate::stream::frame::{Interest, SharedTick};
-    use crate::stream::messages::{self, Codec, Event, Outgoing};
 
     fn impact(t: f64) -> Impact {
         Impact {
@@ -425,44 +395,6 @@ mod tests {
             strength: 0.4,
             radius: 0.6,
         }
-    }
-
-    /// A frame with impacts is assembled to exactly the bytes of the general encoders (JSON
-    /// keys sorted, protobuf field 4 after the bodies), and one without omits the field.
-    #[test]
-    fn frames_carry_impacts_in_both_codecs() {
-        for impacts in [vec![], vec![ImpactEvent::new(&impact(3.01), 30.0)]] {
-            let tick = Tick {
-                tick: 91,
-                t: 91.0 / 30.0,
-                bodies: Vec::new(),
-                impacts: impacts.clone(),
-            };
-            let shared = SharedTick::new(tick.clone());
-            for codec in [Codec::Json, Codec::Protobuf] {
-                let out = Outgoing {
-                    id: None,
-                    event: Event::Tick(Arc::new(tick.clone())),
-                };
-                let want = match codec {
-                    Codec::Json => messages::encode_json(&out).into_bytes(),
-                    Codec::Protobuf => messages::encode_protobuf(out),
-                };
-                let got = match shared.message(codec, &Interest::default()) {
-                    Message::Text(t) => t.as_str().as_bytes().to_vec(),
-                    Message::Binary(b) => b.to_vec(),
-                    other => panic!("{other:?}"),
-                };
-                assert_eq!(got, want, "{codec:?}");
-            }
-            let text = match shared.message(Codec::Json, &Interest::default()) {
-                Message::Text(t) => t.as_str().to_owned(),
-                other => panic!("{other:?}"),
-            };
-            assert_eq!(text.contains("\"impacts\""), !impacts.is_empty(), "{text}");
-        }
-        assert_eq!(ImpactEvent::new(&impact(3.01), 30.0).tick, 91);
-        assert_eq!(ImpactEvent::new(&impact(3.0), 30.0).tick, 90);
     }
 
     #[test]

@@ -15,19 +15,33 @@
 //! ```
 //!
 //! # Layout
+//! Layers point down; nothing points back up (`tests/layers.rs` pins it):
+//!
+//! ```text
+//! lib / main               composition: builds AppState, the router, the loops
+//!   api, stream, wire      transports: parse, authorize, call the state, encode
+//!   service                transport-free queries
+//!   state (AppState)       the registry and its store; applies Ops; the loops that drive it
+//!   scene, bodies, impacts, frames, journal, store   domain: plain types and functions
+//!   swell-waves            the model
+//! ```
+//!
 //! - [`config`] — [`Config`], limits, the TOML scene file.
-//! - [`scene`] — scene specs, built scenes, built-ins, the clock, persistence.
-//! - [`state`] — the registry and admin operations (validate → journal → swap).
-//! - [`store`] — where admin changes live: the journal (one process) or Redis (a fleet, with
-//!   a change feed every replica applies).
+//! - [`scene`] — scene specs, built scenes, built-ins, the clock and tick timing, persistence.
+//! - [`state`] — [`AppState`]: the registry, the one reducer ([`state::apply`]: every
+//!   acknowledged change is a [`journal::Op`], applied by local writes, the journal's replay and
+//!   a fleet's feed alike), the store behind one interface ([`state::store`]), the body driver
+//!   loop, snapshots, the frame-ahead loop.
+//! - [`store`] — a fleet's store: Redis, with a change feed every replica applies and a
+//!   sequenced body log per scene.
 //! - [`journal`] — durability: every acknowledged change in an fsynced, checksummed log in the
-//!   data dir, periodic snapshots, compaction, and the replay at start-up.
+//!   data dir, periodic snapshots, compaction; replayed at start-up ([`state::restore`]).
 //! - [`frames`] — the shared, bounded FFT frame cache.
-//! - [`bodies`] — server-authoritative floating bodies: a body world per scene, stepped at the
-//!   scene's tick rate by its own loop ([`bodies::runner`]).
+//! - [`bodies`] — server-authoritative floating bodies: a body world per scene, its registry,
+//!   and the one way both stores change and step it ([`bodies::drive`]).
+//! - [`impacts`] — a scene's impact events.
 //! - [`service`] — the transport-free query service: request/response types, time resolution,
-//!   the `run_*` queries, JSON decoding, the no-NaN check. HTTP and WebSocket both call it; the
-//!   domain modules depend on it, never on [`api`].
+//!   the `run_*` queries, JSON decoding, the no-NaN check. HTTP and WebSocket both call it.
 //! - [`access`] — roles (`admin`, `game`, `reader`) and the bearer tokens that carry them.
 //! - [`api`] — HTTP: routes, middleware, handlers, JSON/protobuf negotiation.
 //! - [`stream`] — the WebSocket stream: sessions, message codecs, the per-scene tick loop.
@@ -65,7 +79,7 @@ pub mod wire;
 
 use std::future::Future;
 use std::net::SocketAddr;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
@@ -125,6 +139,8 @@ pub struct Server {
     state: AppState,
     snapshots: journal::snapshot::SnapshotPolicy,
     shutdown_timeout: Duration,
+    /// A fleet's Redis store: its change feed and body logs are followed while serving.
+    shared: Option<(store::Fleet, store::FleetBodies)>,
 }
 
 impl Server {
@@ -176,10 +192,16 @@ impl Server {
             access,
             metrics_handle(),
         );
+        let mut shared = None;
         if let Some(url) = &config.store {
             let fleet = store::Fleet::new(url.clone()).map_err(StartError::Setup)?;
             tracing::info!(store = %url, "admin changes are shared through Redis");
-            state.set_fleet(fleet, config.snapshots.interval);
+            let bodies = store::FleetBodies::new(fleet.clone(), config.snapshots.interval);
+            state.set_store(Arc::new(store::shared::Shared {
+                fleet: fleet.clone(),
+                bodies: bodies.clone(),
+            }));
+            shared = Some((fleet, bodies));
         }
         let loading = state.clone();
         let builtin = config.builtin_scenes;
@@ -213,6 +235,7 @@ impl Server {
             state,
             snapshots: config.snapshots,
             shutdown_timeout: config.shutdown_timeout,
+            shared,
         })
     }
 
@@ -283,21 +306,23 @@ impl Server {
         });
         // FFT frames the scene clocks are about to reach, computed before queries ask; stops on
         // the shutdown token.
-        state.tasks.spawn(crate::frames::run_ahead(state.clone()));
+        state
+            .tasks
+            .spawn(crate::state::ahead::run_ahead(state.clone()));
         // Bodies restored from the data dir resume stepping.
-        state.bodies.start_all(&state);
+        state::bodies::start_all(&state);
         // Snapshots bound the log and the replay after a crash; they stop with the shutdown
         // signal, before the final snapshot below.
         if let Some(j) = state.journal().cloned() {
-            state.tasks.spawn(journal::snapshot::run(
+            state.tasks.spawn(state::snapshots::run(
                 state.clone(),
                 j,
                 self.snapshots,
                 state.shutdown.clone(),
             ));
         }
-        match state.fleet().cloned() {
-            Some(fleet) => {
+        match self.shared.clone() {
+            Some((fleet, fb)) => {
                 // The change feed; ready once the first full read of the shared store is
                 // applied (until then this replica could serve scenes the fleet has replaced).
                 state
@@ -305,18 +330,16 @@ impl Server {
                     .spawn(fleet.clone().run(state.clone(), state.shutdown.clone()));
                 // Body logs: follow every scene that has one (found again every second, so a
                 // scene whose first body was spawned through another replica is picked up).
-                if let Some(fb) = state.fleet_bodies().cloned() {
-                    let (st, stop) = (state.clone(), state.shutdown.clone());
-                    state.tasks.spawn(async move {
-                        let mut every = tokio::time::interval(Duration::from_secs(1));
-                        loop {
-                            tokio::select! {
-                                () = stop.cancelled() => return,
-                                _ = every.tick() => fb.discover(&st).await,
-                            }
+                let (st, stop) = (state.clone(), state.shutdown.clone());
+                state.tasks.spawn(async move {
+                    let mut every = tokio::time::interval(Duration::from_secs(1));
+                    loop {
+                        tokio::select! {
+                            () = stop.cancelled() => return,
+                            _ = every.tick() => fb.discover(&st).await,
                         }
-                    });
-                }
+                    }
+                });
                 let readying = state.clone();
                 state.tasks.spawn(async move {
                     tokio::select! {

@@ -7,9 +7,8 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
 use crate::api::json::RawBody;
-use crate::bodies::runner::ensure_running;
 use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
-use crate::error::{ApiError, ErrorCode};
+use crate::error::ApiError;
 use crate::service::json::from_slice;
 use crate::service::types::{BodyDescription, HullExtent};
 use crate::state::AppState;
@@ -42,24 +41,6 @@ fn describe(b: &SceneBodies, only: Option<u64>) -> Vec<BodyDescription> {
         .collect()
 }
 
-/// Journals the changes just made to `b` (call with its lock held); the seq to commit.
-fn journal_events(
-    state: &AppState,
-    scene: &str,
-    b: &mut crate::bodies::SceneBodies,
-) -> Result<u64, ApiError> {
-    crate::journal::snapshot::append_body_events(state.journal(), scene, b)
-        .map_err(ApiError::internal)
-}
-
-/// Waits until the journal holds record `seq` durably: the answer goes out only then.
-async fn commit(state: &AppState, seq: u64) -> Result<(), ApiError> {
-    match state.journal() {
-        Some(j) => j.commit(seq).await.map_err(ApiError::internal),
-        None => Ok(()),
-    }
-}
-
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
     raw.parse::<u64>().map_err(|_| {
         ApiError::invalid(
@@ -76,39 +57,7 @@ pub async fn create(
     RawBody(body): RawBody,
 ) -> Result<Response, ApiError> {
     let req: SpawnRequest = from_slice(&body)?;
-    if let Some(fleet) = state.fleet_bodies() {
-        // A fleet: through the scene's sequenced log (crate::store::bodies).
-        let out = fleet.spawn(&state, &id, req).await?;
-        tracing::info!(scene = %id, body = out.id, "body spawned (fleet)");
-        return Ok((StatusCode::CREATED, axum::Json(out)).into_response());
-    }
-    let entry = state.scene(&id)?;
-    let reading = state.read_clock(&entry);
-    let cell = state.bodies.get_or_create(
-        &id,
-        reading.tick,
-        entry.scene.spec.tick_hz,
-        entry.scene.spec.surface.gravity,
-    )?;
-    let out = {
-        let mut b = cell.lock();
-        let max = state.limits.max_scene_bodies;
-        if b.len() >= max {
-            return Err(ApiError::new(
-                ErrorCode::SceneFull,
-                format!("scene {id} already has {max} bodies, the limit"),
-            ));
-        }
-        let bid = b.spawn(&req)?;
-        cell.publish(&b);
-        let seq = journal_events(&state, &id, &mut b);
-        (b.state(bid)?, seq)
-    };
-    let (out, seq) = out;
-    // The body is in the world now: step it even if the journal failed (answered with 500).
-    ensure_running(&state, &id, &cell);
-    commit(&state, seq?).await?;
-    tracing::info!(scene = %id, body = out.id, "body spawned");
+    let out = state.spawn_body(&id, req).await?;
     Ok((StatusCode::CREATED, axum::Json(out)).into_response())
 }
 
@@ -157,27 +106,8 @@ pub async fn delete(
 ) -> Result<StatusCode, ApiError> {
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
-    if let Some(fleet) = state.fleet_bodies() {
-        fleet.remove(&state, &id, bid).await?;
-        return Ok(StatusCode::NO_CONTENT);
-    }
-    let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
-    let removed = {
-        let mut b = cell.lock();
-        if b.remove(bid) {
-            cell.publish(&b);
-            Some(journal_events(&state, &id, &mut b)?)
-        } else {
-            None
-        }
-    };
-    if let Some(seq) = removed {
-        commit(&state, seq).await?;
-        tracing::info!(scene = %id, body = bid, "body removed");
-        Ok(StatusCode::NO_CONTENT)
-    } else {
-        Err(body_not_found(bid))
-    }
+    state.remove_body(&id, bid).await?;
+    Ok(StatusCode::NO_CONTENT)
 }
 
 /// `POST /v1/scenes/{id}/bodies/{bid}/input` (admin): 202 with the tick the bodies are at.
@@ -189,21 +119,7 @@ pub async fn input(
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let req: InputRequest = from_slice(&body)?;
-    if let Some(fleet) = state.fleet_bodies() {
-        let tick = fleet.input(&state, &id, bid, req).await?;
-        return Ok((
-            StatusCode::ACCEPTED,
-            axum::Json(serde_json::json!({"tick": tick})),
-        )
-            .into_response());
-    }
-    let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
-    let (tick, seq) = {
-        let mut b = cell.lock();
-        b.input(bid, &req)?;
-        (b.tick(), journal_events(&state, &id, &mut b)?)
-    };
-    commit(&state, seq).await?;
+    let tick = state.body_input(&id, bid, req).await?;
     Ok((
         StatusCode::ACCEPTED,
         axum::Json(serde_json::json!({"tick": tick})),

@@ -10,8 +10,7 @@ use swell_waves::particles::Impact;
 
 use crate::api::json::RawBody;
 use crate::error::{ApiError, ErrorCode};
-use crate::impacts::{AddError, IMPACT_HORIZON_S, ImpactEvent, MAX_SCENE_IMPACTS, apply_tick};
-use crate::journal::Op;
+use crate::impacts::{IMPACT_HORIZON_S, ImpactEvent, apply_tick};
 use crate::service::json::from_slice;
 use crate::state::AppState;
 
@@ -88,63 +87,7 @@ pub async fn create(
         )
         .with_field("t"));
     }
-    let refused = |e: AddError| match e {
-        AddError::Full(why) => ApiError::new(ErrorCode::TooManyImpacts, why),
-        AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
-    };
-    if let Some(fleet) = state.fleet() {
-        // A fleet: into the scene's impact list in Redis with the feed entry that makes every
-        // replica (this one included, before the answer) add it (crate::store::fleet). The
-        // ring-lifetime limit is checked against this replica's set; the total in Redis.
-        scene
-            .impacts
-            .check_room(&impact, layer.ripples().lifetime)
-            .map_err(refused)?;
-        let wanted = state.read_clock(&entry).tick + 1;
-        fleet
-            .add_impact(
-                &id,
-                impact,
-                MAX_SCENE_IMPACTS,
-                wanted,
-                layer.ripples().lifetime,
-            )
-            .await?;
-        metrics::counter!("swell_impacts_total").increment(1);
-        return Ok((
-            StatusCode::ACCEPTED,
-            axum::Json(ImpactAccepted {
-                tick: apply_tick(t, hz),
-                t,
-            }),
-        )
-            .into_response());
-    }
-    scene
-        .impacts
-        .add_checked(impact, layer.ripples().lifetime)
-        .map_err(refused)?;
-    let mut seq = match state.journal() {
-        Some(j) => j
-            .append(Op::Impact {
-                scene: id.clone(),
-                impact,
-            })
-            .map_err(ApiError::internal)?,
-        None => 0,
-    };
-    // The scene's bodies feel it from their current tick: recorded in their history under
-    // their lock, so a replay feels it from the same tick (crate::bodies::SceneBodies::feel).
-    if let Some(cell) = state.bodies.get(&id) {
-        let mut b = cell.lock();
-        b.feel(impact);
-        let body_seq = crate::journal::snapshot::append_body_events(state.journal(), &id, &mut b)
-            .map_err(ApiError::internal)?;
-        seq = seq.max(body_seq);
-    }
-    if let Some(j) = state.journal() {
-        j.commit(seq).await.map_err(ApiError::internal)?;
-    }
+    state.add_impact(entry.clone(), impact, lifetime).await?;
     metrics::counter!("swell_impacts_total").increment(1);
     Ok((
         StatusCode::ACCEPTED,

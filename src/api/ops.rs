@@ -23,18 +23,7 @@ pub async fn readyz(State(state): State<AppState>) -> Result<axum::Json<Value>, 
     if state.is_ready() {
         // The store: a replica whose Redis is down stays ready (it serves its last known
         // scenes; admin writes get 503), and says so here.
-        let store = match state.backend() {
-            crate::store::Backend::Redis(f) => {
-                json!({
-                    "kind": "redis",
-                    "connected": f.is_connected(),
-                    // Scenes whose bodies this replica sequences (holds the lease of).
-                    "sequencing": state.fleet_bodies().map(|b| b.sequenced()).unwrap_or_default(),
-                })
-            }
-            crate::store::Backend::Local(Some(_)) => json!({"kind": "data_dir"}),
-            crate::store::Backend::Local(None) => json!({"kind": "memory"}),
-        };
+        let store = state.store().status(&state);
         Ok(axum::Json(
             json!({"status": "ready", "scenes": state.scenes().len(), "store": store}),
         ))

@@ -1,5 +1,5 @@
 //! Server-authoritative floating bodies: one [`swell_waves::body::World`] per scene, stepped at
-//! the scene's tick rate by a loop ([`runner`]) while the scene has bodies.
+//! the scene's tick rate by a loop ([`crate::state::bodies`]) while the scene has bodies.
 //!
 //! Time. A scene's body world is *anchored* at a scene tick: world tick 0 is that scene tick,
 //! and the world's time is `anchor/tick_hz + n/tick_hz`. Each loop iteration advances the world
@@ -10,8 +10,9 @@
 //! server was overloaded), the world is re-anchored at the new tick with every body's current
 //! state and the rest of its inputs: the bodies carry on from where they were.
 
+pub mod drive;
 pub mod event;
-pub mod runner;
+pub mod registry;
 
 use std::collections::BTreeMap;
 
@@ -626,6 +627,19 @@ impl SceneBodies {
     /// The body impacts derived since the last call, oldest first.
     pub fn take_fresh_impacts(&mut self) -> Vec<swell_waves::particles::Impact> {
         std::mem::take(&mut self.fresh)
+    }
+
+    /// Mirrors the impacts these bodies derived into the scene's set `impacts` (call under the
+    /// world's lock, after stepping and before publishing the states); the ones made since the
+    /// last call are announced (tick frames carry them) when `announce`.
+    pub fn sync_impacts(&mut self, impacts: &crate::impacts::SceneImpacts, announce: bool) {
+        let fresh = self.take_fresh_impacts();
+        impacts.sync_bodies(
+            fresh,
+            self.impacts_version(),
+            || self.derived_impacts(),
+            announce,
+        );
     }
 
     /// States in id order; `only` restricts to those ids.

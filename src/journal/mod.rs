@@ -6,9 +6,9 @@
 //! request waits in [`Journal::commit`] until an fsync covers it. Commits are grouped: one
 //! fsync covers every record written before it, and concurrent requests wait for the same one.
 //!
-//! A snapshot ([`snapshot::take`]) folds the log into `snapshot.bin` (written atomically) and
+//! A snapshot ([`crate::state::snapshots::take`]) folds the log into `snapshot.bin` (written atomically) and
 //! then compacts: the log is rewritten with only the records the snapshot does not include. A
-//! restart loads the snapshot and replays the short tail ([`restore`]). Bodies are stepped on
+//! restart loads the snapshot and replays the short tail ([`crate::state::restore`]). Bodies are stepped on
 //! replay exactly as they were live (see [`crate::bodies::event`]), so a restarted server
 //! continues the same trajectories to the bit.
 //!
@@ -31,7 +31,6 @@
 
 pub mod frame;
 pub mod record;
-pub mod restore;
 pub mod snapshot;
 
 use std::collections::VecDeque;

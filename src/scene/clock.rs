@@ -22,6 +22,8 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
+use std::time::Duration;
+
 use serde::{Deserialize, Serialize};
 
 /// The epoch of built-in and configured scenes that give none: 2026-01-01T00:00:00Z, Unix
@@ -218,6 +220,45 @@ pub fn tick_of(t: f64, tick_hz: f64) -> i64 {
     // `as` saturates for out-of-range floats (and maps NaN to 0).
     (t * tick_hz).floor() as i64
 }
+
+// Tick timing: when the next tick boundary comes in real time. The tick loop
+// ([`crate::stream::ticks`]), the body loop and a fleet's sequencer all wake on it.
+
+/// Longest real time between two looks at the clock, so an admin clock change (resume, seek,
+/// rate) shows within this delay even when the next tick is far away or the clock is paused.
+pub const MAX_SLEEP: Duration = Duration::from_millis(50);
+/// Shortest sleep: bounds the loop's wake-ups at 1 kHz (the highest tick rate a scene may ask
+/// for) even when the clock is fast-forwarded.
+pub const MIN_SLEEP: Duration = Duration::from_millis(1);
+
+/// Real time until the clock crosses the next tick boundary in its direction, clamped to
+/// [`MIN_SLEEP`, `MAX_SLEEP`]. The body loop sleeps the same way, so both wake together.
+pub fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> Duration {
+    if paused || rate == 0.0 {
+        return MAX_SLEEP;
+    }
+    let boundary = if rate > 0.0 {
+        (tick + 1) as f64 / tick_hz
+    } else {
+        tick as f64 / tick_hz
+    };
+    let secs = (boundary - t) / rate;
+    // Sleep a hair past the boundary so the reading after waking is in the new tick.
+    Duration::try_from_secs_f64(secs + 1e-4)
+        .unwrap_or(MIN_SLEEP)
+        .clamp(MIN_SLEEP, MAX_SLEEP)
+}
+
+/// How early the async timer is asked to wake before a tick boundary. Its resolution is a
+/// millisecond, and it rounds deadlines up, so a plain `tokio::time::sleep` to the boundary woke
+/// 1.3 ms late on average (`swell_tick_lateness_seconds` under `swell-load stream`), and every
+/// frame carried that delay. The body loop sleeps the rest on the blocking thread that then
+/// steps ([`crate::state::bodies`]); the tick loop of a scene without bodies in
+/// [`crate::stream::ticks::sleep_to_boundary`].
+pub const COARSE_WAKE: Duration = Duration::from_millis(2);
+
+/// Largest |rate| of a clock: a day per second is beyond any fast-forward a game needs.
+pub const MAX_RATE: f64 = 86_400.0;
 
 #[cfg(test)]
 mod tests {

@@ -55,8 +55,8 @@ impl ClockRecord {
     /// that loads it agrees on `t` at any instant. A wall clock now behind the reading (stepped
     /// back, or another machine's) anchors it at `now` instead, so it never reads a `t` earlier
     /// than the one recorded.
-    pub fn restore(&self, now: f64) -> crate::scene::Clock {
-        crate::scene::Clock::with_state(self.unix.min(now), self.t, self.rate, self.paused)
+    pub fn restore(&self, now: f64) -> crate::scene::clock::Clock {
+        crate::scene::clock::Clock::with_state(self.unix.min(now), self.t, self.rate, self.paused)
             .with_generation(self.generation)
     }
 }

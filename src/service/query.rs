@@ -32,17 +32,7 @@ const POINTS_PER_THREAD: usize = 8192;
 /// # Errors
 /// 400 naming `field` if `t` is not finite or beyond `limits.max_time`.
 pub fn check_time(limits: &Limits, t: f64, field: &str) -> Result<f64, ApiError> {
-    if t.is_finite() && t.abs() <= limits.max_time {
-        Ok(t)
-    } else {
-        Err(ApiError::invalid(
-            field,
-            format!(
-                "{field} = {t} is out of range: a finite time with |t| <= {}",
-                limits.max_time
-            ),
-        ))
-    }
+    limits.check_time(t, field)
 }
 
 fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f64, ApiError> {

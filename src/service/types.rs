@@ -66,15 +66,15 @@ pub struct ClockUpdate {
 
 impl ClockUpdate {
     /// Checks the numbers before anything changes: `t` as a query time
-    /// ([`crate::service::query::check_time`]), `|rate| <=` [`crate::state::MAX_RATE`].
+    /// ([`crate::Limits::check_time`]), `|rate| <=` [`crate::scene::clock::MAX_RATE`].
     ///
     /// # Errors
     /// 400 naming `t` or `rate`.
     pub fn validate(&self, limits: &crate::Limits) -> Result<(), crate::error::ApiError> {
         if let Some(t) = self.t {
-            crate::service::query::check_time(limits, t, "t")?;
+            limits.check_time(t, "t")?;
         }
-        let max = crate::state::MAX_RATE;
+        let max = crate::scene::clock::MAX_RATE;
         if let Some(r) = self.rate
             && !(r.is_finite() && r.abs() <= max)
         {

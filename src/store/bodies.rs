@@ -52,8 +52,8 @@ use redis::streams::{StreamReadOptions, StreamReadReply};
 use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 
-use super::Fleet;
 use super::fleet::EntryId;
+use super::fleet::Fleet;
 use crate::bodies::{BodyState, InputRequest, SpawnRequest, WorldRecord};
 use crate::error::{ApiError, ErrorCode};
 use crate::state::AppState;
@@ -70,29 +70,7 @@ pub const SNAPSHOT_EVERY: Duration = Duration::from_secs(10);
 /// failover takes up to [`LEASE_TTL`]).
 const APPLY_TIMEOUT: Duration = Duration::from_secs(4);
 
-/// A body command as logged.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum BodyCmd {
-    /// Spawn a body.
-    Spawn(SpawnRequest),
-    /// Remove body `id`.
-    Remove {
-        /// Body id.
-        id: u64,
-    },
-    /// Queue an input for body `id`.
-    Input {
-        /// Body id.
-        id: u64,
-        /// The input.
-        input: InputRequest,
-    },
-    /// The bodies feel an API impact from this tick on ([`crate::bodies::SceneBodies::feel`]).
-    /// Appended with the impact itself ([`crate::store::Fleet::add_impact`]), only to a scene
-    /// that has a body log: a world that does not exist yet has nothing to feel it.
-    Impact(swell_waves::particles::Impact),
-}
+pub use crate::bodies::drive::BodyCmd;
 
 /// What applying a command gave (kept for the replica that appended it).
 type Outcome = Result<BodyState, ApiError>;
@@ -324,11 +302,8 @@ impl FleetBodies {
         let (hz, g) = (entry.scene.spec.tick_hz, entry.scene.spec.surface.gravity);
         // Validate before logging: a command in the log is applied by every replica.
         crate::bodies::SceneBodies::new(0, hz, g)?.spawn(&req)?;
-        if let Some(cell) = state.bodies.get(scene)
-            && cell.lock().len() >= state.limits.max_scene_bodies
-        {
-            return Err(too_many(scene, state.limits.max_scene_bodies));
-        }
+        // The body limit is checked where the spawn applies (crate::bodies::drive::apply), on
+        // every replica alike; the outcome answers this request.
         let wanted = state.read_clock(&entry).tick + 1;
         let (_, nonce) = self
             .append(state, scene, &BodyCmd::Spawn(req), wanted)
@@ -519,7 +494,7 @@ impl FleetBodies {
                                 let mut b = cell.lock();
                                 // The body impacts the snapshot holds ripple here too.
                                 if let Ok(entry) = state.scene(scene) {
-                                    entry.scene.impacts.sync_bodies(&mut b, false);
+                                    b.sync_impacts(&entry.scene.impacts, false);
                                 }
                                 cell.publish(&b);
                             }
@@ -616,33 +591,29 @@ impl FleetBodies {
                 },
             };
             let mut b = cell.lock();
-            b.advance_to(tick, sea, hz, g);
-            s.impacts.sync_bodies(&mut b, true);
-            // Only a spawn's replica waits for its outcome (the state it answers with); removals,
-            // inputs and impacts were answered when they were logged.
-            let spawned = match cmd {
-                BodyCmd::Spawn(req) => Some(if b.len() >= state.limits.max_scene_bodies {
-                    Err(too_many(scene, state.limits.max_scene_bodies))
-                } else {
-                    b.spawn(&req).and_then(|id| b.state(id))
-                }),
-                BodyCmd::Remove { id } => {
-                    b.remove(id);
-                    None
-                }
+            crate::bodies::drive::step(&mut b, tick, sea, s);
+            let cmd = match cmd {
+                // Asked to act from a tick now past: from the next tick instead.
                 BodyCmd::Input { id, mut input } => {
-                    // Asked to act from a tick now past: from the next tick instead.
                     if input.from_tick.is_some_and(|t| t <= tick) {
                         input.from_tick = None;
                     }
-                    // An input for a body removed meanwhile is refused on every replica alike.
-                    let _ = b.input(id, &input);
-                    None
+                    BodyCmd::Input { id, input }
                 }
-                BodyCmd::Impact(impact) => {
-                    b.feel(impact);
-                    None
-                }
+                other => other,
+            };
+            // The same rules (and limits) as a local change. An input for a body removed
+            // meanwhile is refused on every replica alike; only a spawn's replica waits for its
+            // outcome (the state it answers with): removals, inputs and impacts were answered
+            // when they were logged.
+            let out =
+                crate::bodies::drive::apply(&mut b, scene, &cmd, state.limits.max_scene_bodies);
+            let spawned = match cmd {
+                BodyCmd::Spawn(_) => Some(out.and_then(|id| match id {
+                    Some(id) => b.state(id),
+                    None => Err(ApiError::internal("a spawn gave no body id")),
+                })),
+                _ => None,
             };
             let _ = b.take_events();
             // Not published here: a tick's states are published once, at the watermark, when
@@ -654,9 +625,8 @@ impl FleetBodies {
         }
         if let Some(cell) = state.bodies.get(scene) {
             let mut b = cell.lock();
-            let adv = b.advance_to(w, sea, hz, g);
+            let adv = crate::bodies::drive::step(&mut b, w, sea, s);
             let _ = b.take_events();
-            s.impacts.sync_bodies(&mut b, true);
             if adv.steps > 0 || adv.reanchored {
                 metrics::counter!("swell_body_ticks_total").increment(u64::from(adv.steps));
             }
@@ -833,13 +803,6 @@ async fn trimmed_past(
     let at = last.to_string();
     let found: redis::streams::StreamRangeReply = conn.xrange(key(scene, "log"), &at, &at).await?;
     Ok(found.ids.is_empty())
-}
-
-fn too_many(scene: &str, max: usize) -> ApiError {
-    ApiError::new(
-        ErrorCode::SceneFull,
-        format!("scene {scene} already has {max} bodies, the limit"),
-    )
 }
 
 /// A small body to check an input against.

@@ -51,12 +51,13 @@ use redis::{AsyncCommands as _, AsyncConnectionConfig};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 
-use super::StoreUrl;
+use super::url::StoreUrl;
 use crate::error::{ApiError, ErrorCode};
 use crate::journal::{AdminScene, AdminState, Op};
 use crate::scene::Scene;
 use crate::scene::store::ClockRecord;
 use crate::state::AppState;
+use crate::state::apply::Prepared;
 
 /// Feed entries kept (approximately: `MAXLEN ~` trims whole radix-tree nodes, cheaply). A
 /// replica that is connected reads entries within milliseconds; one that reconnects re-reads
@@ -624,22 +625,23 @@ impl Fleet {
                 continue;
             }
             changed += 1;
-            match s {
-                AdminScene::Put(spec) => {
-                    let (id2, spec) = (id.clone(), spec.clone());
-                    if let Ok(Some(scene)) =
-                        tokio::task::spawn_blocking(move || super::apply::build(&id2, &spec)).await
-                    {
-                        super::apply::put(state, scene);
-                    }
-                }
-                AdminScene::Deleted => super::apply::delete(state, id),
-            }
+            let op = match s {
+                AdminScene::Put(spec) => Op::ScenePut {
+                    scene: id.clone(),
+                    spec: spec.clone(),
+                },
+                AdminScene::Deleted => Op::SceneDelete { scene: id.clone() },
+            };
+            apply_built(state, op, None).await;
         }
         for (id, c) in &stored.clocks {
             if before.clocks.get(id) != Some(c) {
                 changed += 1;
-                super::apply::clock(state, id, c);
+                let op = Op::Clock {
+                    scene: id.clone(),
+                    clock: *c,
+                };
+                state.apply(&op, Prepared::Nothing);
             }
         }
         for id in before.scenes.keys() {
@@ -690,26 +692,33 @@ impl Fleet {
         };
         let nonce: Option<String> = entry.get("nonce");
         let built = match &op {
-            Op::ScenePut { scene, spec } => {
-                let pre = nonce.and_then(|n| lock(&self.0.prebuilt).remove(&n));
-                match pre {
-                    Some(s) => Some(s),
-                    None => {
-                        let (id, spec) = (scene.clone(), spec.clone());
-                        tokio::task::spawn_blocking(move || super::apply::build(&id, &spec))
-                            .await
-                            .ok()
-                            .flatten()
-                    }
-                }
-            }
+            Op::ScenePut { .. } => nonce.and_then(|n| lock(&self.0.prebuilt).remove(&n)),
             _ => None,
         };
-        super::apply::op(state, &op, built);
+        apply_built(state, op.clone(), built).await;
         lock(&self.0.folded).apply(&op);
         metrics::counter!("swell_store_feed_applied_total").increment(1);
         tracing::debug!(id = %entry.id, "store: applied a feed entry");
     }
+}
+
+/// Applies a feed's op ([`AppState::apply`]), building a put's scene off the reactor unless
+/// this replica built it already (`built`: the writer hands its scene over).
+async fn apply_built(state: &AppState, op: Op, built: Option<Scene>) {
+    let prepared = match (&op, built) {
+        (_, Some(scene)) => Prepared::Scene(Box::new(scene)),
+        (Op::ScenePut { scene, spec }, None) => {
+            let (id, spec) = (scene.clone(), spec.clone());
+            match tokio::task::spawn_blocking(move || crate::state::apply::build(&id, &spec)).await
+            {
+                Ok(Some(scene)) => Prepared::Scene(Box::new(scene)),
+                // Logged by `build`: every replica skips it alike.
+                _ => return,
+            }
+        }
+        _ => Prepared::Nothing,
+    };
+    state.apply(&op, prepared);
 }
 
 /// Makes every scene's API impacts what Redis holds (`scenes[i]`'s list is `lists[i]`; a

@@ -399,7 +399,7 @@ fn impacts_protobuf(tick: &Tick) -> Vec<u8> {
         return Vec::new();
     }
     v1::Tick {
-        impacts: crate::impacts::to_proto(&tick.impacts),
+        impacts: crate::wire::convert::impact_events(&tick.impacts),
         ..Default::default()
     }
     .encode_to_vec()
@@ -623,5 +623,67 @@ mod tests {
         let one = Interest::new(vec![1], None);
         let text = String::from_utf8(bytes(shared.message(Codec::Json, &one))).unwrap();
         assert!(text.contains("\"type\":\"tick\""), "{text}");
+    }
+}
+
+/// Tick frames carrying impacts (moved here from `crate::impacts`: frame encoding is the
+/// stream's).
+#[cfg(test)]
+mod impact_frames {
+    use std::sync::Arc;
+
+    use axum::extract::ws::Message;
+    use swell_waves::particles::Impact;
+
+    use super::{Interest, SharedTick};
+    use crate::impacts::ImpactEvent;
+    use crate::service::types::Tick;
+    use crate::stream::messages::{self, Codec, Event, Outgoing};
+
+    fn impact(t: f64) -> Impact {
+        Impact {
+            t,
+            position: [1.5, -2.25],
+            strength: 0.4,
+            radius: 0.6,
+        }
+    }
+
+    /// A frame with impacts is assembled to exactly the bytes of the general encoders (JSON
+    /// keys sorted, protobuf field 4 after the bodies), and one without omits the field.
+    #[test]
+    fn frames_carry_impacts_in_both_codecs() {
+        for impacts in [vec![], vec![ImpactEvent::new(&impact(3.01), 30.0)]] {
+            let tick = Tick {
+                tick: 91,
+                t: 91.0 / 30.0,
+                bodies: Vec::new(),
+                impacts: impacts.clone(),
+            };
+            let shared = SharedTick::new(tick.clone());
+            for codec in [Codec::Json, Codec::Protobuf] {
+                let out = Outgoing {
+                    id: None,
+                    event: Event::Tick(Arc::new(tick.clone())),
+                };
+                let want = match codec {
+                    Codec::Json => messages::encode_json(&out).into_bytes(),
+                    Codec::Protobuf => messages::encode_protobuf(out),
+                };
+                let got = match shared.message(codec, &Interest::default()) {
+                    Message::Text(t) => t.as_str().as_bytes().to_vec(),
+                    Message::Binary(b) => b.to_vec(),
+                    other => panic!("{other:?}"),
+                };
+                assert_eq!(got, want, "{codec:?}");
+            }
+            let text = match shared.message(Codec::Json, &Interest::default()) {
+                Message::Text(t) => t.as_str().to_owned(),
+                other => panic!("{other:?}"),
+            };
+            assert_eq!(text.contains("\"impacts\""), !impacts.is_empty(), "{text}");
+        }
+        assert_eq!(ImpactEvent::new(&impact(3.01), 30.0).tick, 91);
+        assert_eq!(ImpactEvent::new(&impact(3.0), 30.0).tick, 90);
     }
 }

@@ -5,7 +5,7 @@
 //! - [`frame`] — a tick frame shared by every subscriber, each body state encoded once per
 //!   codec and each subscriber's frame assembled from those bytes.
 //! - [`ticks`] — the per-scene tick loop; it puts in each frame the floating bodies' states the
-//!   body loop ([`crate::bodies::runner`], the only stepping path) published for its tick.
+//!   body loop ([`crate::state::bodies`], the only stepping path) published for its tick.
 //!
 //! # A session
 //! One task reads the socket and answers requests; a writer task owns the socket's sending half.
@@ -54,6 +54,7 @@
 pub mod compact;
 pub mod frame;
 pub mod messages;
+pub mod registry;
 pub mod ticks;
 
 use std::sync::Arc;

@@ -12,7 +12,7 @@
 //! beyond ~1000 ticks per real second, or a seek).
 //!
 //! # Floating bodies
-//! The loop never steps bodies: the scene's body loop ([`crate::bodies::runner`]), or in a fleet
+//! The loop never steps bodies: the scene's body loop ([`crate::state::bodies`]), or in a fleet
 //! the scene's log follower ([`crate::store::bodies`]), is the only stepping path. Before each
 //! frame the loop waits (at most [`BODY_WAIT_TICKS`] tick periods) for the states of the clock's
 //! tick, which the body loop publishes right after the same tick boundary (a follower when the
@@ -28,47 +28,29 @@
 //! gave up still go out at once, under their own tick, unless a later frame went out first. Earlier, a late frame carried the latest states under the clock's tick: states one or
 //! more ticks old, labelled as new, so replicas' frames for one tick could differ.
 
-use std::collections::BTreeMap;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 use tokio::sync::broadcast;
 
+/// Tick timing lives with the clock ([`crate::scene::clock`]); re-exported for the loop here.
+pub use crate::scene::clock::{COARSE_WAKE, MAX_SLEEP, MIN_SLEEP, until_next_tick};
 use crate::scene::clock::{ClockReading, tick_of};
 use crate::service::types::{BodyState, Tick};
 use crate::state::AppState;
 use crate::stream::frame::SharedTick;
+pub use crate::stream::registry::Tickers;
 
 /// Frames buffered per subscriber in the broadcast channel. A subscriber task only moves frames
 /// from here to its own bounded send queue, so it lags only if starved of CPU; 64 frames are two
 /// seconds at 30 Hz. A lagging receiver skips the oldest frames (the loop never waits for it).
 const TICK_CHANNEL: usize = 64;
 
-/// Longest real time between two looks at the clock, so an admin clock change (resume, seek,
-/// rate) shows within this delay even when the next tick is far away or the clock is paused.
-const MAX_SLEEP: Duration = Duration::from_millis(50);
-/// Shortest sleep: bounds the loop's wake-ups at 1 kHz (the highest tick rate a scene may ask
-/// for) even when the clock is fast-forwarded.
-const MIN_SLEEP: Duration = Duration::from_millis(1);
-
 /// Longest wait for the body loop's states of a frame's tick, in tick periods (and never more
 /// than `MAX_SLEEP`, 50 ms).
 pub const BODY_WAIT_TICKS: f64 = 1.0;
 
-/// The registry of running tick loops, by scene id.
-#[derive(Debug, Default)]
-pub struct Tickers {
-    loops: Mutex<BTreeMap<String, broadcast::Sender<Arc<SharedTick>>>>,
-}
-
 impl Tickers {
-    fn lock(
-        &self,
-    ) -> std::sync::MutexGuard<'_, BTreeMap<String, broadcast::Sender<Arc<SharedTick>>>> {
-        // Entries are inserted and removed whole: a poisoned map is still consistent.
-        self.loops.lock().unwrap_or_else(|p| p.into_inner())
-    }
-
     /// Subscribes to scene `id`'s tick frames, starting its loop if none runs.
     ///
     /// The receiver is created under the registry lock, and the loop decides to stop under the
@@ -84,38 +66,7 @@ impl Tickers {
         state.tasks.spawn(run(state.clone(), id.to_owned(), tx));
         rx
     }
-
-    /// Number of running loops.
-    pub fn running(&self) -> usize {
-        self.lock().len()
-    }
 }
-
-/// Real time until the clock crosses the next tick boundary in its direction, clamped to
-/// [`MIN_SLEEP`, `MAX_SLEEP`]. The body loop sleeps the same way, so both wake together.
-pub fn until_next_tick(t: f64, tick: i64, tick_hz: f64, rate: f64, paused: bool) -> Duration {
-    if paused || rate == 0.0 {
-        return MAX_SLEEP;
-    }
-    let boundary = if rate > 0.0 {
-        (tick + 1) as f64 / tick_hz
-    } else {
-        tick as f64 / tick_hz
-    };
-    let secs = (boundary - t) / rate;
-    // Sleep a hair past the boundary so the reading after waking is in the new tick.
-    Duration::try_from_secs_f64(secs + 1e-4)
-        .unwrap_or(MIN_SLEEP)
-        .clamp(MIN_SLEEP, MAX_SLEEP)
-}
-
-/// How early the async timer is asked to wake before a tick boundary. Its resolution is a
-/// millisecond, and it rounds deadlines up, so a plain `tokio::time::sleep` to the boundary woke
-/// 1.3 ms late on average (`swell_tick_lateness_seconds` under `swell-load stream`), and every
-/// frame carried that delay. The body loop sleeps the rest on the blocking thread that then
-/// steps ([`crate::bodies::runner`]); the tick loop of a scene without bodies in
-/// [`sleep_to_boundary`].
-pub const COARSE_WAKE: Duration = Duration::from_millis(2);
 
 /// Sleeps `wait` to within the OS timer's precision (tens of microseconds): the async timer for
 /// all but the last [`COARSE_WAKE`], then a thread of the blocking pool for the rest (a thread

@@ -254,7 +254,7 @@ impl From<&Tick> for v1::Tick {
             t: t.t,
             bodies: t.bodies.iter().map(|&b| b.into()).collect(),
             compact: None,
-            impacts: crate::impacts::to_proto(&t.impacts),
+            impacts: impact_events(&t.impacts),
         }
     }
 }
@@ -275,6 +275,21 @@ impl From<&ApiError> for v1::ErrorResponse {
             error: Some(e.into()),
         }
     }
+}
+
+/// The protobuf form of a frame's impacts.
+pub fn impact_events(events: &[crate::impacts::ImpactEvent]) -> Vec<v1::ImpactEvent> {
+    events
+        .iter()
+        .map(|e| v1::ImpactEvent {
+            tick: e.tick,
+            t: e.t,
+            x: e.position[0],
+            z: e.position[1],
+            strength: e.strength,
+            radius: e.radius,
+        })
+        .collect()
 }
 
 #[cfg(test)]

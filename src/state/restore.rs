@@ -9,59 +9,44 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use serde_json::Value;
-
-use super::snapshot::append_body_events;
-use super::{AdminScene, Op, Recovered};
+use super::AppState;
+use super::apply::Prepared;
 use crate::bodies::SceneBodies;
 use crate::bodies::event::MAX_REPLAY_STEPS;
-use crate::scene::store::ClockRecord;
-use crate::scene::{Scene, SceneSpec};
-use crate::state::AppState;
+use crate::journal::snapshot::append_body_events;
+use crate::journal::{AdminScene, Op, Recovered};
 
-/// Puts a scene from its journaled spec, keeping the clock of a scene it replaces (as a live
-/// put does). A spec that no longer builds is logged and skipped, so a model upgrade cannot keep
-/// the server down.
-fn put_scene(state: &AppState, id: &str, spec: &Value) {
-    match SceneSpec::from_value(spec.clone()).and_then(|s| Scene::build(id, s)) {
-        Ok(scene) => {
-            // As a live put: the old clock stays unless the put moved the epoch (a new scene's
-            // spec always carries one, filled in when it was created).
-            let clock = state
-                .scene(id)
-                .ok()
-                .filter(|e| scene.spec.epoch.is_none() || scene.spec.epoch == e.scene.spec.epoch)
-                .map(|e| *e.clock.lock().unwrap_or_else(|p| p.into_inner()));
-            state.insert_loaded(scene, clock);
-        }
-        Err(e) => {
-            tracing::error!(scene = %id, error = %e.message, "journal: skipping a scene that no longer builds");
-        }
-    }
-}
-
-/// Sets a scene's clock from a journaled record.
-fn set_clock(state: &AppState, id: &str, rec: &ClockRecord) {
-    if let Ok(entry) = state.scene(id) {
-        state.replace_clock(&entry, rec.restore(state.now()));
-    }
-}
-
-/// Applies what [`super::Journal::open`] recovered to a state that holds the built-in and
+/// Applies what [`crate::journal::Journal::open`] recovered to a state that holds the built-in and
 /// configured scenes. Blocking (builds scenes, steps bodies).
 pub fn restore(state: &AppState, rec: Recovered) {
     let snapshot = rec.snapshot.unwrap_or_default();
+    // The snapshot's admin part, as the ops it folds: the last word on each scene, each clock,
+    // then each scene's impacts in the order they were accepted.
     for (id, s) in &snapshot.admin.scenes {
-        match s {
-            AdminScene::Put(spec) => put_scene(state, id, spec),
-            AdminScene::Deleted => state.remove_loaded(id),
-        }
+        let op = match s {
+            AdminScene::Put(spec) => Op::ScenePut {
+                scene: id.clone(),
+                spec: spec.clone(),
+            },
+            AdminScene::Deleted => Op::SceneDelete { scene: id.clone() },
+        };
+        state.apply(&op, Prepared::Nothing);
     }
     for (id, c) in &snapshot.admin.clocks {
-        set_clock(state, id, c);
+        let op = Op::Clock {
+            scene: id.clone(),
+            clock: *c,
+        };
+        state.apply(&op, Prepared::Nothing);
     }
     for (id, list) in &snapshot.admin.impacts {
-        crate::impacts::restore_into(state, id, list);
+        for impact in list {
+            let op = Op::Impact {
+                scene: id.clone(),
+                impact: *impact,
+            };
+            state.apply(&op, Prepared::Nothing);
+        }
     }
     let mut worlds: BTreeMap<String, SceneBodies> = BTreeMap::new();
     for (id, b) in &snapshot.bodies {
@@ -75,19 +60,12 @@ pub fn restore(state: &AppState, rec: Recovered) {
     let replayed = rec.records.len();
     for r in rec.records {
         let admin_new = r.seq > snapshot.admin_seq;
+        if admin_new && r.op.is_admin() {
+            state.apply(&r.op, Prepared::Nothing);
+        }
         match &r.op {
-            Op::ScenePut { scene, spec } if admin_new => put_scene(state, scene, spec),
-            Op::SceneDelete { scene } => {
-                if admin_new {
-                    state.remove_loaded(scene);
-                }
-                if r.seq > snapshot.body_seq(scene) {
-                    worlds.remove(scene);
-                }
-            }
-            Op::Clock { scene, clock } if admin_new => set_clock(state, scene, clock),
-            Op::Impact { scene, impact } if admin_new => {
-                crate::impacts::restore_into(state, scene, std::slice::from_ref(impact));
+            Op::SceneDelete { scene } if r.seq > snapshot.body_seq(scene) => {
+                worlds.remove(scene);
             }
             Op::Body { scene, event } if r.seq > snapshot.body_seq(scene) => {
                 if matches!(event, crate::bodies::BodyEvent::Created { .. }) {
@@ -131,7 +109,7 @@ pub fn restore(state: &AppState, rec: Recovered) {
         }
         // The body impacts the snapshot held and the replay re-derived: the same set the
         // live server had (not announced: no frame carries restored impacts as new).
-        entry.scene.impacts.sync_bodies(&mut w, false);
+        w.sync_impacts(&entry.scene.impacts, false);
         tracing::info!(scene = %id, bodies = w.len(), tick = w.tick(), "bodies restored");
         state.bodies.insert(&id, w);
     }

@@ -1,192 +1,27 @@
-//! The per-scene body loop and the registry of scenes' bodies.
-//!
-//! A scene's loop runs while the scene has bodies, and it is the only thing that steps them: it
-//! wakes when the scene clock crosses a tick boundary, advances the bodies to the clock's current
-//! tick (off the reactor, in `spawn_blocking`: 1,000 bodies take milliseconds) and publishes
-//! their states ([`Published`], a `watch` channel: readers get the latest, nothing is queued for
-//! them, so a slow reader never holds memory or delays the loop). The WebSocket tick loop waits
-//! for the states of its frame's tick there ([`SceneBodiesCell::states_at`]); the HTTP body
-//! endpoints read the world under its lock. A late wake-up is not bunched: the next iteration
+//! The body driver of a scene on one process: its loop runs while the scene has bodies, and it
+//! is the only thing that steps them there. It wakes when the scene clock crosses a tick
+//! boundary, advances the bodies to the clock's current tick (off the reactor, in
+//! `spawn_blocking`: 1,000 bodies take milliseconds) and publishes their states
+//! ([`crate::bodies::registry::Published`]). A late wake-up is not bunched: the next iteration
 //! simply steps several fixed ticks to catch up with the clock, so lateness never changes the
-//! trajectory.
+//! trajectory. (In a fleet, the scene's log follower drives the world instead:
+//! [`crate::store::bodies`].)
 
-use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use tokio::sync::watch;
+use super::AppState;
+use crate::bodies::Sea;
+use crate::bodies::registry::SceneBodiesCell;
+use crate::scene::clock::{COARSE_WAKE, until_next_tick};
 
-use super::{BodiesRecord, BodyState, SceneBodies, Sea};
-use crate::error::ApiError;
-use crate::state::AppState;
-
-/// The bodies' states as the body loop (or an admin change) last left them.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Published {
-    /// Scene tick of the states.
-    pub tick: i64,
-    /// States in id order.
-    pub states: Arc<Vec<BodyState>>,
-}
-
-/// One scene's bodies, their loop flag and their published states.
-#[derive(Debug)]
-pub struct SceneBodiesCell {
-    /// The body world. Locked for a step (milliseconds) or a read.
-    pub bodies: Mutex<SceneBodies>,
-    running: AtomicBool,
-    published: watch::Sender<Published>,
-}
-
-impl SceneBodiesCell {
-    /// Locks the body world (a poisoned lock still holds a consistent world: steps only replace
-    /// whole states).
-    pub fn lock(&self) -> std::sync::MutexGuard<'_, SceneBodies> {
-        self.bodies.lock().unwrap_or_else(|p| p.into_inner())
-    }
-
-    /// Publishes `b`'s states (call with the lock held, after a step or an admin change, so
-    /// publications are in the world's order).
-    pub fn publish(&self, b: &SceneBodies) {
-        self.published.send_replace(Published {
-            tick: b.tick(),
-            states: Arc::new(b.states(None)),
-        });
-    }
-
-    /// A receiver of the publications from now on (the tick loop wakes on them).
-    pub fn watch(&self) -> watch::Receiver<Published> {
-        self.published.subscribe()
-    }
-
-    /// The latest published states.
-    pub fn latest(&self) -> Published {
-        self.published.borrow().clone()
-    }
-
-    /// The states the body loop publishes for scene tick `tick`, waiting for them up to `wait`.
-    /// Reached means: published at `tick`, or beyond it in the clock's direction (`forward`: the
-    /// clock runs forward) when the loop has already moved on. On timeout (the loop is
-    /// overloaded, or stopped: no bodies) the latest states come back, and `exact` is false.
-    pub async fn states_at(&self, tick: i64, forward: bool, wait: Duration) -> (Published, bool) {
-        let mut rx = self.published.subscribe();
-        let reached = |p: &Published| {
-            p.tick == tick || (forward && p.tick > tick) || (!forward && p.tick < tick)
-        };
-        let got = tokio::time::timeout(wait, rx.wait_for(|p| reached(p)))
-            .await
-            .ok()
-            .and_then(Result::ok)
-            .map(|p| p.clone());
-        match got {
-            Some(p) => {
-                let exact = p.tick == tick;
-                (p, exact)
-            }
-            None => (self.latest(), false),
+/// Starts the loops of every scene that has bodies (at server start, after a restore).
+pub fn start_all(state: &AppState) {
+    for (id, cell) in state.bodies.cells() {
+        if !cell.lock().is_empty() {
+            ensure_running(state, &id, &cell);
         }
-    }
-}
-
-/// Every scene's bodies.
-#[derive(Debug, Default)]
-pub struct BodyRegistry {
-    scenes: Mutex<BTreeMap<String, Arc<SceneBodiesCell>>>,
-    stopping: AtomicBool,
-}
-
-impl BodyRegistry {
-    fn map(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, Arc<SceneBodiesCell>>> {
-        self.scenes.lock().unwrap_or_else(|p| p.into_inner())
-    }
-
-    /// The bodies of scene `id`, if it ever had any.
-    pub fn get(&self, id: &str) -> Option<Arc<SceneBodiesCell>> {
-        self.map().get(id).cloned()
-    }
-
-    /// The bodies of scene `id`, created empty (anchored at `tick`) if needed.
-    ///
-    /// # Errors
-    /// 422 if the scene's tick rate or gravity is outside the body model's range.
-    pub fn get_or_create(
-        &self,
-        id: &str,
-        tick: i64,
-        tick_hz: f64,
-        gravity: f64,
-    ) -> Result<Arc<SceneBodiesCell>, ApiError> {
-        let mut map = self.map();
-        if let Some(c) = map.get(id) {
-            return Ok(c.clone());
-        }
-        let bodies = SceneBodies::new(tick, tick_hz, gravity)?;
-        let cell = Arc::new(new_cell(bodies));
-        map.insert(id.to_owned(), cell.clone());
-        Ok(cell)
-    }
-
-    /// Installs restored bodies for scene `id`.
-    pub fn insert(&self, id: &str, bodies: SceneBodies) {
-        self.map().insert(id.to_owned(), Arc::new(new_cell(bodies)));
-    }
-
-    /// Forgets a deleted scene's bodies (its loop stops at its next tick).
-    pub fn remove_scene(&self, id: &str) {
-        self.map().remove(id);
-    }
-
-    /// Every scene's body cell, by scene id.
-    pub fn cells(&self) -> Vec<(String, Arc<SceneBodiesCell>)> {
-        self.map()
-            .iter()
-            .map(|(id, c)| (id.clone(), c.clone()))
-            .collect()
-    }
-
-    /// Persistable records of every scene with bodies.
-    pub fn records(&self) -> Vec<(String, BodiesRecord)> {
-        self.map()
-            .iter()
-            .map(|(id, c)| (id.clone(), c.lock().record()))
-            .collect()
-    }
-
-    /// Stops every loop at its next tick (graceful shutdown).
-    pub fn stop(&self) {
-        self.stopping.store(true, Ordering::SeqCst);
-    }
-
-    /// Whether loops are stopping.
-    pub fn is_stopping(&self) -> bool {
-        self.stopping.load(Ordering::SeqCst)
-    }
-
-    /// Starts the loops of every scene that has bodies (at server start, after a restore).
-    pub fn start_all(&self, state: &AppState) {
-        let cells: Vec<(String, Arc<SceneBodiesCell>)> = self
-            .map()
-            .iter()
-            .map(|(id, c)| (id.clone(), c.clone()))
-            .collect();
-        for (id, cell) in cells {
-            if !cell.lock().is_empty() {
-                ensure_running(state, &id, &cell);
-            }
-        }
-    }
-}
-
-fn new_cell(bodies: SceneBodies) -> SceneBodiesCell {
-    let (published, _) = watch::channel(Published {
-        tick: bodies.tick(),
-        states: Arc::new(bodies.states(None)),
-    });
-    SceneBodiesCell {
-        bodies: Mutex::new(bodies),
-        running: AtomicBool::new(false),
-        published,
     }
 }
 
@@ -221,7 +56,7 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
             break;
         }
         let scene = entry.scene.clone();
-        let (scene_hz, gravity) = (scene.spec.tick_hz, scene.spec.surface.gravity);
+        let scene_hz = scene.spec.tick_hz;
         let stepping = cell.clone();
         let journaling = state.clone();
         let frames = state.clone();
@@ -251,14 +86,13 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
                 scene: &scene,
                 now,
             };
-            let adv = b.advance_to(target, sea, scene_hz, gravity);
+            // Impacts the step makes reach the scene before the states are published: the tick
+            // loop waits for the states, then takes the new impacts for the same frame.
+            let adv = crate::bodies::drive::step(&mut b, target, sea, &scene);
             let took = start.elapsed();
             let cpu = cpu_start
                 .zip(thread_cpu())
                 .map(|(a, b)| b.saturating_sub(a));
-            // Impacts the step made reach the scene before the states are published: the tick
-            // loop waits for the states, then takes the new impacts for the same frame.
-            scene.impacts.sync_bodies(&mut b, true);
             if adv.steps > 0 || adv.reanchored {
                 stepping.publish(&b);
             }
@@ -326,13 +160,13 @@ async fn run(state: AppState, id: String, cell: Arc<SceneBodiesCell>) {
         // own duration is not slept again; the tick loop wakes at the same boundary and waits for
         // this loop's states.
         let r = state.read_clock(&entry);
-        let wait = crate::stream::ticks::until_next_tick(r.t, r.tick, r.tick_hz, r.rate, r.paused);
+        let wait = until_next_tick(r.t, r.tick, r.tick_hz, r.rate, r.paused);
         planned = Some(Instant::now() + wait);
         // The shutdown token ends the loop at once (not a tick later); the final snapshot is
         // taken after every loop has ended.
         tokio::select! {
             () = state.shutdown.cancelled() => break,
-            () = tokio::time::sleep(wait.saturating_sub(crate::stream::ticks::COARSE_WAKE)) => {}
+            () = tokio::time::sleep(wait.saturating_sub(COARSE_WAKE)) => {}
         }
     }
     cell.running.store(false, Ordering::SeqCst);

@@ -1,10 +1,28 @@
-//! The shared state of a running server: the scene registry, the frame cache, the data dir, the
-//! admin token and the limits.
+//! The shared state of a running server ([`AppState`]): the scene registry, its store, the
+//! frame cache, the body registry, the limits; and the loops that drive them. The top of the
+//! server's layers: transports call it; the domain modules below never see it.
 //!
 //! Scenes live in a `BTreeMap` (sorted listing) behind a std `RwLock` held only to clone an
-//! `Arc`. Admin changes (scene put/delete, clock set) are serialised by one async mutex and follow
-//! one order: validate and build → journal (durable: [`crate::journal`]) → swap in memory. A
-//! change that fails at any step leaves memory as it was.
+//! `Arc`. Every acknowledged change is an [`Op`]; admin changes (scene put/delete, clock set)
+//! are serialised by one async mutex and follow one order: validate and build → the store makes
+//! it durable ([`store`]) → the one reducer applies it ([`apply`]). A change that fails at any
+//! step leaves memory as it was.
+//!
+//! # Layout
+//! - [`apply`] — the reducer: an [`Op`] applied to the registry.
+//! - [`store`] — the [`store::Store`] interface and the local journal behind it (a fleet's
+//!   Redis is [`crate::store::shared`]).
+//! - [`restore`] — the journal's replay at start-up.
+//! - [`snapshots`] — taking journal snapshots of the registry.
+//! - [`bodies`] — the body loop of a scene on one process.
+//! - [`ahead`] — FFT frames computed before the clock reaches them.
+
+pub mod ahead;
+pub mod apply;
+pub mod bodies;
+pub mod restore;
+pub mod snapshots;
+pub mod store;
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -23,7 +41,8 @@ use crate::scene::clock::{BUILTIN_EPOCH, ClockReading, WallClock};
 use crate::scene::store::{ClockRecord, SceneRecord, Store};
 use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
 use crate::service::types::ClockUpdate;
-use crate::stream::ticks::Tickers;
+use crate::stream::registry::Tickers;
+use apply::Prepared;
 
 /// Cheap to clone: one `Arc`.
 #[derive(Debug, Clone)]
@@ -39,7 +58,7 @@ pub struct Inner {
     /// The Prometheus handle that renders `/metrics`.
     pub metrics: PrometheusHandle,
     /// Every scene's floating bodies.
-    pub bodies: crate::bodies::runner::BodyRegistry,
+    pub bodies: crate::bodies::registry::BodyRegistry,
     /// Running tick loops, by scene.
     pub tickers: Tickers,
     /// The id of each scene whose clock generation changed ([`AppState::replace_clock`]):
@@ -64,10 +83,11 @@ pub struct Inner {
     admin_lock: tokio::sync::Mutex<()>,
     ready: AtomicBool,
     wall: WallClock,
-    /// The Redis store of a fleet (`--store`); unset: the journal (or memory) is the store.
-    fleet: std::sync::OnceLock<crate::store::Fleet>,
-    /// Body sharing through the fleet's Redis (set with `fleet`).
-    fleet_bodies: std::sync::OnceLock<crate::store::FleetBodies>,
+    /// Where acknowledged changes go ([`store`]): a fleet's Redis once [`AppState::set_store`]
+    /// names one, else the journal (or memory).
+    store: std::sync::OnceLock<Arc<dyn store::Store>>,
+    /// Held while a local API impact is checked, journaled and applied ([`store::Local`]).
+    impacts: Mutex<()>,
 }
 
 /// Clock changes buffered for stream sessions ([`Inner::clock_changes`]): more than admins make
@@ -116,39 +136,31 @@ impl AppState {
             admin_lock: tokio::sync::Mutex::new(()),
             ready: AtomicBool::new(false),
             wall: WallClock::default(),
-            fleet: std::sync::OnceLock::new(),
-            fleet_bodies: std::sync::OnceLock::new(),
+            store: std::sync::OnceLock::new(),
+            impacts: Mutex::new(()),
         }))
     }
 
-    /// Makes Redis the store of admin changes and body logs (once, before serving); body
-    /// snapshots go to Redis every `body_snapshots`.
-    pub fn set_fleet(&self, fleet: crate::store::Fleet, body_snapshots: std::time::Duration) {
-        let _ = self.fleet_bodies.set(crate::store::FleetBodies::new(
-            fleet.clone(),
-            body_snapshots,
-        ));
-        if self.fleet.set(fleet).is_err() {
+    /// Makes `store` (a fleet's Redis) the store of every change, instead of the journal
+    /// (once, before serving).
+    pub fn set_store(&self, store: Arc<dyn store::Store>) {
+        if self.store.set(store).is_err() {
             tracing::warn!("a store was already set; keeping the first");
         }
     }
 
-    /// The Redis store, if this replica is part of a fleet.
-    pub fn fleet(&self) -> Option<&crate::store::Fleet> {
-        self.fleet.get()
-    }
-
-    /// Body sharing, if this replica is part of a fleet.
-    pub fn fleet_bodies(&self) -> Option<&crate::store::FleetBodies> {
-        self.fleet_bodies.get()
-    }
-
-    /// Where admin changes go.
-    pub fn backend(&self) -> crate::store::Backend<'_> {
-        match self.fleet.get() {
-            Some(f) => crate::store::Backend::Redis(f),
-            None => crate::store::Backend::Local(self.journal.as_ref()),
+    /// Where acknowledged changes go.
+    pub fn store(&self) -> &dyn store::Store {
+        static LOCAL: store::Local = store::Local;
+        match self.store.get() {
+            Some(s) => s.as_ref(),
+            None => &LOCAL,
         }
+    }
+
+    /// Held while a local API impact is checked, journaled and applied.
+    pub(crate) fn impact_lock(&self) -> std::sync::MutexGuard<'_, ()> {
+        self.impacts.lock().unwrap_or_else(|p| p.into_inner())
     }
 
     /// Unix seconds now, as scene clocks read it: never less than an earlier answer (see
@@ -160,18 +172,6 @@ impl AppState {
     /// The journal (none without a data dir).
     pub fn journal(&self) -> Option<&Journal> {
         self.journal.as_ref()
-    }
-
-    /// Journals `op` and waits until it is durable (nothing to do without a data dir).
-    ///
-    /// # Errors
-    /// 500 if it cannot be written or synced.
-    async fn journal_op(&self, op: Op) -> Result<(), ApiError> {
-        let Some(j) = &self.journal else {
-            return Ok(());
-        };
-        let seq = j.append(op).map_err(ApiError::internal)?;
-        j.commit(seq).await.map_err(ApiError::internal)
     }
 
     /// The admin token.
@@ -346,46 +346,20 @@ impl AppState {
         }
         // Journal the canonical form: what the scene is, with defaults filled in.
         let spec = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
-        if let crate::store::Backend::Redis(fleet) = self.backend() {
-            // The feed applies it here as on every replica (the scene built above is handed
-            // over, not rebuilt); a put that moves the epoch drops the stored clock.
-            let outcome = if old.is_some() {
-                PutOutcome::Replaced
-            } else {
-                PutOutcome::Created
-            };
-            let moved = old.is_some() && given.is_some() && given != old_epoch;
-            let op = Op::ScenePut {
-                scene: id.to_owned(),
-                spec,
-            };
-            fleet.commit(op, Some(scene), moved).await?;
-            return Ok((outcome, self.applied_scene(id)?));
-        }
-        self.journal_op(Op::ScenePut {
+        let outcome = if old.is_some() {
+            PutOutcome::Replaced
+        } else {
+            PutOutcome::Created
+        };
+        let moved = old.is_some() && given.is_some() && given != old_epoch;
+        let op = Op::ScenePut {
             scene: id.to_owned(),
             spec,
-        })
-        .await?;
-        let mut map = self.write_scenes();
-        let epoch = scene.spec.epoch.unwrap_or(BUILTIN_EPOCH);
-        let (outcome, clock) = match map.get(id) {
-            // A replaced scene keeps its clock, unless the put moves its epoch.
-            Some(old) if given.is_none() || given == old_epoch => (
-                PutOutcome::Replaced,
-                *old.clock.lock().unwrap_or_else(|p| p.into_inner()),
-            ),
-            Some(_) => (PutOutcome::Replaced, Clock::from_epoch(epoch)),
-            None => (PutOutcome::Created, Clock::from_epoch(epoch)),
         };
-        let entry = Arc::new(SceneEntry {
-            scene: Arc::new(scene),
-            clock: Mutex::new(clock),
-        });
-        if let Some(old) = map.insert(id.to_owned(), entry.clone()) {
-            self.frames.forget_scene(old.scene.uid);
-        }
-        Ok((outcome, entry))
+        self.store()
+            .commit(self, op, Prepared::Scene(Box::new(scene)), moved)
+            .await?;
+        Ok((outcome, self.applied_scene(id)?))
     }
 
     /// Deletes scene `id`.
@@ -395,26 +369,12 @@ impl AppState {
     pub async fn delete_scene(&self, id: &str) -> Result<(), ApiError> {
         let _guard = self.admin_lock.lock().await;
         self.scene(id)?;
-        if let crate::store::Backend::Redis(fleet) = self.backend() {
-            let op = Op::SceneDelete {
-                scene: id.to_owned(),
-            };
-            fleet.commit(op, None, false).await?;
-            fleet.delete_body_log(id).await;
-            return Ok(());
-        }
-        self.journal_op(Op::SceneDelete {
+        let op = Op::SceneDelete {
             scene: id.to_owned(),
-        })
-        .await?;
-        let old = self.write_scenes().remove(id);
-        if let Some(old) = old {
-            self.frames.forget_scene(old.scene.uid);
-        }
-        self.bodies.remove_scene(id);
-        // The frames and spectra just dropped may be hundreds of MB: give them back now.
-        tokio::task::spawn_blocking(|| crate::memory::release_if_held(0));
-        Ok(())
+        };
+        self.store()
+            .commit(self, op, Prepared::Nothing, false)
+            .await
     }
 
     /// Applies a clock update (seek, then rate, then pause) and returns the new reading.
@@ -446,27 +406,72 @@ impl AppState {
             unix: now,
             generation: clock.generation(),
         };
-        if let crate::store::Backend::Redis(fleet) = self.backend() {
-            let op = Op::Clock {
-                scene: id.to_owned(),
-                clock: rec,
-            };
-            fleet.commit(op, None, false).await?;
-            let entry = self.applied_scene(id)?;
-            return Ok(self.read_clock(&entry));
-        }
-        self.journal_op(Op::Clock {
+        let op = Op::Clock {
             scene: id.to_owned(),
             clock: rec,
-        })
-        .await?;
-        self.replace_clock(&entry, clock);
+        };
+        // The local store applies the clock as computed here; a fleet's feed, the record.
+        self.store()
+            .commit(self, op, Prepared::Clock(clock), false)
+            .await?;
+        let entry = self.applied_scene(id)?;
         Ok(self.read_clock(&entry))
+    }
+
+    /// Adds an API impact to `entry`'s scene (rings living `lifetime` s), through the store.
+    ///
+    /// # Errors
+    /// 409 `too_many_impacts` over a limit; 500 if it cannot be journaled; 503 when a fleet's
+    /// Redis is unreachable.
+    pub async fn add_impact(
+        &self,
+        entry: Arc<SceneEntry>,
+        impact: swell_waves::particles::Impact,
+        lifetime: f64,
+    ) -> Result<(), ApiError> {
+        self.store().add_impact(self, entry, impact, lifetime).await
+    }
+
+    /// Spawns a body in scene `id`; its state.
+    ///
+    /// # Errors
+    /// 404 unknown scene; 409 `scene_full`; 400/422 for a request the body model rejects; 500
+    /// or 503 from the store.
+    pub async fn spawn_body(
+        &self,
+        id: &str,
+        req: crate::bodies::SpawnRequest,
+    ) -> Result<crate::bodies::BodyState, ApiError> {
+        let entry = self.scene(id)?;
+        self.store().spawn_body(self, entry, req).await
+    }
+
+    /// Removes body `bid` of scene `id`.
+    ///
+    /// # Errors
+    /// 404 unknown scene or body; 500 or 503 from the store.
+    pub async fn remove_body(&self, id: &str, bid: u64) -> Result<(), ApiError> {
+        let entry = self.scene(id)?;
+        self.store().remove_body(self, entry, bid).await
+    }
+
+    /// Queues an input for body `bid` of scene `id`; the tick it was accepted at.
+    ///
+    /// # Errors
+    /// 404 unknown scene or body; 400 for a bad input; 500 or 503 from the store.
+    pub async fn body_input(
+        &self,
+        id: &str,
+        bid: u64,
+        input: crate::bodies::InputRequest,
+    ) -> Result<i64, ApiError> {
+        let entry = self.scene(id)?;
+        self.store().body_input(self, entry, bid, input).await
     }
 
     /// Loads built-in, configured and journaled scenes, in that order (later sources win; a
     /// journaled deletion removes a built-in or configured scene), then the journaled clocks and
-    /// bodies ([`crate::journal::restore`]). `legacy` is a data dir written before the journal
+    /// bodies ([`restore`]). `legacy` is a data dir written before the journal
     /// (per-file scenes, clocks, bodies): read only when the journal is empty, and imported into
     /// it. Blocking: builds every scene.
     ///
@@ -496,7 +501,7 @@ impl AppState {
             .as_ref()
             .is_none_or(|r| r.snapshot.is_none() && r.records.is_empty());
         if let Some(rec) = recovered {
-            crate::journal::restore::restore(self, rec);
+            restore::restore(self, rec);
         }
         match legacy {
             Some(store) if empty => self.load_legacy(store),
@@ -582,7 +587,7 @@ impl AppState {
         );
         if let Some(j) = &self.journal {
             j.append_all(ops)
-                .and_then(|_| crate::journal::snapshot::take(self, j))
+                .and_then(|_| snapshots::take(self, j))
                 .map_err(|e| format!("importing the old data dir into the journal: {e}"))?;
         }
         Ok(())
@@ -597,7 +602,7 @@ impl AppState {
         let Some(j) = &self.journal else {
             return;
         };
-        match crate::journal::snapshot::take(self, j) {
+        match snapshots::take(self, j) {
             Ok(()) => tracing::info!(seq = j.last_seq(), "journal: final snapshot written"),
             Err(e) => {
                 tracing::error!(error = %e, "journal: final snapshot failed (the log holds every change)")
@@ -606,5 +611,13 @@ impl AppState {
     }
 }
 
-/// Largest |rate| of a clock: a day per second is beyond any fast-forward a game needs.
-pub const MAX_RATE: f64 = 86_400.0;
+/// Largest |rate| of a clock ([`crate::scene::clock::MAX_RATE`]).
+pub use crate::scene::clock::MAX_RATE;
+
+/// The answer to an impact the scene's set has no room for, or that the model rejects.
+pub(crate) fn impact_refused(e: crate::impacts::AddError) -> ApiError {
+    match e {
+        crate::impacts::AddError::Full(why) => ApiError::new(ErrorCode::TooManyImpacts, why),
+        crate::impacts::AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
+    }
+}
