@@ -5,8 +5,9 @@
 //!
 //! A snapshot is taken while the server runs, without stopping writers: each part is read
 //! under the lock its records are appended under, together with the journal position at that
-//! moment (see [`Snapshot`]). Admin changes are folded by the journal itself; each scene's body
-//! world is read under its own lock, so its `seq` is exactly the last body record it includes.
+//! moment (see [`super::Snapshot`]). Admin changes are folded by the journal itself; each
+//! scene's body world is read under its own lock, so its `seq` is exactly the last body record
+//! it includes.
 
 use super::{Journal, Op};
 use crate::bodies::SceneBodies;
