@@ -74,14 +74,40 @@ pub(crate) struct AmbientParams<'a> {
 pub(crate) struct AmbientGrid {
     /// `start[c]..start[c + 1]` are cell c's entries; cells are row-major `cz·cells + cx`.
     start: Vec<u32>,
-    pos: Vec<DVec2>,
-    amp: Vec<f64>,
-    vel: Vec<DVec2>,
+    entries: Vec<Entry>,
+}
+
+/// One particle in [`AmbientGrid`]: position in tile units, amplitude, velocity in tiles/s.
+#[derive(Debug, Clone, Copy, Default)]
+struct Entry {
+    pos: DVec2,
+    amp: f64,
+    vel: DVec2,
+}
+
+/// `⌊u⌋`, exactly, without a libm call where |u| < 2^52 (truncation through i64 is exact
+/// there); larger, infinite or NaN `u` go to `f64::floor`. Integral `u` (−0 included) is
+/// returned as is, as `floor` does.
+#[inline]
+fn floor(u: f64) -> f64 {
+    if u.abs() < 4_503_599_627_370_496.0 {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_precision_loss)]
+        let t = (u as i64) as f64;
+        if t == u {
+            u
+        } else if u < 0.0 {
+            t - 1.0
+        } else {
+            t
+        }
+    } else {
+        u.floor()
+    }
 }
 
 #[inline]
 fn wrap(u: f64) -> f64 {
-    let v = u - u.floor();
+    let v = u - floor(u);
     // u slightly below an integer can round to exactly 1.0.
     if v >= 1.0 { 0.0 } else { v }
 }
@@ -196,44 +222,39 @@ impl Ambient {
         (c(u.x), c(u.y))
     }
 
-    /// Every particle's position at t, bucketed by cell.
+    /// Every particle's position at t, bucketed by cell (a counting sort, stable in index).
     pub(crate) fn grid(&self, t: f64) -> AmbientGrid {
         let n = self.cells as usize;
-        let pos: Vec<DVec2> = (0..self.len()).map(|i| self.position(i, t)).collect();
-        let cell: Vec<usize> = pos
-            .iter()
-            .map(|&u| {
+        let mut start = vec![0u32; n * n + 1];
+        let placed: Vec<(DVec2, usize)> = (0..self.len())
+            .map(|i| {
+                let u = self.position(i, t);
                 let (cx, cz) = self.cell_of(u);
-                cz as usize * n + cx as usize
+                let c = cz as usize * n + cx as usize;
+                start[c + 1] += 1;
+                (u, c)
             })
             .collect();
-        let mut start = vec![0u32; n * n + 1];
-        for &c in &cell {
-            start[c + 1] += 1;
-        }
         for c in 0..n * n {
             start[c + 1] += start[c];
         }
-        let mut fill = start.clone();
-        let len = self.len();
-        let (mut gp, mut ga, mut gv) = (
-            vec![DVec2::ZERO; len],
-            vec![0.0; len],
-            vec![DVec2::ZERO; len],
-        );
-        for (i, &c) in cell.iter().enumerate() {
-            let k = fill[c] as usize;
-            fill[c] += 1;
-            gp[k] = pos[i];
-            ga[k] = self.a[i];
-            gv[k] = self.w[i];
+        // Place each particle at its cell's cursor; afterwards start[c] holds cell c's end,
+        // which is cell c + 1's start: shift back by one.
+        let mut entries = vec![Entry::default(); placed.len()];
+        for (i, &(pos, c)) in placed.iter().enumerate() {
+            let k = start[c] as usize;
+            start[c] += 1;
+            entries[k] = Entry {
+                pos,
+                amp: self.a[i],
+                vel: self.w[i],
+            };
         }
-        AmbientGrid {
-            start,
-            pos: gp,
-            amp: ga,
-            vel: gv,
+        for c in (1..=n * n).rev() {
+            start[c] = start[c - 1];
         }
+        start[0] = 0;
+        AmbientGrid { start, entries }
     }
 
     /// Visits every particle (at every kept scale) whose kernel reaches world point x, with
@@ -259,12 +280,12 @@ impl Ambient {
             let sl = s * self.tile;
             let mut cell = |c: usize| {
                 let (lo, hi) = (grid.start[c] as usize, grid.start[c + 1] as usize);
-                for k in lo..hi {
-                    let mut d = q - grid.pos[k];
+                for e in &grid.entries[lo..hi] {
+                    let mut d = q - e.pos;
                     d.x -= d.x.round();
                     d.y -= d.y.round();
-                    if let Some((h, g)) = kernel(s * grid.amp[k], d, self.inv_rr2) {
-                        f(h, g * inv, grid.vel[k] * sl);
+                    if let Some((h, g)) = kernel(s * e.amp, d, self.inv_rr2) {
+                        f(h, g * inv, e.vel * sl);
                     }
                 }
             };
@@ -302,5 +323,53 @@ impl Ambient {
             }
         }
         (h, g, v)
+    }
+}
+
+#[cfg(test)]
+mod floor_tests {
+    use super::floor;
+    use crate::math::SwellRng;
+
+    /// The fast floor is `f64::floor` to the bit: signed zeros, integers, halves, values next
+    /// to integers, the 2^52 boundary, infinities, NaN, and a million seeded doubles of every
+    /// magnitude.
+    #[test]
+    fn fast_floor_is_floor_to_the_bit() {
+        let two52 = 4_503_599_627_370_496.0_f64;
+        let mut cases = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.7,
+            -2.7,
+            f64::EPSILON,
+            -f64::EPSILON,
+            1.0 - f64::EPSILON / 2.0,
+            -1.0 + f64::EPSILON / 2.0,
+            two52,
+            -two52,
+            two52 - 0.5,
+            -(two52 - 0.5),
+            two52 * 2.0,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let mut rng = SwellRng::new(3, 3);
+        for _ in 0..1_000_000 {
+            let mag = 10f64.powf(rng.uniform() * 40.0 - 20.0);
+            cases.push(if rng.uniform() < 0.5 { -mag } else { mag });
+        }
+        for u in cases {
+            assert_eq!(floor(u).to_bits(), u.floor().to_bits(), "{u:e}");
+        }
+        assert!(floor(f64::NAN).is_nan());
     }
 }
