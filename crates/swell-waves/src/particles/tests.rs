@@ -17,6 +17,22 @@ fn impact(t: f64, x: f64, z: f64, strength: f64, radius: f64) -> Impact {
     }
 }
 
+/// A field at t holding only `ring` in state `s` (no grid, no ambient particles), so
+/// `visit_rings_only` gives that ring's own contributions.
+fn one_ring(t: f64, ring: &Ring, s: &RingState) -> ParticleField {
+    ParticleField::new(
+        t,
+        vec![field::LiveRing {
+            ring: *ring,
+            d: s.distance,
+            n: s.count,
+            amp: s.amplitude,
+            inv_r2: 1.0 / (ring.radius * ring.radius),
+            amp_rate: 0.0,
+        }],
+    )
+}
+
 /// The kernel's analytic gradient against central differences, over its whole support.
 #[test]
 fn kernel_gradient_matches_finite_differences() {
@@ -316,19 +332,8 @@ fn grid_paths_match_the_reference() {
         let empty = l.field(t, None).unwrap();
         let (mut hs, mut gs) = empty.sample(&l, x, 0.0);
         for (ring, s) in &live {
-            let one = ParticleField::new(
-                t,
-                vec![field::LiveRing {
-                    ring: *ring,
-                    d: s.distance,
-                    n: s.count,
-                    amp: s.amplitude,
-                    inv_r2: 1.0 / (ring.radius * ring.radius),
-                    amp_rate: 0.0,
-                }],
-            );
             // The ring's own contribution, added in ring order like the fast path does.
-            one.visit_rings_only(x, &mut |hk, gk| {
+            one_ring(t, ring, s).visit_rings_only(x, &mut |hk, gk| {
                 hs += hk;
                 gs += gk;
             });
@@ -365,19 +370,6 @@ fn stacked_rings_count_only_the_newest_per_point() {
     let f = l.field(t, Some(&impacts)).unwrap();
     let live = l.live_rings(t, &impacts);
     assert!(live.len() > 2 * MAX_RINGS_PER_POINT, "{}", live.len());
-    let one = |ring: &Ring, s: &RingState| {
-        ParticleField::new(
-            t,
-            vec![field::LiveRing {
-                ring: *ring,
-                d: s.distance,
-                n: s.count,
-                amp: s.amplitude,
-                inv_r2: 1.0 / (ring.radius * ring.radius),
-                amp_rate: 0.0,
-            }],
-        )
-    };
     let empty = l.field(t, None).unwrap();
     let (mut capped, mut worst) = (0, 0.0_f64);
     for _ in 0..2000 {
@@ -395,7 +387,7 @@ fn stacked_rings_count_only_the_newest_per_point() {
         let (mut hs, mut gs) = empty.sample(&l, x, 0.0);
         for &i in chosen {
             let (ring, s) = &live[i];
-            one(ring, s).visit_rings_only(x, &mut |hk, gk| {
+            one_ring(t, ring, s).visit_rings_only(x, &mut |hk, gk| {
                 hs += hk;
                 gs += gk;
             });
