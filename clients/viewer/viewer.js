@@ -607,7 +607,9 @@ async function setup() {
     const dpr = Math.min(window.devicePixelRatio || 1, 2);
     const w = Math.floor(canvas.clientWidth * dpr), h = Math.floor(canvas.clientHeight * dpr);
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
-    const t = session.serverTime();
+    // `swellViewer.holdT = <scene time>` (tests) draws that moment instead of the clock's, so
+    // two frames drawn seconds apart on a slow renderer show the same sea.
+    const t = typeof state.holdT === 'number' ? state.holdT : session.serverTime();
     state.t = t;
     // FFT frames on the CPU, in the worker: one per 1/10 s of scene time.
     if (fftLayer && !(Math.abs(t - state.fftT) < 0.1)) requestFft(t + 0.05);
