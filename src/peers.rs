@@ -13,6 +13,8 @@ use std::time::Instant;
 
 use axum::http::HeaderMap;
 
+use crate::error::ApiError;
+
 /// The TCP peer of a connection, put in every request's extensions by the accept loop
 /// ([`crate::api::serve`]). Requests built in-process (tests driving the `Router` directly) have none
 /// and are treated as an exempt local peer.
@@ -256,6 +258,23 @@ pub enum OverBudget {
     Peer,
 }
 
+impl OverBudget {
+    /// The 503 `overloaded` for a charge over this limit (HTTP and WebSocket), counted in
+    /// `swell_http_buffer_budget_refused_total`.
+    pub fn error(self) -> ApiError {
+        metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
+        let msg = match self {
+            OverBudget::Total => {
+                "the server holds as many request and answer bytes as it allows (max_buffered_bytes); retry shortly"
+            }
+            OverBudget::Peer => {
+                "this client holds as many request and answer bytes as it may (max_buffered_bytes_per_peer); read your answers or ask for fewer points, then retry"
+            }
+        };
+        ApiError::overloaded(msg)
+    }
+}
+
 impl Budget {
     /// A budget of `max_total` bytes, `max_peer` of them per client.
     pub fn new(max_total: usize, max_peer: usize) -> Arc<Budget> {
@@ -313,25 +332,71 @@ impl Charge {
         }
         inner.total += n;
         self.bytes += n;
+        metrics::gauge!("swell_buffered_bytes").set(inner.total as f64);
         Ok(())
+    }
+
+    /// [`Charge::grow`] for a query's work and answer before it runs.
+    ///
+    /// # Errors
+    /// 503 `overloaded` naming the bytes asked for and the limit they would exceed.
+    pub fn reserve(&mut self, n: usize) -> Result<(), ApiError> {
+        self.grow(n).map_err(|which| {
+            metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
+            let (name, max, whose) = match which {
+                OverBudget::Total => ("max_buffered_bytes", self.budget.max_total, "the server"),
+                OverBudget::Peer => (
+                    "max_buffered_bytes_per_peer",
+                    self.budget.max_peer,
+                    "one client",
+                ),
+            };
+            ApiError::overloaded(format!(
+                "answering this request would hold {n} more bytes until the answer is sent, over what {whose} may hold at once ({name} = {max}); ask for fewer points or fields, or read the answers already sent, then retry"
+            ))
+        })
+    }
+
+    /// Bytes charged now.
+    pub fn bytes(&self) -> usize {
+        self.bytes
+    }
+
+    /// Sets the charge to `n` bytes: charges the difference when that is more (and may fail as
+    /// [`Charge::grow`] does), gives it back when less.
+    ///
+    /// # Errors
+    /// Growing would exceed the total or the peer's share (the charge is left as it was).
+    pub fn resize(&mut self, n: usize) -> Result<(), OverBudget> {
+        if n >= self.bytes {
+            return self.grow(n - self.bytes);
+        }
+        self.give_back(self.bytes - n);
+        Ok(())
+    }
+
+    fn give_back(&mut self, n: usize) {
+        if n == 0 {
+            return;
+        }
+        let mut inner = self.budget.inner.lock().unwrap_or_else(|p| p.into_inner());
+        inner.total = inner.total.saturating_sub(n);
+        self.bytes -= n;
+        metrics::gauge!("swell_buffered_bytes").set(inner.total as f64);
+        if let Some(ip) = self.peer
+            && let Some(h) = inner.peers.get_mut(&ip)
+        {
+            *h = h.saturating_sub(n);
+            if *h == 0 {
+                inner.peers.remove(&ip);
+            }
+        }
     }
 }
 
 impl Drop for Charge {
     fn drop(&mut self) {
-        if self.bytes == 0 {
-            return;
-        }
-        let mut inner = self.budget.inner.lock().unwrap_or_else(|p| p.into_inner());
-        inner.total = inner.total.saturating_sub(self.bytes);
-        if let Some(ip) = self.peer
-            && let Some(h) = inner.peers.get_mut(&ip)
-        {
-            *h = h.saturating_sub(self.bytes);
-            if *h == 0 {
-                inner.peers.remove(&ip);
-            }
-        }
+        self.give_back(self.bytes);
     }
 }
 
@@ -463,6 +528,24 @@ mod tests {
         assert_eq!(b.held(), 50);
         exempt.grow(50).unwrap();
         drop((c, exempt));
+        assert_eq!(b.held(), 0);
+        assert!(b.inner.lock().unwrap().peers.is_empty());
+    }
+
+    #[test]
+    fn a_charge_resizes_both_ways_and_keeps_its_size_when_growing_fails() {
+        let b = Budget::new(100, 60);
+        let p: IpAddr = "1.2.3.4".parse().unwrap();
+        let mut c = b.charge(Some(p));
+        c.resize(50).unwrap();
+        assert_eq!((c.bytes(), b.held()), (50, 50));
+        assert_eq!(c.resize(61), Err(OverBudget::Peer));
+        assert_eq!((c.bytes(), b.held()), (50, 50));
+        c.resize(20).unwrap();
+        assert_eq!((c.bytes(), b.held()), (20, 20));
+        // The peer's share shrank too: another charge for it may take the rest.
+        b.charge(Some(p)).grow(40).unwrap();
+        c.resize(0).unwrap();
         assert_eq!(b.held(), 0);
         assert!(b.inner.lock().unwrap().peers.is_empty());
     }

@@ -728,6 +728,16 @@ async fn an_answer_over_the_peers_byte_budget_is_refused() {
             .contains("max_buffered_bytes_per_peer"),
         "{b}"
     );
+    // Refused before the work: what the answer would hold is reserved first (8,000 points of
+    // 7 numbers: ~2 MB), and the message says how much.
+    assert!(
+        b["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("answering this request would hold"),
+        "{b}"
+    );
+    assert_eq!(s.state.buffers.held(), 0);
     let small = json!({"points": [[0.0, 0.0], [1.0, 2.0]], "fields": ["height"]});
     let r = http
         .post(s.url("/v1/scenes/calm/sample"))
@@ -860,5 +870,82 @@ async fn a_websocket_client_that_stops_reading_gets_an_orderly_end() {
         "not an orderly end after {answers} answers: {end}"
     );
     assert!(answers < 30, "every answer arrived: {answers}");
+    s.stop().await;
+}
+
+/// Issue 27: answers a WebSocket client has not read were held without limit (queue entries
+/// were counted, not bytes: 64 answers of several MB each). Now a query reserves what its answer
+/// holds before it runs and keeps it until the writer has sent it: a client that asks faster
+/// than it reads gets `overloaded` errors once its share (`max_buffered_bytes_per_peer`) is
+/// held, the server never holds more than that for it, and everything is given back once it
+/// reads.
+#[tokio::test]
+async fn websocket_answers_waiting_for_a_reader_are_held_within_its_share() {
+    const SHARE: usize = 2 << 20;
+    let mut c = hostile_config();
+    c.limits.max_buffered_bytes_per_peer = SHARE;
+    c.limits.ws_send_queue = 64;
+    c.limits.ws_send_stall_ms = 30_000;
+    c.limits.ws_messages_per_s = 1000.0;
+    c.limits.ws_messages_burst = 1000.0;
+    let s = TestServer::start(c).await;
+    let sock = TcpSocket::new_v4().unwrap();
+    sock.set_recv_buffer_size(4096).unwrap();
+    sock.bind("127.0.11.1:0".parse().unwrap()).unwrap();
+    let tcp = sock.connect(s.addr).await.unwrap();
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    let (mut ws, _) = tokio_tungstenite::client_async(url, tcp).await.unwrap();
+    let points: Vec<[f64; 2]> = (0..4000).map(|i| [f64::from(i) * 0.37, 1.0]).collect();
+    // ~0.5 MB answers (~1 MB reserved each while computed), 30 of them, one every 50 ms (each
+    // is answered before the next is asked: they pile up in the queue, not in the work), nothing
+    // read.
+    const ASKED: u64 = 30;
+    for i in 0..ASKED {
+        let msg = json!({"type": "sample", "id": i, "points": points,
+                         "fields": ["height", "normal", "displacement"]});
+        ws.send(Message::Text(msg.to_string().into()))
+            .await
+            .unwrap();
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    // Every query runs or is refused within a few seconds; what is held then stays held until
+    // the client reads. (The server's own figure: the metrics recorder is shared by the tests
+    // running in this process.)
+    let mut most = 0;
+    for _ in 0..20 {
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        most = most.max(s.state.buffers.held());
+    }
+    eprintln!("held at most {most} bytes for the stalled reader (share {SHARE})");
+    assert!(most > 0 && most <= SHARE, "held {most} bytes");
+    // Now read: every query has its answer or an `overloaded` error naming the share.
+    let (mut answers, mut refused) = (0, 0);
+    let read = tokio::time::timeout(Duration::from_secs(30), async {
+        while answers + refused < ASKED {
+            let Some(Ok(Message::Text(t))) = ws.next().await else {
+                panic!("the stream ended after {answers} answers and {refused} refusals");
+            };
+            let v: Value = serde_json::from_str(&t).unwrap();
+            match v["type"].as_str() {
+                Some("sample_result") => answers += 1,
+                Some("error") => {
+                    assert_eq!(v["code"], "overloaded", "{v}");
+                    assert!(v["message"].as_str().unwrap().contains("would hold"), "{v}");
+                    refused += 1;
+                }
+                _ => {}
+            }
+        }
+    })
+    .await;
+    assert!(read.is_ok(), "{answers} answers and {refused} refusals");
+    eprintln!("{answers} answers, {refused} refused");
+    assert!(
+        answers >= 1 && refused >= 1,
+        "{answers} answers, {refused} refused"
+    );
+    // All of it given back once read.
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    assert_eq!(s.state.buffers.held(), 0);
     s.stop().await;
 }

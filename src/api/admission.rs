@@ -11,20 +11,23 @@
 //!    charged to the buffer budget (in total and per client) while held: 503 beyond it.
 //! 5. **Work** — only now does the request take one of `max_in_flight` slots (503 beyond), so
 //!    clients that trickle bodies cannot fill them; the handler runs under the request timeout.
-//! 6. **Answer** — the answer's bytes are charged to the same budget until hyper has written them
-//!    (a client that stops reading holds them only until the connection's send stall timeout).
+//! 6. **Answer** — a handler whose work holds much memory (a large sample) first grows the
+//!    request's charge by what it will hold ([`Reserve`]): 503 beyond the budget, before the
+//!    work. The answer's bytes then take the charge's place until hyper has written them (a
+//!    client that stops reading holds them only until the connection's send stall timeout).
 //!
 //! Health probes (`/healthz`, `/readyz`) are routed outside all of this (see [`super::router`]),
 //! so no amount of client traffic makes them wait or fail.
 
 use std::net::IpAddr;
 use std::pin::Pin;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::task::{Context, Poll};
 use std::time::{Duration, Instant};
 
 use axum::body::{Body, Bytes};
-use axum::extract::{MatchedPath, Request, State};
+use axum::extract::{FromRequestParts, MatchedPath, Request, State};
+use axum::http::request::Parts;
 use axum::http::{HeaderValue, Method, header};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
@@ -156,19 +159,45 @@ fn rate_limited(what: &str, retry_after: f64) -> Response {
 }
 
 fn over_budget(which: OverBudget) -> Response {
-    metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
-    let msg = match which {
-        OverBudget::Total => {
-            "the server holds as many request and answer bytes as it allows (max_buffered_bytes); retry shortly"
-        }
-        OverBudget::Peer => {
-            "this client holds as many request and answer bytes as it may (max_buffered_bytes_per_peer); read your answers, then retry"
-        }
-    };
-    let mut r = ApiError::overloaded(msg).into_response();
+    let mut r = which.error().into_response();
     r.headers_mut()
         .insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
     r
+}
+
+/// A request's charge on the byte budget, shared with its handler: a handler whose work holds
+/// much memory grows it first ([`Reserve::bytes`]), and admission then sets it to the answer's
+/// size until the answer is written. Outside admission (no budget) it reserves nothing.
+#[derive(Clone, Default)]
+pub struct Reserve(Option<Arc<Mutex<Charge>>>);
+
+impl Reserve {
+    /// Charges `n` more bytes for this request's work.
+    ///
+    /// # Errors
+    /// 503 `overloaded` naming the budget the request would exceed.
+    pub fn bytes(&self, n: usize) -> Result<(), ApiError> {
+        match &self.0 {
+            Some(c) => lock(c).reserve(n),
+            None => Ok(()),
+        }
+    }
+}
+
+fn lock(c: &Mutex<Charge>) -> std::sync::MutexGuard<'_, Charge> {
+    c.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+impl<S: Send + Sync> FromRequestParts<S> for Reserve {
+    type Rejection = std::convert::Infallible;
+
+    async fn from_request_parts(parts: &mut Parts, _: &S) -> Result<Reserve, Self::Rejection> {
+        Ok(parts
+            .extensions
+            .get::<Reserve>()
+            .cloned()
+            .unwrap_or_default())
+    }
 }
 
 /// The admission middleware (see the module docs for the order of checks).
@@ -224,7 +253,10 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
     } else {
         body
     };
-    let req = Request::from_parts(parts, body);
+    let mut req = Request::from_parts(parts, body);
+    let charge = Arc::new(Mutex::new(charge));
+    req.extensions_mut()
+        .insert(Reserve(Some(Arc::clone(&charge))));
 
     let Ok(_permit) = gate.in_flight.try_acquire() else {
         metrics::counter!("swell_http_shed_total").increment(1);
@@ -241,9 +273,15 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
             .into_response();
         }
     };
-    // The request body is gone; the answer takes its place in the budget until written.
-    drop(charge);
-    charge_answer(&gate.budget, client, resp)
+    // Every 503 (overloaded, timed out) is worth retrying shortly.
+    let mut resp = resp;
+    if resp.status() == axum::http::StatusCode::SERVICE_UNAVAILABLE {
+        resp.headers_mut()
+            .entry(header::RETRY_AFTER)
+            .or_insert(HeaderValue::from_static("1"));
+    }
+    // The request body and the work are done; the answer takes their place until written.
+    charge_answer(charge, resp)
 }
 
 fn too_large(limits: &Limits) -> ApiError {
@@ -336,18 +374,31 @@ async fn read_body(
     }
 }
 
-/// Wraps the answer's body so its bytes count against the budget until it is written (or the
-/// connection drops it). An answer that would exceed the budget is replaced by a 503.
-fn charge_answer(budget: &Arc<Budget>, client: Option<IpAddr>, resp: Response) -> Response {
-    let size = resp.body().size_hint().upper().unwrap_or(0);
-    // Small answers (most of them) are not worth the bookkeeping.
-    if size < 64 * 1024 {
-        return resp;
-    }
-    let mut charge = budget.charge(client);
-    #[allow(clippy::cast_possible_truncation)]
-    if let Err(which) = charge.grow(size as usize) {
-        return over_budget(which);
+/// Answers of at least this many bytes are charged until written; smaller ones (most) are not
+/// worth the bookkeeping.
+const CHARGED_ANSWER_BYTES: u64 = 64 * 1024;
+
+/// Sets the request's charge to the answer's size and wraps the answer's body so the charge
+/// holds until it is written (or the connection drops it). An answer that would exceed the
+/// budget is replaced by a 503. An answer encoded as it is sent has no size yet: it keeps what
+/// its handler reserved.
+fn charge_answer(charge: Arc<Mutex<Charge>>, resp: Response) -> Response {
+    let hint = resp.body().size_hint();
+    let size = hint.upper();
+    {
+        let mut c = lock(&charge);
+        let keep = match size {
+            Some(n) if n < CHARGED_ANSWER_BYTES => 0,
+            #[allow(clippy::cast_possible_truncation)]
+            Some(n) => n as usize,
+            None => c.bytes(),
+        };
+        if let Err(which) = c.resize(keep) {
+            return over_budget(which);
+        }
+        if c.bytes() == 0 {
+            return resp;
+        }
     }
     let (parts, body) = resp.into_parts();
     Response::from_parts(
@@ -362,7 +413,7 @@ fn charge_answer(budget: &Arc<Budget>, client: Option<IpAddr>, resp: Response) -
 /// A body that holds its [`Charge`] until dropped.
 struct Charged {
     body: Body,
-    _charge: Charge,
+    _charge: Arc<Mutex<Charge>>,
 }
 
 impl http_body::Body for Charged {

@@ -33,6 +33,7 @@ pub mod shader;
 pub mod viewer;
 pub mod wire;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use axum::Router;
@@ -51,11 +52,11 @@ use errors::HeadLimits;
 /// The router over `state`: every endpoint and middleware.
 pub fn router(state: AppState) -> Router {
     let limits = state.limits.clone();
-    let budget = crate::peers::Budget::new(
-        limits.max_buffered_bytes,
-        limits.max_buffered_bytes_per_peer,
+    let gate = admission::Gate::new(
+        state.clone(),
+        state.peer_policy.clone(),
+        Arc::clone(&state.buffers),
     );
-    let gate = admission::Gate::new(state.clone(), state.peer_policy.clone(), budget);
     let api = Router::new()
         .route("/v1/scenes", get(scenes::list))
         .route(

@@ -8,11 +8,12 @@ use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use swell_waves::{QueryFields, QueryOptions};
 
+use crate::api::admission::Reserve;
 use crate::api::wire::{Accept, Body, Reply};
 use crate::error::ApiError;
 use crate::service::query::{
-    orientation_probes, resolve_time, run_height, run_orientation, run_query, run_sample,
-    runs_inline, sample_runs_inline,
+    orientation_probes, orientation_request_bytes, resolve_time, run_height, run_orientation,
+    run_query, run_sample, runs_inline, sample_request_bytes, sample_runs_inline,
 };
 use crate::service::types::{
     HeightQuery, HeightResponse, OrientationRequest, OrientationResponse, SampleRequest,
@@ -52,9 +53,11 @@ pub async fn sample(
     State(state): State<AppState>,
     Path(id): Path<String>,
     Accept(format): Accept,
+    reserve: Reserve,
     Body(req): Body<SampleRequest>,
 ) -> Result<Reply<SampleResponse>, ApiError> {
     let entry = state.scene(&id)?;
+    reserve.bytes(sample_request_bytes(&req, format.number_bytes()))?;
     let at = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
@@ -71,9 +74,11 @@ pub async fn orientation(
     State(state): State<AppState>,
     Path(id): Path<String>,
     Accept(format): Accept,
+    reserve: Reserve,
     Body(req): Body<OrientationRequest>,
 ) -> Result<Reply<OrientationResponse>, ApiError> {
     let entry = state.scene(&id)?;
+    reserve.bytes(orientation_request_bytes(&req, format.number_bytes()))?;
     let at = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();

@@ -39,6 +39,16 @@ pub enum Format {
     Protobuf,
 }
 
+impl Format {
+    /// Bytes a number of an answer takes at most in this format (for the byte budget).
+    pub fn number_bytes(self) -> usize {
+        match self {
+            Format::Json => crate::service::query::JSON_NUMBER_BYTES,
+            Format::Protobuf => crate::service::query::PROTOBUF_NUMBER_BYTES,
+        }
+    }
+}
+
 fn names_protobuf(headers: &HeaderMap, name: header::HeaderName) -> bool {
     headers
         .get_all(name)

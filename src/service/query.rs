@@ -201,7 +201,7 @@ pub fn run_sample(
     // In blocks, with the request's deadline checked between them: a batch that runs past
     // `request_timeout_ms` (the HTTP answer is a 503 by then) stops instead of running on.
     let deadline = std::time::Instant::now() + limits.request_timeout();
-    let mut results = Vec::with_capacity(world.len());
+    let mut out = SampleResponse::with_fields(t, fields, world.len());
     if let Some(sea) = sea {
         for block in world.chunks(DEADLINE_BLOCK) {
             if std::time::Instant::now() > deadline {
@@ -214,31 +214,50 @@ pub fn run_sample(
                     ),
                 ));
             }
-            results.extend(sea.query_batch_parallel(block, fields, threads));
+            // Only a block's results are held at once: the answer's arrays take 8 B a value,
+            // a `PointResult` ~90 B whatever was asked.
+            out.extend(&sea.query_batch_parallel(block, fields, threads));
         }
     }
     metrics::counter!("swell_points_sampled_total").increment(world.len() as u64);
-    let mut out = SampleResponse {
-        t,
-        ..Default::default()
-    };
-    if fields.height {
-        out.height = Some(results.iter().map(|r| r.height).collect());
-    }
-    if fields.normal {
-        out.normal = Some(results.iter().map(|r| r.normal.to_array()).collect());
-    }
-    if fields.displacement {
-        out.displacement = Some(results.iter().map(|r| r.displacement.to_array()).collect());
-    }
-    if fields.jacobian {
-        out.jacobian = Some(results.iter().map(|r| r.jacobian).collect());
-        out.folded = Some(results.iter().map(|r| r.folded).collect());
-    }
-    if fields.residual {
-        out.residual = Some(results.iter().map(|r| r.residual).collect());
-    }
     Ok(out)
+}
+
+/// Bytes one number of an answer takes at most as JSON (`-1.2345678901234567e-308,`).
+pub const JSON_NUMBER_BYTES: usize = 25;
+
+/// Bytes one number of an answer takes as protobuf (a packed double).
+pub const PROTOBUF_NUMBER_BYTES: usize = 8;
+
+/// The bytes a sample of `points` points asking `fields` holds while it is answered, for the
+/// byte budget ([`crate::Limits::max_buffered_bytes`]): its world points (16 B each) and the
+/// answer's arrays (8 B a number), plus `encoded_per_number` bytes a number when the answer is
+/// encoded whole ([`JSON_NUMBER_BYTES`] or [`PROTOBUF_NUMBER_BYTES`]; 0 when it is encoded as
+/// it is sent). An estimate from above for the answer, ± a block of results.
+pub fn sample_bytes(points: usize, fields: QueryFields, encoded_per_number: usize) -> usize {
+    let numbers = usize::from(fields.height)
+        + 3 * usize::from(fields.normal)
+        + 3 * usize::from(fields.displacement)
+        + 2 * usize::from(fields.jacobian) // and `folded`
+        + usize::from(fields.residual);
+    points.saturating_mul(16 + numbers * (8 + encoded_per_number))
+}
+
+/// [`sample_bytes`] for a request (its fields as asked; a request whose fields do not parse is
+/// refused before it costs anything: 0).
+pub fn sample_request_bytes(req: &SampleRequest, encoded_per_number: usize) -> usize {
+    parse_fields(req.fields.as_deref())
+        .map_or(0, |f| sample_bytes(req.points.len(), f, encoded_per_number))
+}
+
+/// The bytes an orientation request holds while it is answered, for the byte budget: its
+/// probes (16 B each) and, per body, the answer (12 numbers) encoded whole.
+pub fn orientation_request_bytes(req: &OrientationRequest, encoded_per_number: usize) -> usize {
+    orientation_probes(req).saturating_mul(16).saturating_add(
+        req.bodies
+            .len()
+            .saturating_mul(12 * (8 + encoded_per_number)),
+    )
 }
 
 /// Height at one world point, with the default accuracy. Blocking unless [`runs_inline`] said

@@ -224,6 +224,46 @@ pub struct SampleResponse {
     pub residual: Option<Vec<f64>>,
 }
 
+impl SampleResponse {
+    /// An answer at `t` with an empty array, room for `points`, for each of `fields`.
+    pub fn with_fields(t: f64, fields: swell_waves::QueryFields, points: usize) -> SampleResponse {
+        fn v<T>(on: bool, points: usize) -> Option<Vec<T>> {
+            on.then(|| Vec::with_capacity(points))
+        }
+        SampleResponse {
+            t,
+            height: v(fields.height, points),
+            normal: v(fields.normal, points),
+            displacement: v(fields.displacement, points),
+            jacobian: v(fields.jacobian, points),
+            folded: v(fields.jacobian, points),
+            residual: v(fields.residual, points),
+        }
+    }
+
+    /// Appends `results`, in order, to each array the answer has.
+    pub fn extend(&mut self, results: &[swell_waves::PointResult]) {
+        if let Some(v) = &mut self.height {
+            v.extend(results.iter().map(|r| r.height));
+        }
+        if let Some(v) = &mut self.normal {
+            v.extend(results.iter().map(|r| r.normal.to_array()));
+        }
+        if let Some(v) = &mut self.displacement {
+            v.extend(results.iter().map(|r| r.displacement.to_array()));
+        }
+        if let Some(v) = &mut self.jacobian {
+            v.extend(results.iter().map(|r| r.jacobian));
+        }
+        if let Some(v) = &mut self.folded {
+            v.extend(results.iter().map(|r| r.folded));
+        }
+        if let Some(v) = &mut self.residual {
+            v.extend(results.iter().map(|r| r.residual));
+        }
+    }
+}
+
 /// `POST /v1/scenes/{id}/orientation` body.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

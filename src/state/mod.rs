@@ -77,6 +77,11 @@ pub struct Inner {
     pub access: crate::access::Access,
     /// Trusted proxies and exempt peers, parsed from the limits (checked at bind).
     pub peer_policy: crate::peers::PeerPolicy,
+    /// Bytes held for clients ([`Limits::max_buffered_bytes`], per client
+    /// [`Limits::max_buffered_bytes_per_peer`]): HTTP request bodies and answers, the working
+    /// memory and answers of large queries (HTTP and WebSocket), and WebSocket answers queued
+    /// for a client that has not read them yet.
+    pub buffers: Arc<crate::peers::Budget>,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     journal: Option<Journal>,
     admin_token: String,
@@ -122,6 +127,10 @@ impl AppState {
         AppState(Arc::new(Inner {
             access,
             peer_policy: limits.peer_policy().unwrap_or_default(),
+            buffers: crate::peers::Budget::new(
+                limits.max_buffered_bytes,
+                limits.max_buffered_bytes_per_peer,
+            ),
             frames: FrameCache::new(limits.frame_cache_entries),
             limits,
             metrics,

@@ -38,6 +38,16 @@ pub enum Codec {
     Protobuf,
 }
 
+impl Codec {
+    /// Bytes a number of an answer takes at most in this codec (for the byte budget).
+    pub fn number_bytes(self) -> usize {
+        match self {
+            Codec::Json => crate::service::query::JSON_NUMBER_BYTES,
+            Codec::Protobuf => crate::service::query::PROTOBUF_NUMBER_BYTES,
+        }
+    }
+}
+
 /// What a client asked.
 #[derive(Debug, Clone)]
 pub enum Request {
@@ -358,8 +368,62 @@ fn tagged(ty: &str, id: Option<u64>, payload: Value) -> Value {
     Value::Object(map)
 }
 
+/// A sample answer as JSON, written straight from its arrays: the bytes of the generic path
+/// (keys in sorted order, as a `serde_json` map has them) without building a tree of a
+/// `Value` for every number, which for a large sample held several times the answer's size.
+#[derive(Serialize)]
+struct SampleJson<'a> {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    displacement: Option<&'a Vec<[f64; 3]>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    folded: Option<&'a Vec<bool>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    height: Option<&'a Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    id: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    jacobian: Option<&'a Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    normal: Option<&'a Vec<[f64; 3]>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    residual: Option<&'a Vec<f64>>,
+    t: f64,
+    #[serde(rename = "type")]
+    kind: &'static str,
+}
+
 /// Encodes a server message as JSON text.
 pub fn encode_json(out: &Outgoing) -> String {
+    if let Event::SampleResult(r) = &out.event {
+        let json = SampleJson {
+            displacement: r.displacement.as_ref(),
+            folded: r.folded.as_ref(),
+            height: r.height.as_ref(),
+            id: out.id,
+            jacobian: r.jacobian.as_ref(),
+            normal: r.normal.as_ref(),
+            residual: r.residual.as_ref(),
+            t: r.t,
+            kind: "sample_result",
+        };
+        // Sized once: 25 bytes a number at most.
+        let numbers = r.height.as_ref().map_or(0, Vec::len)
+            + 3 * r.normal.as_ref().map_or(0, Vec::len)
+            + 3 * r.displacement.as_ref().map_or(0, Vec::len)
+            + 2 * r.jacobian.as_ref().map_or(0, Vec::len)
+            + r.residual.as_ref().map_or(0, Vec::len);
+        let mut buf = Vec::with_capacity(128 + numbers * crate::service::query::JSON_NUMBER_BYTES);
+        if serde_json::to_writer(&mut buf, &json).is_ok()
+            && let Ok(text) = String::from_utf8(buf)
+        {
+            return text;
+        }
+    }
+    encode_json_value(out)
+}
+
+/// [`encode_json`] through a `serde_json::Value`.
+fn encode_json_value(out: &Outgoing) -> String {
     let v = match &out.event {
         Event::Pong {
             client_time,
@@ -433,6 +497,51 @@ pub fn encode_protobuf(out: Outgoing) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sample_answer_is_encoded_as_the_generic_path_encodes_it() {
+        let mut rng = swell_waves::math::SwellRng::new(28, 0);
+        for round in 0..200 {
+            let n = rng.next_u32() % 20;
+            // Integers, tiny and large magnitudes, arbitrary finite bit patterns.
+            let mut f = || -> f64 {
+                let u = rng.uniform() * 2.0 - 1.0;
+                match rng.next_u32() % 4 {
+                    0 => (u * 3.0).round(),
+                    1 => u * 1e-300,
+                    2 => u * 1e6,
+                    _ => f64::from_bits(rng.next_u64() >> 2) * u.signum(),
+                }
+            };
+            let mut r = SampleResponse {
+                t: f(),
+                ..Default::default()
+            };
+            let mask = round % 32;
+            if mask & 1 != 0 {
+                r.height = Some((0..n).map(|_| f()).collect());
+            }
+            if mask & 2 != 0 {
+                r.normal = Some((0..n).map(|_| [f(), f(), f()]).collect());
+            }
+            if mask & 4 != 0 {
+                r.displacement = Some((0..n).map(|_| [f(), f(), f()]).collect());
+            }
+            if mask & 8 != 0 {
+                r.jacobian = Some((0..n).map(|_| f()).collect());
+                r.folded = Some((0..n).map(|i| i % 3 == 0).collect());
+            }
+            if mask & 16 != 0 {
+                r.residual = Some((0..n).map(|_| f()).collect());
+            }
+            let id = (round % 3 != 0).then_some(round as u64);
+            let out = Outgoing {
+                id,
+                event: Event::SampleResult(r),
+            };
+            assert_eq!(encode_json(&out), encode_json_value(&out), "round {round}");
+        }
+    }
 
     #[test]
     fn json_ping_round_trips_id_and_time() {

@@ -57,6 +57,7 @@ pub mod messages;
 pub mod registry;
 pub mod ticks;
 
+use std::net::IpAddr;
 use std::sync::Arc;
 use std::task::Poll;
 use std::time::Duration;
@@ -72,8 +73,10 @@ use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
 use crate::error::{ApiError, ErrorCode};
+use crate::peers::{Budget, Charge};
 use crate::service::query::{
-    At, orientation_probes, resolve_time, run_orientation, run_sample, runs_inline,
+    At, orientation_probes, orientation_request_bytes, resolve_time, run_orientation, run_sample,
+    runs_inline, sample_request_bytes,
 };
 use crate::state::AppState;
 use frame::{Interest, SharedTick};
@@ -145,11 +148,12 @@ pub async fn stream(
 ) -> Result<Response, ApiError> {
     state.scene(&id)?;
     check_key(&headers)?;
-    // Exempt clients (loopback by default: load tests, sidecars) have no message rate.
-    let exempt = peer.is_none_or(|p| {
-        let client = state.peer_policy.client(p.0.0.ip(), &headers);
-        state.peer_policy.exempt.contains(client)
-    });
+    // The client (through trusted proxies); `None` for an exempt one (loopback by default:
+    // load tests, sidecars), which has no message rate and no share of the byte budget of its
+    // own.
+    let client = peer
+        .map(|p| state.peer_policy.client(p.0.0.ip(), &headers))
+        .filter(|c| !state.peer_policy.exempt.contains(*c));
     let ws = ws.map_err(|r| {
         ApiError::new(ErrorCode::WebsocketRequired, format!(
                 "this endpoint is a WebSocket (subprotocols {JSON_PROTOCOL}, {PROTOBUF_PROTOCOL}): {}",
@@ -178,7 +182,7 @@ pub async fn stream(
     Ok(ws.on_upgrade(move |socket: WebSocket| {
         tasks.track_future(async move {
             let (sink, stream) = socket.split();
-            session(state, id, codec, exempt, sink, stream).await;
+            session(state, id, codec, client, sink, stream).await;
         })
     }))
 }
@@ -254,6 +258,8 @@ enum End {
 /// subscription (so a `subscribe` answered before a frame takes effect in that order too).
 enum Out {
     Message(Message),
+    /// A large answer and its charge on the byte budget, given back once it is sent.
+    Answer(Message, Charge),
     /// Follow the scene's ticks with this interest. `rx` is a fresh receiver, used only when
     /// the writer follows none (an existing one keeps its place in the stream: no frame is lost
     /// to an interest change).
@@ -269,9 +275,54 @@ struct Queue {
     codec: Codec,
     /// Fired when the queue overflows; the session then drops the client.
     slow: CancellationToken,
+    /// The server's byte budget ([`AppState::buffers`]): large queries' work and answers, until
+    /// sent.
+    budget: Arc<Budget>,
+    /// Whose share the bytes come from (`None`: an exempt client, charged to the total only).
+    client: Option<IpAddr>,
 }
 
+/// Answers of at least this many bytes are charged to the budget until sent; smaller ones are
+/// bounded by the queue's length.
+const CHARGED_ANSWER_BYTES: usize = 64 * 1024;
+
 impl Queue {
+    /// Charges `n` bytes for a query's work and answer, or queues the `overloaded` error that
+    /// says which budget it would exceed.
+    fn reserve(&self, id: Option<u64>, n: usize) -> Option<Charge> {
+        let mut c = self.budget.charge(self.client);
+        match c.reserve(n) {
+            Ok(()) => Some(c),
+            Err(e) => {
+                self.error(id, e);
+                None
+            }
+        }
+    }
+
+    /// [`Queue::push`] for a query's answer: the charge its work held becomes the encoded
+    /// message's size, held until the writer has sent it.
+    fn push_answer(&self, out: Outgoing, mut charge: Charge) {
+        let id = out.id;
+        let m = encode(self.codec, out.finite_or_error());
+        let len = match &m {
+            Message::Text(t) => t.len(),
+            Message::Binary(b) => b.len(),
+            _ => 0,
+        };
+        if len < CHARGED_ANSWER_BYTES {
+            drop(charge);
+            return self.push_out(Out::Message(m));
+        }
+        match charge.resize(len) {
+            Ok(()) => self.push_out(Out::Answer(m, charge)),
+            Err(which) => {
+                drop((m, charge));
+                self.error(id, which.error());
+            }
+        }
+    }
+
     /// Encodes and queues `out`, after the non-finite check every answer passes
     /// ([`Outgoing::finite_or_error`]).
     fn push(&self, out: Outgoing) {
@@ -321,6 +372,8 @@ impl Writer {
     {
         let mut sub: Option<Subscription> = None;
         loop {
+            // A large answer's charge, given back when it has been sent (or dropped).
+            let mut _held: Option<Charge> = None;
             // Biased: answers and subscription changes before ticks, in the order queued.
             let msg = tokio::select! {
                 biased;
@@ -329,6 +382,10 @@ impl Writer {
                 out = rx.recv() => match out {
                     None => break,
                     Some(Out::Message(m)) => m,
+                    Some(Out::Answer(m, c)) => {
+                        _held = Some(c);
+                        m
+                    }
                     Some(Out::Subscribe(fresh, interest)) => {
                         match &mut sub {
                             Some(s) => s.interest = interest,
@@ -436,12 +493,13 @@ async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<SharedTick>> {
 }
 
 /// Runs one session over any message sink and stream (a real socket, or channels in tests).
-/// An `exempt` client ([`crate::Limits::exempt_peers`]) has no message rate limit.
+/// `client` is the client's address, `None` for an exempt one ([`crate::Limits::exempt_peers`]):
+/// no message rate limit, and its bytes count to the server's total budget only.
 pub async fn session<W, R>(
     state: AppState,
     scene_id: String,
     codec: Codec,
-    exempt: bool,
+    client: Option<IpAddr>,
     sink: W,
     mut stream: R,
 ) where
@@ -455,6 +513,8 @@ pub async fn session<W, R>(
         tx,
         codec,
         slow: CancellationToken::new(),
+        budget: Arc::clone(&state.buffers),
+        client,
     };
     let shutdown = state.shutdown.clone();
     let slow = queue.slow.clone();
@@ -474,7 +534,7 @@ pub async fn session<W, R>(
     let mut last_heard = tokio::time::Instant::now();
     let mut pinged = false;
     let mut rate = MessageRate::new(
-        if exempt {
+        if client.is_none() {
             0.0
         } else {
             state.limits.ws_messages_per_s
@@ -789,7 +849,11 @@ fn handle(
             scene_id,
             queue,
             permits,
-            Asked { id, t: req.t },
+            Asked {
+                id,
+                t: req.t,
+                bytes: sample_request_bytes(&req, queue.codec.number_bytes()),
+            },
             {
                 let points = req.points.len();
                 let fields = crate::service::query::parse_fields(req.fields.as_deref());
@@ -809,7 +873,11 @@ fn handle(
                 scene_id,
                 queue,
                 permits,
-                Asked { id, t: req.t },
+                Asked {
+                    id,
+                    t: req.t,
+                    bytes: orientation_request_bytes(&req, queue.codec.number_bytes()),
+                },
                 {
                     let probes = orientation_probes(&req);
                     move |st, scene, at| {
@@ -838,6 +906,9 @@ struct Asked {
     id: Option<u64>,
     /// Its time (`None`: now).
     t: Option<f64>,
+    /// What its work and answer hold, for the byte budget
+    /// ([`crate::service::query::sample_bytes`]).
+    bytes: usize,
 }
 
 /// Runs a query as HTTP does (scene lookup, time resolution, the same `run_*` function, inline
@@ -847,7 +918,7 @@ fn query(
     scene_id: &str,
     queue: &Queue,
     permits: &Arc<Semaphore>,
-    Asked { id, t }: Asked,
+    Asked { id, t, bytes }: Asked,
     inline: impl FnOnce(&AppState, &crate::scene::Scene, At) -> bool,
     run: impl FnOnce(&AppState, &crate::scene::Scene, At) -> Result<Event, ApiError> + Send + 'static,
 ) {
@@ -860,6 +931,9 @@ fn query(
         );
         return;
     };
+    let Some(charge) = queue.reserve(id, bytes) else {
+        return;
+    };
     let resolved = state
         .scene(scene_id)
         .and_then(|entry| Ok((resolve_time(state, &entry, t)?, Arc::clone(&entry.scene))));
@@ -870,7 +944,7 @@ fn query(
     if inline(state, &scene, at) {
         drop(permit);
         match run(state, &scene, at) {
-            Ok(event) => queue.push(Outgoing { id, event }),
+            Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
             Err(e) => queue.error(id, e),
         }
         return;
@@ -884,7 +958,7 @@ fn query(
             .and_then(|r| r);
         drop(permit);
         match result {
-            Ok(event) => queue.push(Outgoing { id, event }),
+            Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
             Err(e) => queue.error(id, e),
         }
     });
