@@ -949,3 +949,46 @@ async fn websocket_answers_waiting_for_a_reader_are_held_within_its_share() {
     assert_eq!(s.state.buffers.held(), 0);
     s.stop().await;
 }
+
+/// Issue 27: a large answer was built whole before the first byte went out (a 65,536-point
+/// sample: several MB per request, held until the client read it). A large JSON sample answer
+/// is now encoded as hyper sends it: chunked, and what the server holds for it is its arrays
+/// (8 B a number), not its encoding (up to 25 B a number).
+#[tokio::test]
+async fn a_large_json_answer_is_encoded_as_it_is_sent() {
+    let s = TestServer::start(hostile_config()).await;
+    let http = client_from([127, 0, 12, 1]);
+    const N: usize = 65_536;
+    let points: Vec<[f64; 2]> = (0..N)
+        .map(|i| [(i % 256) as f64 * 0.7, (i / 256) as f64 * 0.7])
+        .collect();
+    let body = json!({"points": points, "fields": ["height", "normal"]}).to_string();
+    let r = http
+        .post(s.url("/v1/scenes/calm/sample"))
+        .header("content-type", "application/json")
+        .body(body.clone())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert!(
+        r.headers().get("content-length").is_none(),
+        "{:?}",
+        r.headers()
+    );
+    assert_eq!(r.headers()["transfer-encoding"], "chunked");
+    assert_eq!(r.headers()["content-type"], "application/json");
+    // Held while unread: the answer's arrays (16 B a point, 8 B a number), not an encoding of
+    // 4 numbers a point (~5 MB) nor the request's body (~1.6 MB, parsed and gone).
+    let held = s.state.buffers.held();
+    let arrays = N * (16 + 4 * 8);
+    eprintln!("held {held} bytes while the answer waits ({arrays} of arrays)");
+    assert!(held > 0 && held <= arrays, "held {held}");
+    let v: Value = r.json().await.unwrap();
+    assert_eq!(v["height"].as_array().unwrap().len(), N);
+    assert_eq!(v["normal"].as_array().unwrap().len(), N);
+    assert_eq!(v["normal"][N - 1].as_array().unwrap().len(), 3);
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    assert_eq!(s.state.buffers.held(), 0);
+    s.stop().await;
+}

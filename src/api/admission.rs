@@ -254,6 +254,7 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
         body
     };
     let mut req = Request::from_parts(parts, body);
+    let body_bytes = charge.bytes();
     let charge = Arc::new(Mutex::new(charge));
     req.extensions_mut()
         .insert(Reserve(Some(Arc::clone(&charge))));
@@ -281,7 +282,7 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
             .or_insert(HeaderValue::from_static("1"));
     }
     // The request body and the work are done; the answer takes their place until written.
-    charge_answer(charge, resp)
+    charge_answer(charge, body_bytes, resp)
 }
 
 fn too_large(limits: &Limits) -> ApiError {
@@ -381,8 +382,8 @@ const CHARGED_ANSWER_BYTES: u64 = 64 * 1024;
 /// Sets the request's charge to the answer's size and wraps the answer's body so the charge
 /// holds until it is written (or the connection drops it). An answer that would exceed the
 /// budget is replaced by a 503. An answer encoded as it is sent has no size yet: it keeps what
-/// its handler reserved.
-fn charge_answer(charge: Arc<Mutex<Charge>>, resp: Response) -> Response {
+/// its handler reserved (the request's `body_bytes` are gone by now).
+fn charge_answer(charge: Arc<Mutex<Charge>>, body_bytes: usize, resp: Response) -> Response {
     let hint = resp.body().size_hint();
     let size = hint.upper();
     {
@@ -391,7 +392,7 @@ fn charge_answer(charge: Arc<Mutex<Charge>>, resp: Response) -> Response {
             Some(n) if n < CHARGED_ANSWER_BYTES => 0,
             #[allow(clippy::cast_possible_truncation)]
             Some(n) => n as usize,
-            None => c.bytes(),
+            None => c.bytes().saturating_sub(body_bytes),
         };
         if let Err(which) = c.resize(keep) {
             return over_budget(which);

@@ -9,15 +9,15 @@ use axum::extract::{Path, Query, State};
 use swell_waves::{QueryFields, QueryOptions};
 
 use crate::api::admission::Reserve;
-use crate::api::wire::{Accept, Body, Reply};
+use crate::api::wire::{Accept, Body, Reply, SampleReply};
 use crate::error::ApiError;
 use crate::service::query::{
     orientation_probes, orientation_request_bytes, resolve_time, run_height, run_orientation,
-    run_query, run_sample, runs_inline, sample_request_bytes, sample_runs_inline,
+    run_query, run_sample, runs_inline, sample_request_bytes, sample_request_numbers,
+    sample_runs_inline,
 };
 use crate::service::types::{
     HeightQuery, HeightResponse, OrientationRequest, OrientationResponse, SampleRequest,
-    SampleResponse,
 };
 use crate::state::AppState;
 
@@ -55,9 +55,15 @@ pub async fn sample(
     Accept(format): Accept,
     reserve: Reserve,
     Body(req): Body<SampleRequest>,
-) -> Result<Reply<SampleResponse>, ApiError> {
+) -> Result<SampleReply, ApiError> {
     let entry = state.scene(&id)?;
-    reserve.bytes(sample_request_bytes(&req, format.number_bytes()))?;
+    // A large JSON answer is encoded as it is sent: only its arrays are held.
+    let encoded = if SampleReply::streams(format, sample_request_numbers(&req)) {
+        0
+    } else {
+        format.number_bytes()
+    };
+    reserve.bytes(sample_request_bytes(&req, encoded))?;
     let at = resolve_time(&state, &entry, req.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
@@ -66,7 +72,7 @@ pub async fn sample(
         run_sample(&st.frames, &st.limits, &scene, at, &req)
     })
     .await
-    .map(|r| Reply(format, r))
+    .map(|r| SampleReply(format, r))
 }
 
 /// `POST /v1/scenes/{id}/orientation`.

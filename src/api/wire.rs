@@ -194,6 +194,164 @@ impl<T: ToProto> IntoResponse for Reply<T> {
     }
 }
 
+/// A sample's answer: as [`Reply`], except that a large JSON answer is encoded as hyper sends
+/// it ([`SampleJsonBody`]), so it is never held whole, and a client that reads slowly slows
+/// the encoding instead of making the server buffer it.
+#[derive(Debug)]
+pub struct SampleReply(pub Format, pub SampleResponse);
+
+/// JSON answers estimated at this many bytes or more are streamed.
+pub const STREAMED_ANSWER_BYTES: usize = 64 * 1024;
+
+impl SampleReply {
+    /// Whether this answer is encoded as it is sent.
+    pub fn streams(format: Format, numbers: usize) -> bool {
+        format == Format::Json
+            && numbers.saturating_mul(crate::service::query::JSON_NUMBER_BYTES)
+                >= STREAMED_ANSWER_BYTES
+    }
+}
+
+impl IntoResponse for SampleReply {
+    fn into_response(self) -> Response {
+        let SampleReply(format, answer) = self;
+        if !SampleReply::streams(format, answer.numbers()) {
+            return Reply(format, answer).into_response();
+        }
+        if let Err(e) = check_answer(&answer) {
+            return e.into_response();
+        }
+        let mut r = axum::body::Body::new(SampleJsonBody::new(answer)).into_response();
+        r.headers_mut().insert(
+            header::CONTENT_TYPE,
+            HeaderValue::from_static("application/json"),
+        );
+        r
+    }
+}
+
+/// Bytes a [`SampleJsonBody`] encodes per frame (at least: a frame ends after the element that
+/// crosses it).
+const CHUNK_BYTES: usize = 32 * 1024;
+
+/// A sample answer's JSON, encoded a chunk at a time as the body is polled: the same bytes as
+/// `serde_json::to_vec` of the answer (keys in declaration order: `t`, then each array the
+/// answer has).
+#[derive(Debug)]
+pub struct SampleJsonBody {
+    answer: SampleResponse,
+    /// The array being written (`0`: not started; `1..=6`: height, normal, displacement,
+    /// jacobian, folded, residual; `7`: done) and the next element of it.
+    array: usize,
+    next: usize,
+}
+
+impl SampleJsonBody {
+    /// A body for `answer` (checked for non-finite numbers by the caller).
+    pub fn new(answer: SampleResponse) -> SampleJsonBody {
+        SampleJsonBody {
+            answer,
+            array: 0,
+            next: 0,
+        }
+    }
+
+    /// Writes elements of array `a` from `self.next` until `buf` reaches [`CHUNK_BYTES`];
+    /// whether the array is finished.
+    fn write_array(&mut self, a: usize, buf: &mut Vec<u8>) -> bool {
+        fn put<T: Serialize>(v: &[T], from: &mut usize, buf: &mut Vec<u8>) -> bool {
+            while *from < v.len() {
+                if buf.len() >= CHUNK_BYTES {
+                    return false;
+                }
+                if *from > 0 {
+                    buf.push(b',');
+                }
+                // Plain numbers, bools and arrays of them: serialization cannot fail.
+                let _ = serde_json::to_writer(&mut *buf, &v[*from]);
+                *from += 1;
+            }
+            true
+        }
+        let r = &self.answer;
+        let next = &mut self.next;
+        match a {
+            1 => r.height.as_deref().is_none_or(|v| put(v, next, buf)),
+            2 => r.normal.as_deref().is_none_or(|v| put(v, next, buf)),
+            3 => r.displacement.as_deref().is_none_or(|v| put(v, next, buf)),
+            4 => r.jacobian.as_deref().is_none_or(|v| put(v, next, buf)),
+            5 => r.folded.as_deref().is_none_or(|v| put(v, next, buf)),
+            6 => r.residual.as_deref().is_none_or(|v| put(v, next, buf)),
+            _ => true,
+        }
+    }
+
+    fn has(&self, a: usize) -> Option<&'static str> {
+        let r = &self.answer;
+        match a {
+            1 => r.height.is_some().then_some("height"),
+            2 => r.normal.is_some().then_some("normal"),
+            3 => r.displacement.is_some().then_some("displacement"),
+            4 => r.jacobian.is_some().then_some("jacobian"),
+            5 => r.folded.is_some().then_some("folded"),
+            6 => r.residual.is_some().then_some("residual"),
+            _ => None,
+        }
+    }
+
+    /// The next chunk of the encoding; `None` once it is all written.
+    fn chunk(&mut self) -> Option<Vec<u8>> {
+        if self.array > 6 {
+            return None;
+        }
+        let mut buf = Vec::with_capacity(CHUNK_BYTES + 128);
+        if self.array == 0 {
+            buf.extend_from_slice(b"{\"t\":");
+            let _ = serde_json::to_writer(&mut buf, &self.answer.t);
+            self.array = 1;
+            self.next = usize::MAX;
+        }
+        while self.array <= 6 {
+            let Some(name) = self.has(self.array) else {
+                self.array += 1;
+                self.next = usize::MAX;
+                continue;
+            };
+            if self.next == usize::MAX {
+                buf.extend_from_slice(b",\"");
+                buf.extend_from_slice(name.as_bytes());
+                buf.extend_from_slice(b"\":[");
+                self.next = 0;
+            }
+            if !self.write_array(self.array, &mut buf) {
+                return Some(buf);
+            }
+            buf.push(b']');
+            self.array += 1;
+            self.next = usize::MAX;
+        }
+        buf.push(b'}');
+        Some(buf)
+    }
+}
+
+impl http_body::Body for SampleJsonBody {
+    type Data = axum::body::Bytes;
+    type Error = std::convert::Infallible;
+
+    fn poll_frame(
+        self: std::pin::Pin<&mut Self>,
+        _: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Option<Result<http_body::Frame<Self::Data>, Self::Error>>> {
+        let chunk = self.get_mut().chunk();
+        std::task::Poll::Ready(chunk.map(|c| Ok(http_body::Frame::data(c.into()))))
+    }
+
+    fn is_end_stream(&self) -> bool {
+        self.array > 6
+    }
+}
+
 /// Middleware: when the client accepts protobuf, an error answer (from a handler, an extractor
 /// or another layer: every [`ApiError`] leaves a copy of itself in the response extensions) is
 /// re-encoded as `swell.v1.ErrorResponse` with the same status and headers.
@@ -213,4 +371,61 @@ pub async fn protobuf_errors(req: Request, next: Next) -> Response {
         .insert(header::CONTENT_TYPE, HeaderValue::from_static(PROTOBUF));
     parts.headers.remove(header::CONTENT_LENGTH);
     Response::from_parts(parts, axum::body::Body::from(body))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn encode_streamed(answer: SampleResponse) -> Vec<u8> {
+        let mut body = SampleJsonBody::new(answer);
+        let mut out = Vec::new();
+        let mut chunks = 0;
+        while let Some(c) = body.chunk() {
+            assert!(c.len() < CHUNK_BYTES + 128, "a chunk of {} bytes", c.len());
+            out.extend_from_slice(&c);
+            chunks += 1;
+        }
+        assert!(body.chunk().is_none());
+        assert!(chunks >= 1);
+        out
+    }
+
+    #[test]
+    fn a_streamed_sample_answer_has_the_bytes_of_the_whole_encoding() {
+        let mut rng = swell_waves::math::SwellRng::new(27, 1);
+        for round in 0..64u32 {
+            // 0 to ~40,000 points: empty arrays, one chunk, many.
+            let n = match round % 4 {
+                0 => (rng.next_u32() % 3) as usize,
+                1 => (rng.next_u32() % 500) as usize,
+                _ => (rng.next_u32() % 40_000) as usize,
+            };
+            let mut f =
+                || (rng.uniform() * 2.0 - 1.0) * 10f64.powi((rng.next_u32() % 40) as i32 - 20);
+            let mask = round % 32;
+            let mut a = SampleResponse {
+                t: f(),
+                ..Default::default()
+            };
+            if mask & 1 != 0 || mask == 0 {
+                a.height = Some((0..n).map(|_| f()).collect());
+            }
+            if mask & 2 != 0 {
+                a.normal = Some((0..n).map(|_| [f(), f(), f()]).collect());
+            }
+            if mask & 4 != 0 {
+                a.displacement = Some((0..n).map(|_| [f(), f(), f()]).collect());
+            }
+            if mask & 8 != 0 {
+                a.jacobian = Some((0..n).map(|_| f()).collect());
+                a.folded = Some((0..n).map(|i| i % 5 == 0).collect());
+            }
+            if mask & 16 != 0 {
+                a.residual = Some((0..n).map(|_| f()).collect());
+            }
+            let whole = serde_json::to_vec(&a).unwrap();
+            assert_eq!(encode_streamed(a), whole, "round {round}, {n} points");
+        }
+    }
 }

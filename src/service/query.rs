@@ -235,12 +235,23 @@ pub const PROTOBUF_NUMBER_BYTES: usize = 8;
 /// encoded whole ([`JSON_NUMBER_BYTES`] or [`PROTOBUF_NUMBER_BYTES`]; 0 when it is encoded as
 /// it is sent). An estimate from above for the answer, ± a block of results.
 pub fn sample_bytes(points: usize, fields: QueryFields, encoded_per_number: usize) -> usize {
-    let numbers = usize::from(fields.height)
+    points.saturating_mul(16 + numbers_per_point(fields) * (8 + encoded_per_number))
+}
+
+/// Numbers a sample answer has per point for `fields` (`folded` counts as one).
+pub fn numbers_per_point(fields: QueryFields) -> usize {
+    usize::from(fields.height)
         + 3 * usize::from(fields.normal)
         + 3 * usize::from(fields.displacement)
         + 2 * usize::from(fields.jacobian) // and `folded`
-        + usize::from(fields.residual);
-    points.saturating_mul(16 + numbers * (8 + encoded_per_number))
+        + usize::from(fields.residual)
+}
+
+/// Numbers a sample request's answer will have (0 for fields that do not parse: such a request
+/// is refused before it costs anything).
+pub fn sample_request_numbers(req: &SampleRequest) -> usize {
+    parse_fields(req.fields.as_deref())
+        .map_or(0, |f| req.points.len().saturating_mul(numbers_per_point(f)))
 }
 
 /// [`sample_bytes`] for a request (its fields as asked; a request whose fields do not parse is

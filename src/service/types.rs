@@ -241,6 +241,16 @@ impl SampleResponse {
         }
     }
 
+    /// Numbers in the answer (a bool counts as one).
+    pub fn numbers(&self) -> usize {
+        self.height.as_ref().map_or(0, Vec::len)
+            + 3 * self.normal.as_ref().map_or(0, Vec::len)
+            + 3 * self.displacement.as_ref().map_or(0, Vec::len)
+            + self.jacobian.as_ref().map_or(0, Vec::len)
+            + self.folded.as_ref().map_or(0, Vec::len)
+            + self.residual.as_ref().map_or(0, Vec::len)
+    }
+
     /// Appends `results`, in order, to each array the answer has.
     pub fn extend(&mut self, results: &[swell_waves::PointResult]) {
         if let Some(v) = &mut self.height {
