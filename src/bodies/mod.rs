@@ -200,6 +200,37 @@ pub struct SceneBodies {
     /// `felt` and `derived` as one set, what the bodies step on; `None` when either changed
     /// since it was built.
     ripples: Option<std::sync::Arc<Impacts>>,
+    /// Per body, where its trajectory in the current world starts ([`Origin`]): published, so
+    /// a client can rebuild the world from `anchor` on.
+    origins: BTreeMap<u64, Origin>,
+}
+
+/// Where a body's trajectory in its scene's current world starts: with the world's anchor, what
+/// a client needs to rebuild that world to the bit (the scene, this, and the inputs accepted
+/// since). Kept through journal replay (re-derived from the events) and snapshots
+/// ([`WorldRecord::origins`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Origin {
+    /// Scene tick the body was spawned at; `None` for a body restored from a record that did
+    /// not keep it (written before this field).
+    #[serde(default)]
+    pub spawn_tick: Option<i64>,
+    /// Set when the body came into the current world from an earlier one (a re-anchor, or a
+    /// restore from a legacy record): it starts there from this, not from its spawn.
+    #[serde(default)]
+    pub carried: Option<Carried>,
+}
+
+/// A body as a re-anchor carried it into a new world, at the new anchor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Carried {
+    /// Its state at the anchor, as the new world holds it (rotation normalised by
+    /// [`World::insert`], so not always the old world's last bits), warm starts cold.
+    pub state: swell_waves::body::BodyState,
+    /// Its inputs that were not over, as the new world holds them: each acts from the anchor
+    /// (world tick 0) for the ticks it had left.
+    #[serde(default)]
+    pub inputs: Vec<BodyInput>,
 }
 
 /// Most API impacts a body world feels at once (the scene's own limit on API impacts): a
@@ -254,6 +285,7 @@ impl SceneBodies {
             wake: BTreeMap::new(),
             felt: Vec::new(),
             ripples: None,
+            origins: BTreeMap::new(),
         })
     }
 
@@ -275,6 +307,18 @@ impl SceneBodies {
     /// The scene time the states are at, s.
     pub fn t(&self) -> f64 {
         self.world.time()
+    }
+
+    /// The scene tick of world tick 0: where the current world starts (its first spawn, its
+    /// last re-anchor, or a restore from a legacy record). Substep times are
+    /// `anchor/tick_hz + (n + k/256)/tick_hz`, so a client's world must start here too.
+    pub fn anchor(&self) -> i64 {
+        self.anchor
+    }
+
+    /// Where body `id`'s trajectory in the current world starts, if it is known.
+    pub fn origin(&self, id: u64) -> Option<&Origin> {
+        self.origins.get(&id)
     }
 
     /// Adds a body; returns its id.
@@ -306,6 +350,7 @@ impl SceneBodies {
         let state =
             swell_waves::body::BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
         let id = self.world.add(&spec, state).map_err(|e| model_error(&e))?;
+        self.spawned(id, self.tick());
         self.events.push(BodyEvent::Spawned {
             at: self.tick(),
             id,
@@ -316,10 +361,22 @@ impl SceneBodies {
         Ok(id)
     }
 
+    /// Records that body `id` was spawned (or replayed) at scene tick `tick`.
+    fn spawned(&mut self, id: u64, tick: i64) {
+        self.origins.insert(
+            id,
+            Origin {
+                spawn_tick: Some(tick),
+                carried: None,
+            },
+        );
+    }
+
     /// Removes a body; whether it existed.
     pub fn remove(&mut self, id: u64) -> bool {
         self.specs.remove(&id);
         self.wake.remove(&id);
+        self.origins.remove(&id);
         let existed = self.world.remove(id);
         if existed {
             self.events.push(BodyEvent::Removed {
@@ -430,6 +487,17 @@ impl SceneBodies {
                     ..*i
                 });
             }
+        }
+        // What each body starts the new world from, as the new world holds it.
+        for (id, body) in world.bodies() {
+            let origin = self.origins.entry(id).or_insert(Origin {
+                spawn_tick: None,
+                carried: None,
+            });
+            origin.carried = Some(Carried {
+                state: *body.state(),
+                inputs: world.inputs().filter(|i| i.body == id).copied().collect(),
+            });
         }
         self.world = world;
         self.anchor = tick;
@@ -697,6 +765,25 @@ impl SceneBodies {
                 Err(e) => tracing::error!(body = r.id, error = %e, "skipping persisted body"),
             }
         }
+        // A fresh world from the record's states: every body is carried in (spawn ticks were
+        // not kept).
+        b.origins = b
+            .world
+            .bodies()
+            .map(|(id, body)| {
+                let carried = Carried {
+                    state: *body.state(),
+                    inputs: Vec::new(),
+                };
+                (
+                    id,
+                    Origin {
+                        spawn_tick: None,
+                        carried: Some(carried),
+                    },
+                )
+            })
+            .collect();
         Ok(b)
     }
 }
