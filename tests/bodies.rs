@@ -285,12 +285,13 @@ async fn tick_frames_carry_the_body_loops_states_for_their_tick() {
             let f = next_tick(&mut ws).await;
             seen.push((f["tick"].as_i64().unwrap(), f["bodies"].clone()));
         }
-        // GET …/bodies describes each body (its state, plus mass and hull); tick frames carry
-        // the state only.
+        // GET …/bodies describes each body (its state, plus mass, hull and spawn tick); tick
+        // frames carry the state only.
         let mut states = got["bodies"].clone();
         for b in states.as_array_mut().unwrap() {
             let o = b.as_object_mut().unwrap();
             assert!(o.remove("mass").is_some() && o.remove("hull").is_some());
+            assert!(o.remove("spawn_tick").is_some());
         }
         if let Some((_, bodies)) = seen.iter().find(|(t, _)| *t == g) {
             assert_eq!(*bodies, states, "tick {g}");

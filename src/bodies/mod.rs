@@ -1196,6 +1196,61 @@ mod tests {
         assert!(a.felt_impacts().is_empty());
     }
 
+    /// Issue 28: what the server publishes for a client to rebuild its boat (each body's spawn
+    /// tick, and after a re-anchor its state there and remaining inputs) is the same live,
+    /// replayed from the journal's events, and restored from a record through JSON.
+    #[test]
+    fn origins_are_the_same_live_replayed_and_restored() {
+        let s = calm();
+        let mut a = SceneBodies::new(100, 30.0, 9.81).unwrap();
+        a.spawn(&boat()).unwrap();
+        a.advance_to(105, Sea::Direct(&s), 30.0, 9.81);
+        let second = a.spawn(&boat()).unwrap();
+        let push = |from_tick, ticks| InputRequest {
+            force: [3000.0, 0.0, 0.0],
+            torque: [0.0, 200.0, 0.0],
+            from_tick,
+            ticks: Some(ticks),
+        };
+        a.input(second, &push(Some(107), 50)).unwrap();
+        a.input(second, &push(Some(180), 5)).unwrap();
+        a.advance_to(120, Sea::Direct(&s), 30.0, 9.81);
+        let spawned = |b: &SceneBodies| (b.origin(0).cloned(), b.origin(second).cloned());
+        assert_eq!(a.anchor(), 100);
+        assert_eq!(a.origin(second).unwrap().spawn_tick, Some(105));
+        assert!(a.origin(second).unwrap().carried.is_none());
+        // A jump: the world starts again at 500, each body carried in with its state there.
+        assert!(a.advance_to(500, Sea::Direct(&s), 30.0, 9.81).reanchored);
+        assert_eq!((a.anchor(), a.tick()), (500, 500));
+        let o = a.origin(second).unwrap().clone();
+        assert_eq!(o.spawn_tick, Some(105));
+        let c = o.carried.expect("carried by the re-anchor");
+        let st = a.state(second).unwrap();
+        assert_eq!(c.state.position.to_array(), st.position);
+        assert_eq!(c.state.rotation.to_array(), st.rotation);
+        // The first input had 37 of its 50 ticks left at 120; the later one all 5 (moved to
+        // the anchor, as the world holds it).
+        let left: Vec<(u64, u64)> = c.inputs.iter().map(|i| (i.from_tick, i.ticks)).collect();
+        assert_eq!(left, [(0, 37), (0, 5)]);
+        a.advance_to(510, Sea::Direct(&s), 30.0, 9.81);
+        // Restored from a record through JSON.
+        let json = serde_json::to_string(&a.world_record()).unwrap();
+        let restored =
+            SceneBodies::from_world_record(&serde_json::from_str(&json).unwrap()).unwrap();
+        assert_eq!((restored.anchor(), spawned(&restored)), (500, spawned(&a)));
+        // Replayed from the journal's events.
+        let events = a.take_events();
+        let mut r = SceneBodies::from_created(&events[0]).unwrap();
+        for e in &events[1..] {
+            r.replay(e, &s);
+        }
+        r.step_to(510, &s);
+        assert_eq!((r.anchor(), spawned(&r)), (500, spawned(&a)));
+        // A removed body's origin goes with it.
+        assert!(a.remove(0));
+        assert!(a.origin(0).is_none());
+    }
+
     /// A world rebuilt from its record (through JSON, as the journal and the fleet store it)
     /// continues to the bits on a choppy sea, where the hull cells' inversions iterate and
     /// carry their starts from one tick to the next (`WorldRecord::warm`). The same record
