@@ -410,11 +410,21 @@ impl SceneBodies {
                 format!("ticks = {ticks} is out of range: 1..=10000000"),
             ));
         }
+        // `from >= now >= anchor`, but far ahead of a negative anchor the difference overflows.
+        let Some(relative) = from.checked_sub(self.anchor) else {
+            return Err(ApiError::invalid(
+                "from_tick",
+                format!(
+                    "from_tick = {from} is out of range: more than i64::MAX ticks after the bodies' anchor {}",
+                    self.anchor
+                ),
+            ));
+        };
         let input = BodyInput {
             body: id,
             force: req.force,
             torque: req.torque,
-            from_tick: (from - self.anchor) as u64,
+            from_tick: relative as u64,
             ticks,
         };
         self.world.input(input).map_err(|e| {
@@ -1194,6 +1204,23 @@ mod tests {
         a.advance_to(h + 100, Sea::Direct(&s), 30.0, 9.81);
         a.advance_to(h + 101, Sea::Direct(&s), 30.0, 9.81);
         assert!(a.felt_impacts().is_empty());
+    }
+
+    /// An input far ahead of a world anchored at a negative tick (a clock seeked before t = 0)
+    /// used to overflow `from_tick - anchor`: a panic in a checked build, a wrapped tick in
+    /// release. It is a 400 naming `from_tick` now.
+    #[test]
+    fn an_input_beyond_i64_after_a_negative_anchor_is_refused() {
+        let mut b = SceneBodies::new(-3_000_000, 30.0, 9.81).unwrap();
+        let id = b.spawn(&boat()).unwrap();
+        let req = InputRequest {
+            force: [1.0, 0.0, 0.0],
+            torque: [0.0; 3],
+            from_tick: Some(i64::MAX),
+            ticks: None,
+        };
+        let e = b.input(id, &req).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("from_tick"), "{}", e.message);
     }
 
     /// Issue 28: what the server publishes for a client to rebuild its boat (each body's spawn

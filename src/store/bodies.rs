@@ -360,7 +360,10 @@ impl FleetBodies {
         checked.from_tick = input.from_tick.map(|f| f.max(now + 1));
         probe.input(bid, &checked)?;
         // Applied at the tick before the one it asks to act from (default: the next tick).
-        let wanted = input.from_tick.map_or(now + 1, |f| f - 1).max(now + 1);
+        let wanted = input
+            .from_tick
+            .map_or(now + 1, |f| f.saturating_sub(1))
+            .max(now + 1);
         let (tick, _) = self
             .append(state, scene, &BodyCmd::Input { id, input }, wanted)
             .await?;

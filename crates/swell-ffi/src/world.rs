@@ -436,12 +436,19 @@ pub unsafe extern "C" fn swell_world_input(
                 i.ticks
             )));
         }
+        // As the server: far ahead of a negative anchor the difference overflows.
+        let relative = from.checked_sub(w.anchor).ok_or_else(|| {
+            Error::invalid(format!(
+                "from_tick = {from} is out of range: more than i64::MAX ticks after the world's anchor {}",
+                w.anchor
+            ))
+        })?;
         w.world
             .input(BodyInput {
                 body: id,
                 force: i.force,
                 torque: i.torque,
-                from_tick: (from - w.anchor) as u64,
+                from_tick: relative as u64,
                 ticks: i.ticks,
             })
             .map_err(|e| Error::invalid(e.to_string()))
