@@ -28,7 +28,7 @@ export interface BodyState {
 }
 export interface Impact { t: number; position: Vec2; strength: number; radius: number }
 export interface ImpactEvent extends Impact { tick: number }
-/** `anchor_tick`: the scene's body world's anchor (absent without one); a change means a clock
+/** `anchor_tick`: the scene's body world's anchor (absent while the scene has no bodies); a change means a clock
  * jump re-anchored it (rebuild a replayed world from `bodies()`). */
 export interface TickFrame { tick: number; t: number; bodies: BodyState[]; impacts?: ImpactEvent[]; anchor_tick?: number }
 export interface HullExtent { kind: 'box' | 'cells'; length: number; beam: number; height: number; center: Vec3 }

@@ -478,7 +478,7 @@ pub struct Tick {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub impacts: Vec<crate::impacts::ImpactEvent>,
     /// Scene tick the scene's body world is anchored at when these states were published
-    /// (world tick 0); omitted while the scene has no body world. A change means a clock jump
+    /// (world tick 0); omitted while the scene has no bodies. A change means a clock jump
     /// re-anchored the world: a client replaying bodies rebuilds from `GET …/bodies`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub anchor_tick: Option<i64>,
