@@ -214,6 +214,11 @@ async fn tick_frames_carry_body_states_and_the_filter_applies() {
         .map(|b| b["id"].as_u64().unwrap())
         .collect();
     assert_eq!(ids, [a, b], "{f}");
+    // The frame names the body world's anchor (issue 28: a client replaying bodies watches it
+    // for re-anchors), the same the HTTP answers give.
+    let (_, list) = s.get_json("/v1/scenes/calm/bodies").await;
+    assert!(list["anchor_tick"].is_i64(), "{list}");
+    assert_eq!(f["anchor_tick"], list["anchor_tick"], "{f}");
     // The states are the bodies' at that tick: the same as GET /bodies reports for that tick.
     for body in f["bodies"].as_array().unwrap() {
         assert_eq!(body["position"].as_array().unwrap().len(), 3);
@@ -280,12 +285,13 @@ async fn tick_frames_carry_the_body_loops_states_for_their_tick() {
             let f = next_tick(&mut ws).await;
             seen.push((f["tick"].as_i64().unwrap(), f["bodies"].clone()));
         }
-        // GET …/bodies describes each body (its state, plus mass and hull); tick frames carry
-        // the state only.
+        // GET …/bodies describes each body (its state, plus mass, hull and spawn tick); tick
+        // frames carry the state only.
         let mut states = got["bodies"].clone();
         for b in states.as_array_mut().unwrap() {
             let o = b.as_object_mut().unwrap();
             assert!(o.remove("mass").is_some() && o.remove("hull").is_some());
+            assert!(o.remove("spawn_tick").is_some());
         }
         if let Some((_, bodies)) = seen.iter().find(|(t, _)| *t == g) {
             assert_eq!(*bodies, states, "tick {g}");

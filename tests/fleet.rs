@@ -955,6 +955,7 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         json!({"mass": 3000, "hull": {"kind": "box", "length": 8, "beam": 3, "height": 1.5},
         "position": [x, 1.0, 0.0], "yaw": 0.3})
     };
+    let mut spawned = Vec::new();
     for (i, x) in [0.0, 20.0].into_iter().enumerate() {
         let (st, v) = admin(
             &c,
@@ -966,13 +967,21 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         .await;
         assert_eq!(st, 201, "{v}");
         assert_eq!(v["id"], i as u64, "{v}");
+        // The ticks a native client replays it from (issue 28), as applied from the log.
+        assert!(v["spawn_tick"].as_i64() >= v["anchor_tick"].as_i64(), "{v}");
+        spawned.push((v["spawn_tick"].clone(), v["anchor_tick"].clone()));
     }
-    // Every replica has both (their followers picked the log up).
+    // Every replica has both (their followers picked the log up), with the same ticks.
     for r in &rs {
         until(&c, r, "/v1/scenes/bay/bodies", Instant::now(), |st, v| {
             st == 200 && v["bodies"].as_array().is_some_and(|b| b.len() == 2)
         })
         .await;
+        let (_, v) = get(&c, r, "/v1/scenes/bay/bodies").await;
+        for (i, (spawn_tick, anchor_tick)) in spawned.iter().enumerate() {
+            assert_eq!(&v["bodies"][i]["spawn_tick"], spawn_tick, "{v}");
+            assert_eq!(&v["anchor_tick"], anchor_tick, "{v}");
+        }
     }
     let (st, v) = admin(
         &c,
@@ -983,6 +992,13 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
     )
     .await;
     assert_eq!(st, 202, "{v}");
+    // No from_tick: it acts from the tick it applies at; no anchor (answered before applied).
+    assert_eq!(
+        (&v["from_tick"], &v["ticks"]),
+        (&v["tick"], &json!(40)),
+        "{v}"
+    );
+    assert!(v.get("anchor_tick").is_none(), "{v}");
     // An impact through replica 3 under boat 0: every replica's bodies feel it from the tick
     // the log sequenced it at (issue 15), as the replay below does.
     let (st, v) = admin(

@@ -28,10 +28,21 @@ export interface BodyState {
 }
 export interface Impact { t: number; position: Vec2; strength: number; radius: number }
 export interface ImpactEvent extends Impact { tick: number }
-export interface TickFrame { tick: number; t: number; bodies: BodyState[]; impacts?: ImpactEvent[] }
+/** `anchor_tick`: the scene's body world's anchor (absent while the scene has no bodies); a change means a clock
+ * jump re-anchored it (rebuild a replayed world from `bodies()`). */
+export interface TickFrame { tick: number; t: number; bodies: BodyState[]; impacts?: ImpactEvent[]; anchor_tick?: number }
 export interface HullExtent { kind: 'box' | 'cells'; length: number; beam: number; height: number; center: Vec3 }
-/** GET …/bodies and …/bodies/{id}: the state plus what a spawn fixed (mass, hull extent). */
-export interface BodyDescription extends BodyState { mass: number; hull: HullExtent }
+/** A body input as the server's world holds it (scene ticks). */
+export interface InputSpan { force: Vec3; torque: Vec3; from_tick: number; ticks: number }
+/** A body a re-anchor carried into the current world: its state at `anchor_tick`, and its
+ * inputs that were still running, each acting from `anchor_tick` for the ticks it had left. */
+export interface CarriedBody { state: BodyState; inputs: InputSpan[] }
+/** GET …/bodies and …/bodies/{id}: the state plus what a spawn fixed (mass, hull extent), the
+ * tick it was spawned at (absent for bodies restored from older records) and, after a
+ * re-anchor, what it starts the current world from. */
+export interface BodyDescription extends BodyState { mass: number; hull: HullExtent; spawn_tick?: number; carried?: CarriedBody }
+/** POST …/bodies answer: the state at rest, the tick the spawn applied at, the world's anchor. */
+export interface SpawnedBody extends BodyState { spawn_tick: number; anchor_tick: number }
 export interface Wave { amplitude: number; wavenumber: number; omega: number; direction: Vec2; phase: number; steepness: number }
 export interface Spectrum { header: Record<string, any>; n: number; records: Float64Array }
 
@@ -56,9 +67,9 @@ export class SwellClient {
   impacts(id: string, opts?: { t?: number }): Promise<{ t: number; impacts: ImpactEvent[] }>;
   addImpact(id: string, impact: { position: Vec2; t?: number; strength: number; radius: number }): Promise<{ tick: number; t: number }>;
   spectrum(id: string, layer: number): Promise<Spectrum>;
-  bodies(id: string): Promise<{ tick: number; t: number; bodies: BodyDescription[] }>;
-  body(id: string, bid: number): Promise<BodyDescription>;
-  spawnBody(id: string, spec: object): Promise<BodyState>;
+  bodies(id: string): Promise<{ tick: number; t: number; anchor_tick?: number; bodies: BodyDescription[] }>;
+  body(id: string, bid: number): Promise<BodyDescription & { tick: number; anchor_tick: number }>;
+  spawnBody(id: string, spec: object): Promise<SpawnedBody>;
   putScene(id: string, spec: object): Promise<any>;
 }
 

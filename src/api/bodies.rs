@@ -10,7 +10,7 @@ use crate::api::json::RawBody;
 use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
 use crate::error::ApiError;
 use crate::service::json::from_slice;
-use crate::service::types::{BodyDescription, HullExtent};
+use crate::service::types::{BodyDescription, CarriedBody, HullExtent, InputSpan};
 use crate::state::AppState;
 
 /// `GET /v1/scenes/{id}/bodies` answer.
@@ -20,25 +20,73 @@ pub struct BodiesResponse {
     pub tick: i64,
     /// Scene time of the states, s.
     pub t: f64,
-    /// Bodies in id order: state, mass and hull.
+    /// Scene tick the scene's body world is anchored at (world tick 0; it moves when a clock
+    /// jump re-anchors the world); absent while the scene has never had a body.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub anchor_tick: Option<i64>,
+    /// Bodies in id order: state, mass, hull, spawn tick.
     pub bodies: Vec<BodyDescription>,
 }
 
-/// Every body of `b` (or the one with id `only`) with its mass and hull, in id order.
+/// `GET /v1/scenes/{id}/bodies/{bid}` answer: the body with the ticks of its state and world.
+#[derive(Debug, Clone, Serialize)]
+pub struct BodyResponse {
+    /// The body.
+    #[serde(flatten)]
+    pub body: BodyDescription,
+    /// Scene tick of the state.
+    pub tick: i64,
+    /// Scene tick the scene's body world is anchored at.
+    pub anchor_tick: i64,
+}
+
+/// Every body of `b` (or the one with id `only`) with its mass, hull and origin, in id order.
 fn describe(b: &SceneBodies, only: Option<u64>) -> Vec<BodyDescription> {
     let states = b.states(only.as_ref().map(std::slice::from_ref));
     let record = b.record();
+    let anchor = b.anchor();
     states
         .into_iter()
         .filter_map(|state| {
             let r = record.bodies.iter().find(|r| r.id == state.id)?;
+            let origin = b.origin(state.id);
             Some(BodyDescription {
                 state,
                 mass: r.spec.mass,
                 hull: HullExtent::from(&r.spec.hull),
+                spawn_tick: origin.and_then(|o| o.spawn_tick),
+                carried: origin
+                    .and_then(|o| o.carried.as_ref())
+                    .map(|c| carried(state.id, anchor, c)),
             })
         })
         .collect()
+}
+
+/// A carried body as published: scene ticks, and the state as a stream carries it.
+fn carried(id: u64, anchor: i64, c: &crate::bodies::Carried) -> CarriedBody {
+    let s = &c.state;
+    CarriedBody {
+        state: crate::bodies::BodyState {
+            id,
+            position: s.position.to_array(),
+            rotation: s.rotation.to_array(),
+            velocity: s.velocity.to_array(),
+            angular_velocity: s.angular_velocity.to_array(),
+            submerged: 0.0,
+            quarantined: false,
+        },
+        inputs: c
+            .inputs
+            .iter()
+            .map(|i| InputSpan {
+                force: i.force,
+                torque: i.torque,
+                from_tick: anchor + i.from_tick as i64,
+                ticks: i.ticks,
+            })
+            .collect(),
+    }
 }
 
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
@@ -73,6 +121,7 @@ pub async fn list(
             BodiesResponse {
                 tick: b.tick(),
                 t: b.t(),
+                anchor_tick: Some(b.anchor()),
                 bodies: describe(&b, None),
             }
         }
@@ -81,22 +130,29 @@ pub async fn list(
             BodiesResponse {
                 tick: r.tick,
                 t: r.t,
+                anchor_tick: None,
                 bodies: Vec::new(),
             }
         }
     }))
 }
 
-/// `GET /v1/scenes/{id}/bodies/{bid}`: the body's state, mass and hull.
+/// `GET /v1/scenes/{id}/bodies/{bid}`: the body's state, mass, hull and origin, with the
+/// state's tick and the world's anchor.
 pub async fn get_one(
     State(state): State<AppState>,
     Path((id, bid)): Path<(String, String)>,
-) -> Result<axum::Json<BodyDescription>, ApiError> {
+) -> Result<axum::Json<BodyResponse>, ApiError> {
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let cell = state.bodies.get(&id).ok_or_else(|| body_not_found(bid))?;
-    let one = describe(&cell.lock(), Some(bid)).pop();
-    Ok(axum::Json(one.ok_or_else(|| body_not_found(bid))?))
+    let b = cell.lock();
+    let one = describe(&b, Some(bid)).pop();
+    Ok(axum::Json(BodyResponse {
+        body: one.ok_or_else(|| body_not_found(bid))?,
+        tick: b.tick(),
+        anchor_tick: b.anchor(),
+    }))
 }
 
 /// `DELETE /v1/scenes/{id}/bodies/{bid}` (admin): 204.
@@ -110,7 +166,9 @@ pub async fn delete(
     Ok(StatusCode::NO_CONTENT)
 }
 
-/// `POST /v1/scenes/{id}/bodies/{bid}/input` (admin): 202 with the tick the bodies are at.
+/// `POST /v1/scenes/{id}/bodies/{bid}/input` (admin): 202 with the tick the bodies are at, the
+/// tick the input acts from and for how many, and the world's anchor
+/// ([`crate::service::types::InputAccepted`]).
 pub async fn input(
     State(state): State<AppState>,
     Path((id, bid)): Path<(String, String)>,
@@ -119,12 +177,8 @@ pub async fn input(
     state.scene(&id)?;
     let bid = parse_body_id(&bid)?;
     let req: InputRequest = from_slice(&body)?;
-    let tick = state.body_input(&id, bid, req).await?;
-    Ok((
-        StatusCode::ACCEPTED,
-        axum::Json(serde_json::json!({"tick": tick})),
-    )
-        .into_response())
+    let accepted = state.body_input(&id, bid, req).await?;
+    Ok((StatusCode::ACCEPTED, axum::Json(accepted)).into_response())
 }
 
 #[cfg(test)]

@@ -94,17 +94,17 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "get",
         "/v1/scenes/{id}/bodies",
-        "Floating bodies: tick, t and every body's state, mass and hull (kind, length, beam, height, center)",
+        "Floating bodies: tick, t, anchor_tick (the body world's world tick 0; absent before the first spawn) and every body's state, mass, hull (kind, length, beam, height, center), spawn_tick and, after a re-anchor, carried {state, inputs}",
     ),
     (
         "post",
         "/v1/scenes/{id}/bodies",
-        "Spawn a floating body (game): {mass, hull, position, yaw?, drag?...} → 201 state",
+        "Spawn a floating body (game): {mass, hull, position, yaw?, drag?...} → 201 state, spawn_tick, anchor_tick",
     ),
     (
         "get",
         "/v1/scenes/{id}/bodies/{bid}",
-        "One body's state, mass and hull (kind, length, beam, height, center)",
+        "One body's state, mass, hull (kind, length, beam, height, center), spawn_tick and carried?, with tick (the state's) and anchor_tick",
     ),
     (
         "delete",
@@ -114,7 +114,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "post",
         "/v1/scenes/{id}/bodies/{bid}/input",
-        "Force/torque in the body frame from a tick for some ticks (game): {force, torque, from_tick?, ticks?}",
+        "Force/torque in the body frame from a tick for some ticks (game): {force, torque, from_tick?, ticks?} → 202 {tick, from_tick, ticks, anchor_tick?}",
     ),
     (
         "post",
@@ -241,7 +241,7 @@ pub fn openapi_document() -> Value {
                 "Upgrade to a WebSocket. Subprotocol swell.v1.json (default): text frames \
                 tagged by \"type\" (client: ping {id, client_time}, sample {id, ...as POST sample}, \
                 orientation {id, ...}, subscribe {ticks, bodies?}; server: pong, sample_result, \
-                orientation_result, tick {tick, t, bodies}, error {id?, code, message, field?}, \
+                orientation_result, tick {tick, t, bodies, impacts?, anchor_tick?}, error {id?, code, message, field?}, \
                 clock {t, tick, tick_hz, rate, paused, unix, generation} when the clock changes). \
                 swell.v1.protobuf: binary frames of swell.v1.ClientMessage / ServerMessage \
                 (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \

@@ -112,6 +112,10 @@ pub struct WorldRecord {
     /// over between ticks: those bodies start cold once).
     #[serde(default)]
     pub warm: BTreeMap<u64, swell_waves::body::WarmStart>,
+    /// Per body, where its trajectory in this world starts ([`super::Origin`]; absent in
+    /// records written before it was kept: those bodies' spawn ticks are not published).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub origins: BTreeMap<u64, super::Origin>,
 }
 
 /// Most ticks a replay steps between two events (or from the last event to the clock at
@@ -150,6 +154,7 @@ impl SceneBodies {
                 .bodies()
                 .filter_map(|(id, b)| Some((id, b.warm_start()?)))
                 .collect(),
+            origins: self.origins.clone(),
         }
     }
 
@@ -184,6 +189,7 @@ impl SceneBodies {
             wake: BTreeMap::new(),
             felt: Vec::new(),
             ripples: None,
+            origins: BTreeMap::new(),
         };
         for i in &rec.felt {
             b.feel_quietly(*i);
@@ -214,6 +220,9 @@ impl SceneBodies {
             {
                 Ok(()) => {
                     b.specs.insert(r.id, r.spec.clone());
+                    if let Some(o) = rec.origins.get(&r.id) {
+                        b.origins.insert(r.id, o.clone());
+                    }
                 }
                 Err(e) => tracing::error!(body = r.id, error = %e, "snapshot: skipping a body"),
             }
@@ -291,16 +300,21 @@ impl SceneBodies {
         }
         match ev {
             BodyEvent::Spawned {
-                id, spec, state, ..
+                at,
+                id,
+                spec,
+                state,
             } => match self.world.insert(*id, spec, *state) {
                 Ok(()) => {
                     self.specs.insert(*id, spec.clone());
+                    self.spawned(*id, *at);
                 }
                 Err(e) => tracing::error!(body = id, error = %e, "replay: skipping a spawn"),
             },
             BodyEvent::Removed { id, .. } => {
                 self.specs.remove(id);
                 self.wake.remove(id);
+                self.origins.remove(id);
                 self.world.remove(*id);
             }
             BodyEvent::Input { input, .. } => {

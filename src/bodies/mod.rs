@@ -200,6 +200,37 @@ pub struct SceneBodies {
     /// `felt` and `derived` as one set, what the bodies step on; `None` when either changed
     /// since it was built.
     ripples: Option<std::sync::Arc<Impacts>>,
+    /// Per body, where its trajectory in the current world starts ([`Origin`]): published, so
+    /// a client can rebuild the world from `anchor` on.
+    origins: BTreeMap<u64, Origin>,
+}
+
+/// Where a body's trajectory in its scene's current world starts: with the world's anchor, what
+/// a client needs to rebuild that world to the bit (the scene, this, and the inputs accepted
+/// since). Kept through journal replay (re-derived from the events) and snapshots
+/// ([`WorldRecord::origins`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Origin {
+    /// Scene tick the body was spawned at; `None` for a body restored from a record that did
+    /// not keep it (written before this field).
+    #[serde(default)]
+    pub spawn_tick: Option<i64>,
+    /// Set when the body came into the current world from an earlier one (a re-anchor, or a
+    /// restore from a legacy record): it starts there from this, not from its spawn.
+    #[serde(default)]
+    pub carried: Option<Carried>,
+}
+
+/// A body as a re-anchor carried it into a new world, at the new anchor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Carried {
+    /// Its state at the anchor, as the new world holds it (rotation normalised by
+    /// [`World::insert`], so not always the old world's last bits), warm starts cold.
+    pub state: swell_waves::body::BodyState,
+    /// Its inputs that were not over, as the new world holds them: each acts from the anchor
+    /// (world tick 0) for the ticks it had left.
+    #[serde(default)]
+    pub inputs: Vec<BodyInput>,
 }
 
 /// Most API impacts a body world feels at once (the scene's own limit on API impacts): a
@@ -254,6 +285,7 @@ impl SceneBodies {
             wake: BTreeMap::new(),
             felt: Vec::new(),
             ripples: None,
+            origins: BTreeMap::new(),
         })
     }
 
@@ -275,6 +307,18 @@ impl SceneBodies {
     /// The scene time the states are at, s.
     pub fn t(&self) -> f64 {
         self.world.time()
+    }
+
+    /// The scene tick of world tick 0: where the current world starts (its first spawn, its
+    /// last re-anchor, or a restore from a legacy record). Substep times are
+    /// `anchor/tick_hz + (n + k/256)/tick_hz`, so a client's world must start here too.
+    pub fn anchor(&self) -> i64 {
+        self.anchor
+    }
+
+    /// Where body `id`'s trajectory in the current world starts, if it is known.
+    pub fn origin(&self, id: u64) -> Option<&Origin> {
+        self.origins.get(&id)
     }
 
     /// Adds a body; returns its id.
@@ -306,6 +350,7 @@ impl SceneBodies {
         let state =
             swell_waves::body::BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
         let id = self.world.add(&spec, state).map_err(|e| model_error(&e))?;
+        self.spawned(id, self.tick());
         self.events.push(BodyEvent::Spawned {
             at: self.tick(),
             id,
@@ -316,10 +361,22 @@ impl SceneBodies {
         Ok(id)
     }
 
+    /// Records that body `id` was spawned (or replayed) at scene tick `tick`.
+    fn spawned(&mut self, id: u64, tick: i64) {
+        self.origins.insert(
+            id,
+            Origin {
+                spawn_tick: Some(tick),
+                carried: None,
+            },
+        );
+    }
+
     /// Removes a body; whether it existed.
     pub fn remove(&mut self, id: u64) -> bool {
         self.specs.remove(&id);
         self.wake.remove(&id);
+        self.origins.remove(&id);
         let existed = self.world.remove(id);
         if existed {
             self.events.push(BodyEvent::Removed {
@@ -353,11 +410,21 @@ impl SceneBodies {
                 format!("ticks = {ticks} is out of range: 1..=10000000"),
             ));
         }
+        // `from >= now >= anchor`, but far ahead of a negative anchor the difference overflows.
+        let Some(relative) = from.checked_sub(self.anchor) else {
+            return Err(ApiError::invalid(
+                "from_tick",
+                format!(
+                    "from_tick = {from} is out of range: more than i64::MAX ticks after the bodies' anchor {}",
+                    self.anchor
+                ),
+            ));
+        };
         let input = BodyInput {
             body: id,
             force: req.force,
             torque: req.torque,
-            from_tick: (from - self.anchor) as u64,
+            from_tick: relative as u64,
             ticks,
         };
         self.world.input(input).map_err(|e| {
@@ -430,6 +497,17 @@ impl SceneBodies {
                     ..*i
                 });
             }
+        }
+        // What each body starts the new world from, as the new world holds it.
+        for (id, body) in world.bodies() {
+            let origin = self.origins.entry(id).or_insert(Origin {
+                spawn_tick: None,
+                carried: None,
+            });
+            origin.carried = Some(Carried {
+                state: *body.state(),
+                inputs: world.inputs().filter(|i| i.body == id).copied().collect(),
+            });
         }
         self.world = world;
         self.anchor = tick;
@@ -697,6 +775,25 @@ impl SceneBodies {
                 Err(e) => tracing::error!(body = r.id, error = %e, "skipping persisted body"),
             }
         }
+        // A fresh world from the record's states: every body is carried in (spawn ticks were
+        // not kept).
+        b.origins = b
+            .world
+            .bodies()
+            .map(|(id, body)| {
+                let carried = Carried {
+                    state: *body.state(),
+                    inputs: Vec::new(),
+                };
+                (
+                    id,
+                    Origin {
+                        spawn_tick: None,
+                        carried: Some(carried),
+                    },
+                )
+            })
+            .collect();
         Ok(b)
     }
 }
@@ -1107,6 +1204,78 @@ mod tests {
         a.advance_to(h + 100, Sea::Direct(&s), 30.0, 9.81);
         a.advance_to(h + 101, Sea::Direct(&s), 30.0, 9.81);
         assert!(a.felt_impacts().is_empty());
+    }
+
+    /// An input far ahead of a world anchored at a negative tick (a clock seeked before t = 0)
+    /// used to overflow `from_tick - anchor`: a panic in a checked build, a wrapped tick in
+    /// release. It is a 400 naming `from_tick` now.
+    #[test]
+    fn an_input_beyond_i64_after_a_negative_anchor_is_refused() {
+        let mut b = SceneBodies::new(-3_000_000, 30.0, 9.81).unwrap();
+        let id = b.spawn(&boat()).unwrap();
+        let req = InputRequest {
+            force: [1.0, 0.0, 0.0],
+            torque: [0.0; 3],
+            from_tick: Some(i64::MAX),
+            ticks: None,
+        };
+        let e = b.input(id, &req).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("from_tick"), "{}", e.message);
+    }
+
+    /// Issue 28: what the server publishes for a client to rebuild its boat (each body's spawn
+    /// tick, and after a re-anchor its state there and remaining inputs) is the same live,
+    /// replayed from the journal's events, and restored from a record through JSON.
+    #[test]
+    fn origins_are_the_same_live_replayed_and_restored() {
+        let s = calm();
+        let mut a = SceneBodies::new(100, 30.0, 9.81).unwrap();
+        a.spawn(&boat()).unwrap();
+        a.advance_to(105, Sea::Direct(&s), 30.0, 9.81);
+        let second = a.spawn(&boat()).unwrap();
+        let push = |from_tick, ticks| InputRequest {
+            force: [3000.0, 0.0, 0.0],
+            torque: [0.0, 200.0, 0.0],
+            from_tick,
+            ticks: Some(ticks),
+        };
+        a.input(second, &push(Some(107), 50)).unwrap();
+        a.input(second, &push(Some(180), 5)).unwrap();
+        a.advance_to(120, Sea::Direct(&s), 30.0, 9.81);
+        let spawned = |b: &SceneBodies| (b.origin(0).cloned(), b.origin(second).cloned());
+        assert_eq!(a.anchor(), 100);
+        assert_eq!(a.origin(second).unwrap().spawn_tick, Some(105));
+        assert!(a.origin(second).unwrap().carried.is_none());
+        // A jump: the world starts again at 500, each body carried in with its state there.
+        assert!(a.advance_to(500, Sea::Direct(&s), 30.0, 9.81).reanchored);
+        assert_eq!((a.anchor(), a.tick()), (500, 500));
+        let o = a.origin(second).unwrap().clone();
+        assert_eq!(o.spawn_tick, Some(105));
+        let c = o.carried.expect("carried by the re-anchor");
+        let st = a.state(second).unwrap();
+        assert_eq!(c.state.position.to_array(), st.position);
+        assert_eq!(c.state.rotation.to_array(), st.rotation);
+        // The first input had 37 of its 50 ticks left at 120; the later one all 5 (moved to
+        // the anchor, as the world holds it).
+        let left: Vec<(u64, u64)> = c.inputs.iter().map(|i| (i.from_tick, i.ticks)).collect();
+        assert_eq!(left, [(0, 37), (0, 5)]);
+        a.advance_to(510, Sea::Direct(&s), 30.0, 9.81);
+        // Restored from a record through JSON.
+        let json = serde_json::to_string(&a.world_record()).unwrap();
+        let restored =
+            SceneBodies::from_world_record(&serde_json::from_str(&json).unwrap()).unwrap();
+        assert_eq!((restored.anchor(), spawned(&restored)), (500, spawned(&a)));
+        // Replayed from the journal's events.
+        let events = a.take_events();
+        let mut r = SceneBodies::from_created(&events[0]).unwrap();
+        for e in &events[1..] {
+            r.replay(e, &s);
+        }
+        r.step_to(510, &s);
+        assert_eq!((r.anchor(), spawned(&r)), (500, spawned(&a)));
+        // A removed body's origin goes with it.
+        assert!(a.remove(0));
+        assert!(a.origin(0).is_none());
     }
 
     /// A world rebuilt from its record (through JSON, as the journal and the fleet store it)

@@ -21,6 +21,8 @@ use crate::error::ApiError;
 pub struct Published {
     /// Scene tick of the states.
     pub tick: i64,
+    /// Scene tick the world was anchored at ([`SceneBodies::anchor`]).
+    pub anchor: i64,
     /// States in id order.
     pub states: Arc<Vec<BodyState>>,
 }
@@ -47,6 +49,7 @@ impl SceneBodiesCell {
     pub fn publish(&self, b: &SceneBodies) {
         self.published.send_replace(Published {
             tick: b.tick(),
+            anchor: b.anchor(),
             states: Arc::new(b.states(None)),
         });
     }
@@ -163,6 +166,7 @@ impl BodyRegistry {
 fn new_cell(bodies: SceneBodies) -> SceneBodiesCell {
     let (published, _) = watch::channel(Published {
         tick: bodies.tick(),
+        anchor: bodies.anchor(),
         states: Arc::new(bodies.states(None)),
     });
     SceneBodiesCell {

@@ -377,6 +377,72 @@ pub struct BodyDescription {
     pub mass: f64,
     /// The hull's kind and extent.
     pub hull: HullExtent,
+    /// Scene tick the body was spawned at (its spawn request then applied at rest). Absent for
+    /// a body restored from a record written before spawn ticks were kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spawn_tick: Option<i64>,
+    /// Present when the body came into the scene's current body world from an earlier one (a
+    /// re-anchor after a clock jump): it starts at the world's `anchor_tick` from this, not from
+    /// its spawn.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub carried: Option<CarriedBody>,
+}
+
+/// A body as a re-anchor carried it into the scene's current body world: what a client starts
+/// its own world from at `anchor_tick` to follow the server's bits (spawn the body there, put
+/// it at `state`, queue `inputs`, then the inputs accepted since).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct CarriedBody {
+    /// Its state at the anchor tick (`submerged` 0 and warm starts cold, as the new world
+    /// starts it).
+    pub state: BodyState,
+    /// Its inputs still running at the re-anchor, as the new world holds them: each acts from
+    /// the anchor tick for the ticks it had left.
+    pub inputs: Vec<InputSpan>,
+}
+
+/// A body input as the world holds it: a force and torque in the body frame from a scene tick
+/// for a number of ticks.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct InputSpan {
+    /// Force `[x, y, z]` in the body frame, N.
+    pub force: [f64; 3],
+    /// Torque `[x, y, z]` in the body frame, N·m.
+    pub torque: [f64; 3],
+    /// First scene tick it acts on.
+    pub from_tick: i64,
+    /// Number of ticks it acts for.
+    pub ticks: u64,
+}
+
+/// `POST /v1/scenes/{id}/bodies` answer (201): the new body's state and the ticks a client
+/// needs to mirror it in its own world.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SpawnedBody {
+    /// The body's state right after the spawn (at rest).
+    #[serde(flatten)]
+    pub state: BodyState,
+    /// Scene tick the spawn applied at (the states' tick).
+    pub spawn_tick: i64,
+    /// Scene tick the body world is anchored at (world tick 0).
+    pub anchor_tick: i64,
+}
+
+/// `POST /v1/scenes/{id}/bodies/{bid}/input` answer (202).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct InputAccepted {
+    /// On one process: the tick the bodies were at when it was accepted; in a fleet: the tick
+    /// it applies at.
+    pub tick: i64,
+    /// First scene tick it acts on (`from_tick` as asked, or the tick it applies at when that
+    /// was not given or is already past in a fleet).
+    pub from_tick: i64,
+    /// Number of ticks it acts for.
+    pub ticks: u64,
+    /// Scene tick the body world was anchored at when it was accepted (one process only: a
+    /// fleet answers before its replicas apply it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anchor_tick: Option<i64>,
 }
 
 /// A hull's kind and the box that bounds it in the body frame (x along the length, y up, z
@@ -461,4 +527,9 @@ pub struct Tick {
     /// Impacts accepted since the previous frame ([`crate::impacts`]); omitted when none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub impacts: Vec<crate::impacts::ImpactEvent>,
+    /// Scene tick the scene's body world is anchored at when these states were published
+    /// (world tick 0); omitted while the scene has no bodies. A change means a clock jump
+    /// re-anchored the world: a client replaying bodies rebuilds from `GET …/bodies`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anchor_tick: Option<i64>,
 }

@@ -441,7 +441,7 @@ impl AppState {
         self.store().add_impact(self, entry, impact, lifetime).await
     }
 
-    /// Spawns a body in scene `id`; its state.
+    /// Spawns a body in scene `id`; its state, spawn tick and the world's anchor.
     ///
     /// # Errors
     /// 404 unknown scene; 409 `scene_full`; 400/422 for a request the body model rejects; 500
@@ -450,7 +450,7 @@ impl AppState {
         &self,
         id: &str,
         req: crate::bodies::SpawnRequest,
-    ) -> Result<crate::bodies::BodyState, ApiError> {
+    ) -> Result<crate::service::types::SpawnedBody, ApiError> {
         let entry = self.scene(id)?;
         self.store().spawn_body(self, entry, req).await
     }
@@ -464,7 +464,8 @@ impl AppState {
         self.store().remove_body(self, entry, bid).await
     }
 
-    /// Queues an input for body `bid` of scene `id`; the tick it was accepted at.
+    /// Queues an input for body `bid` of scene `id`; the tick it was accepted at and the tick
+    /// it acts from.
     ///
     /// # Errors
     /// 404 unknown scene or body; 400 for a bad input; 500 or 503 from the store.
@@ -473,7 +474,7 @@ impl AppState {
         id: &str,
         bid: u64,
         input: crate::bodies::InputRequest,
-    ) -> Result<i64, ApiError> {
+    ) -> Result<crate::service::types::InputAccepted, ApiError> {
         let entry = self.scene(id)?;
         self.store().body_input(self, entry, bid, input).await
     }

@@ -27,6 +27,7 @@ use crate::bodies::{BodyState, InputRequest, SpawnRequest, body_not_found};
 use crate::error::ApiError;
 use crate::journal::Op;
 use crate::scene::SceneEntry;
+use crate::service::types::{InputAccepted, SpawnedBody};
 
 /// Where acknowledged changes go (see the module docs). Every method is called with the state
 /// it changes; admin changes ([`Store::commit`]) with the state's admin lock held.
@@ -58,7 +59,7 @@ pub trait Store: Send + Sync + Debug {
         lifetime: f64,
     ) -> BoxFuture<'a, Result<(), ApiError>>;
 
-    /// Spawns a body; its state once applied.
+    /// Spawns a body; its state once applied, with its spawn tick and the world's anchor.
     ///
     /// # Errors
     /// As [`crate::bodies::drive::apply`]; 500 or 503 as [`Store::commit`].
@@ -67,7 +68,7 @@ pub trait Store: Send + Sync + Debug {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         req: SpawnRequest,
-    ) -> BoxFuture<'a, Result<BodyState, ApiError>>;
+    ) -> BoxFuture<'a, Result<SpawnedBody, ApiError>>;
 
     /// Removes body `id`.
     ///
@@ -81,7 +82,7 @@ pub trait Store: Send + Sync + Debug {
     ) -> BoxFuture<'a, Result<(), ApiError>>;
 
     /// Queues an input for body `id`; the tick it was accepted at (local: the world's tick; a
-    /// fleet: the tick it applies at).
+    /// fleet: the tick it applies at) and the tick it acts from.
     ///
     /// # Errors
     /// 404 for a body the scene does not have; 400 for a bad input; 500 or 503 as
@@ -92,7 +93,7 @@ pub trait Store: Send + Sync + Debug {
         entry: Arc<SceneEntry>,
         id: u64,
         input: InputRequest,
-    ) -> BoxFuture<'a, Result<i64, ApiError>>;
+    ) -> BoxFuture<'a, Result<InputAccepted, ApiError>>;
 
     /// What `/readyz` says of the store.
     fn status(&self, state: &AppState) -> Value;
@@ -135,6 +136,8 @@ struct Done {
     spawned: Option<BodyState>,
     /// The world's tick.
     tick: i64,
+    /// The world's anchor.
+    anchor: i64,
     /// The journal record to commit (the change is made even when journaling failed).
     seq: Result<u64, ApiError>,
 }
@@ -161,6 +164,7 @@ impl Local {
         Ok(Done {
             spawned,
             tick: b.tick(),
+            anchor: b.anchor(),
             seq,
         })
     }
@@ -230,7 +234,7 @@ impl Store for Local {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         req: SpawnRequest,
-    ) -> BoxFuture<'a, Result<BodyState, ApiError>> {
+    ) -> BoxFuture<'a, Result<SpawnedBody, ApiError>> {
         Box::pin(async move {
             let id = entry.scene.id.as_str();
             let reading = state.read_clock(&entry);
@@ -249,7 +253,11 @@ impl Store for Local {
                 .spawned
                 .ok_or_else(|| ApiError::internal("a spawn gave no body id"))?;
             tracing::info!(scene = %id, body = out.id, "body spawned");
-            Ok(out)
+            Ok(SpawnedBody {
+                state: out,
+                spawn_tick: done.tick,
+                anchor_tick: done.anchor,
+            })
         })
     }
 
@@ -275,13 +283,20 @@ impl Store for Local {
         entry: Arc<SceneEntry>,
         id: u64,
         input: InputRequest,
-    ) -> BoxFuture<'a, Result<i64, ApiError>> {
+    ) -> BoxFuture<'a, Result<InputAccepted, ApiError>> {
         Box::pin(async move {
             let scene = entry.scene.id.as_str();
             let cell = state.bodies.get(scene).ok_or_else(|| body_not_found(id))?;
             let done = Local::body_cmd(state, &cell, scene, &BodyCmd::Input { id, input })?;
             commit_seq(state, done.seq?).await?;
-            Ok(done.tick)
+            // Accepted only if not in the past: it acts from what was asked, or from the
+            // world's tick (crate::bodies::SceneBodies::input).
+            Ok(InputAccepted {
+                tick: done.tick,
+                from_tick: input.from_tick.unwrap_or(done.tick),
+                ticks: input.ticks.unwrap_or(1),
+                anchor_tick: Some(done.anchor),
+            })
         })
     }
 

@@ -54,8 +54,9 @@ use tokio::sync::watch;
 
 use super::fleet::EntryId;
 use super::fleet::Fleet;
-use crate::bodies::{BodyState, InputRequest, SpawnRequest, WorldRecord};
+use crate::bodies::{InputRequest, SpawnRequest, WorldRecord};
 use crate::error::{ApiError, ErrorCode};
+use crate::service::types::{InputAccepted, SpawnedBody};
 use crate::state::AppState;
 
 /// How long a lease lasts without renewal: the failover time after a `kill -9`. Under 2 s at
@@ -73,7 +74,7 @@ const APPLY_TIMEOUT: Duration = Duration::from_secs(4);
 pub use crate::bodies::drive::BodyCmd;
 
 /// What applying a command gave (kept for the replica that appended it).
-type Outcome = Result<BodyState, ApiError>;
+type Outcome = Result<SpawnedBody, ApiError>;
 
 /// A scene's followed log, as one replica holds it.
 #[derive(Debug, Default, Clone)]
@@ -266,7 +267,7 @@ impl FleetBodies {
     }
 
     /// Waits for the outcome of this replica's command `nonce`.
-    async fn outcome(&self, nonce: &str) -> Result<BodyState, ApiError> {
+    async fn outcome(&self, nonce: &str) -> Result<SpawnedBody, ApiError> {
         let mut rx = self.0.applied.subscribe();
         let found = tokio::time::timeout(APPLY_TIMEOUT, async {
             loop {
@@ -297,7 +298,7 @@ impl FleetBodies {
         state: &AppState,
         scene: &str,
         req: SpawnRequest,
-    ) -> Result<BodyState, ApiError> {
+    ) -> Result<SpawnedBody, ApiError> {
         let entry = state.scene(scene)?;
         let (hz, g) = (entry.scene.spec.tick_hz, entry.scene.spec.surface.gravity);
         // Validate before logging: a command in the log is applied by every replica.
@@ -341,7 +342,7 @@ impl FleetBodies {
         scene: &str,
         id: u64,
         input: InputRequest,
-    ) -> Result<i64, ApiError> {
+    ) -> Result<InputAccepted, ApiError> {
         let entry = state.scene(scene)?;
         let (hz, g) = (entry.scene.spec.tick_hz, entry.scene.spec.surface.gravity);
         let now = state.read_clock(&entry).tick;
@@ -359,11 +360,21 @@ impl FleetBodies {
         checked.from_tick = input.from_tick.map(|f| f.max(now + 1));
         probe.input(bid, &checked)?;
         // Applied at the tick before the one it asks to act from (default: the next tick).
-        let wanted = input.from_tick.map_or(now + 1, |f| f - 1).max(now + 1);
+        let wanted = input
+            .from_tick
+            .map_or(now + 1, |f| f.saturating_sub(1))
+            .max(now + 1);
         let (tick, _) = self
             .append(state, scene, &BodyCmd::Input { id, input }, wanted)
             .await?;
-        Ok(tick)
+        // Applied at `tick`, it acts from the tick asked for unless that is not after `tick`
+        // ([`FleetBodies::advance`]). The anchor it meets is not known yet: none is said.
+        Ok(InputAccepted {
+            tick,
+            from_tick: input.from_tick.map_or(tick, |f| f.max(tick)),
+            ticks: input.ticks.unwrap_or(1),
+            anchor_tick: None,
+        })
     }
 
     /// Follows every scene with a body log (called periodically; cheap when nothing is new).
@@ -610,7 +621,11 @@ impl FleetBodies {
                 crate::bodies::drive::apply(&mut b, scene, &cmd, state.limits.max_scene_bodies);
             let spawned = match cmd {
                 BodyCmd::Spawn(_) => Some(out.and_then(|id| match id {
-                    Some(id) => b.state(id),
+                    Some(id) => b.state(id).map(|state| SpawnedBody {
+                        state,
+                        spawn_tick: b.tick(),
+                        anchor_tick: b.anchor(),
+                    }),
                     None => Err(ApiError::internal("a spawn gave no body id")),
                 })),
                 _ => None,

@@ -12,11 +12,12 @@ use swell_waves::particles::Impact;
 
 use super::bodies::FleetBodies;
 use super::fleet::Fleet;
-use crate::bodies::{BodyState, InputRequest, SpawnRequest};
+use crate::bodies::{InputRequest, SpawnRequest};
 use crate::error::ApiError;
 use crate::impacts::MAX_SCENE_IMPACTS;
 use crate::journal::Op;
 use crate::scene::SceneEntry;
+use crate::service::types::{InputAccepted, SpawnedBody};
 use crate::state::AppState;
 use crate::state::apply::Prepared;
 use crate::state::store::Store;
@@ -85,10 +86,10 @@ impl Store for Shared {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         req: SpawnRequest,
-    ) -> BoxFuture<'a, Result<BodyState, ApiError>> {
+    ) -> BoxFuture<'a, Result<SpawnedBody, ApiError>> {
         Box::pin(async move {
             let out = self.bodies.spawn(state, &entry.scene.id, req).await?;
-            tracing::info!(scene = %entry.scene.id, body = out.id, "body spawned (fleet)");
+            tracing::info!(scene = %entry.scene.id, body = out.state.id, "body spawned (fleet)");
             Ok(out)
         })
     }
@@ -108,7 +109,7 @@ impl Store for Shared {
         entry: Arc<SceneEntry>,
         id: u64,
         input: InputRequest,
-    ) -> BoxFuture<'a, Result<i64, ApiError>> {
+    ) -> BoxFuture<'a, Result<InputAccepted, ApiError>> {
         Box::pin(async move { self.bodies.input(state, &entry.scene.id, id, input).await })
     }
 

@@ -210,13 +210,18 @@ impl SharedTick {
                         serde_json::to_string(&self.tick.t).unwrap_or_default(),
                         self.tick.tick
                     )),
-                    head: Bytes::new(),
+                    // Keys sorted: `anchor_tick` (when there is one) before `bodies`.
+                    head: Bytes::from(match self.tick.anchor_tick {
+                        Some(a) => format!("{{\"anchor_tick\":{a},\"bodies\":["),
+                        None => "{\"bodies\":[".to_owned(),
+                    }),
                     origin: Bytes::new(),
                 },
                 Form::Protobuf | Form::Compact => Parts {
                     bodies,
-                    // Impacts (field 5) come after the bodies (3) or the compact bodies (4).
-                    tail: Bytes::from(impacts_protobuf(&self.tick)),
+                    // Impacts (field 5) and then the anchor (6) come after the bodies (3) or
+                    // the compact bodies (4).
+                    tail: Bytes::from(tail_protobuf(&self.tick)),
                     head: Bytes::from(
                         v1::Tick {
                             tick: self.tick.tick,
@@ -224,6 +229,7 @@ impl SharedTick {
                             bodies: Vec::new(),
                             compact: None,
                             impacts: Vec::new(),
+                            anchor_tick: None,
                         }
                         .encode_to_vec(),
                     ),
@@ -306,8 +312,8 @@ impl SharedTick {
         match form {
             Form::Json => {
                 let len: usize = chosen.iter().map(|&i| parts[i].len() + 1).sum();
-                let mut out = BytesMut::with_capacity(len + tail.len() + 12);
-                out.put_slice(b"{\"bodies\":[");
+                let mut out = BytesMut::with_capacity(len + head.len() + tail.len());
+                out.put_slice(head);
                 for (n, &i) in chosen.iter().enumerate() {
                     if n > 0 {
                         out.put_u8(b',');
@@ -367,6 +373,7 @@ impl SharedTick {
                 .map(|&i| self.tick.bodies[i])
                 .collect::<Vec<BodyState>>(),
             impacts: self.tick.impacts.clone(),
+            anchor_tick: self.tick.anchor_tick,
         };
         let out = Outgoing {
             id: None,
@@ -393,13 +400,12 @@ fn impacts_json(tick: &Tick) -> String {
     )
 }
 
-/// The frame's impacts as `swell.v1.Tick` field 4 entries (after the bodies, in tag order).
-fn impacts_protobuf(tick: &Tick) -> Vec<u8> {
-    if tick.impacts.is_empty() {
-        return Vec::new();
-    }
+/// The frame's fields after the bodies as `swell.v1.Tick` writes them, in tag order: the
+/// impacts (field 5) and the world's anchor (6); empty when it has neither.
+fn tail_protobuf(tick: &Tick) -> Vec<u8> {
     v1::Tick {
         impacts: crate::wire::convert::impact_events(&tick.impacts),
+        anchor_tick: tick.anchor_tick,
         ..Default::default()
     }
     .encode_to_vec()
@@ -464,6 +470,9 @@ mod tests {
                 t,
                 bodies: order.map(|i| body(i * 3, i as f64 + 0.37)).to_vec(),
                 impacts: Vec::new(),
+                // With and without a body world's anchor (a JSON key before `bodies`, a
+                // protobuf field after them).
+                anchor_tick: (tick_no % 2 == 0).then_some(tick_no - 3),
             };
             let shared = SharedTick::new(tick.clone());
             for codec in [Codec::Json, Codec::Protobuf] {
@@ -511,6 +520,7 @@ mod tests {
                 })
                 .collect(),
             impacts: Vec::new(),
+            anchor_tick: None,
         };
         let shared = SharedTick::new(tick.clone());
         let origin = super::super::compact::origin(&tick.bodies);
@@ -528,6 +538,7 @@ mod tests {
                     t: 3.3,
                     bodies: Vec::new(),
                     impacts: Vec::new(),
+                    anchor_tick: None,
                     compact: Some(v1::CompactBodies {
                         origin: Some(v1::Vec3 {
                             x: origin[0],
@@ -586,6 +597,7 @@ mod tests {
             t: 0.5,
             bodies: (0..7).map(|i| body(i * 3, i as f64 + 0.37)).collect(),
             impacts: Vec::new(),
+            anchor_tick: None,
         };
         let shared = SharedTick::new(tick.clone());
         let ids = |i: &Interest| -> Vec<u64> {
@@ -616,6 +628,7 @@ mod tests {
             t: 0.1,
             bodies: vec![body(1, 2.0), bad],
             impacts: Vec::new(),
+            anchor_tick: None,
         });
         let all = Interest::default();
         let text = String::from_utf8(bytes(shared.message(Codec::Json, &all))).unwrap();
@@ -659,6 +672,8 @@ mod impact_frames {
                 t: 91.0 / 30.0,
                 bodies: Vec::new(),
                 impacts: impacts.clone(),
+                // After the impacts in both codecs when there are both.
+                anchor_tick: (!impacts.is_empty()).then_some(80),
             };
             let shared = SharedTick::new(tick.clone());
             for codec in [Codec::Json, Codec::Protobuf] {

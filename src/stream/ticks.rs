@@ -84,28 +84,32 @@ pub async fn sleep_to_boundary(wait: Duration) {
     }
 }
 
-/// The tick and bodies of the frame to send at clock tick `tick`: the states published for that
-/// tick, or (late) the latest published states with their own tick (see the module docs). No
-/// bodies: `tick` and an empty list, at once.
+/// The tick, world anchor and bodies of the frame to send at clock tick `tick`: the states
+/// published for that tick, or (late) the latest published states with their own tick (see the
+/// module docs). No bodies: `tick`, no anchor and an empty list, at once.
 async fn bodies_for(
     state: &AppState,
     id: &str,
     tick: i64,
     reading: &ClockReading,
-) -> (i64, Vec<BodyState>) {
+) -> (i64, Option<i64>, Vec<BodyState>) {
     let Some(cell) = state.bodies.get(id) else {
-        return (tick, Vec::new());
+        return (tick, None, Vec::new());
     };
     let latest = cell.latest();
     if latest.states.is_empty() && cell.lock().is_empty() {
-        return (tick, Vec::new());
+        return (tick, None, Vec::new());
     }
     let wait = Duration::from_secs_f64(BODY_WAIT_TICKS / reading.tick_hz).min(MAX_SLEEP);
     let (published, exact) = cell.states_at(tick, reading.rate >= 0.0, wait).await;
     if !exact {
         metrics::counter!("swell_tick_body_lag_total").increment(1);
     }
-    (published.tick, Arc::unwrap_or_clone(published.states))
+    (
+        published.tick,
+        Some(published.anchor),
+        Arc::unwrap_or_clone(published.states),
+    )
 }
 
 async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>) {
@@ -142,7 +146,7 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
             last = Some(tick);
             // A tick is never repeated: states already sent (no new ones came) wait for the next
             // turn, and so do the impacts accepted meanwhile.
-            Some(bodies_for(&state, &id, tick, &reading).await).filter(|(t, _)| sent != Some(*t))
+            Some(bodies_for(&state, &id, tick, &reading).await).filter(|(t, _, _)| sent != Some(*t))
         } else {
             // States published after their tick's frame stopped waiting for them (the tick was
             // skipped): sent now, under their own tick, if no later frame went out.
@@ -154,10 +158,10 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
                     p.tick >= tick && sent.is_none_or(|s| p.tick < s)
                 };
                 let any = !p.states.is_empty() || !c.lock().is_empty();
-                (due && any).then(|| (p.tick, Arc::unwrap_or_clone(p.states)))
+                (due && any).then(|| (p.tick, Some(p.anchor), Arc::unwrap_or_clone(p.states)))
             })
         };
-        if let Some((tick, bodies)) = frame {
+        if let Some((tick, anchor_tick, bodies)) = frame {
             let t = tick as f64 / reading.tick_hz;
             let impacts = crate::impacts::frame_events(&entry.scene, &mut impacts_seen);
             // An error only means no receiver right now; the next turn decides whether to stop.
@@ -166,6 +170,7 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
                 t,
                 bodies,
                 impacts,
+                anchor_tick,
             })));
             metrics::counter!("swell_ticks_total").increment(1);
             sent = Some(tick);

@@ -255,6 +255,7 @@ impl From<&Tick> for v1::Tick {
             bodies: t.bodies.iter().map(|&b| b.into()).collect(),
             compact: None,
             impacts: impact_events(&t.impacts),
+            anchor_tick: t.anchor_tick,
         }
     }
 }

@@ -225,12 +225,14 @@ pub fn assert_replayed(
         .get(&tick)
         .unwrap_or_else(|| panic!("{what}: no watermark {tick} in the replayed log"));
     let want = serde_json::to_value(want).unwrap();
-    // `GET …/bodies` also describes each body (mass, hull); the states are what is compared.
+    // `GET …/bodies` also describes each body (mass, hull, spawn tick, what a re-anchor
+    // carried it in with); the states are what is compared.
     let mut bodies = bodies.clone();
     if let Some(list) = bodies.as_array_mut() {
         for b in list.iter_mut().filter_map(Value::as_object_mut) {
-            b.remove("mass");
-            b.remove("hull");
+            for k in ["mass", "hull", "spawn_tick", "carried"] {
+                b.remove(k);
+            }
         }
     }
     let bodies = &bodies;

@@ -36,6 +36,10 @@ namespace Swell
         public double T;
         /// <summary>Body states carried.</summary>
         public List<BodyState> Bodies = new List<BodyState>();
+        /// <summary>Scene tick the scene's body world is anchored at (null while the scene has no bodies).
+        /// A change means a clock jump re-anchored it: a native world replaying bodies is rebuilt
+        /// from GET …/bodies (docs/clients.md, Native engines).</summary>
+        public long? AnchorTick;
     }
 
     /// <summary>How an interpolated state was obtained.</summary>

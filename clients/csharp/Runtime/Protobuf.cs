@@ -258,6 +258,7 @@ namespace Swell
                 if (f == 1 && w == 0) t.Tick = (long)r.Varint();
                 else if (f == 2 && w == 1) t.T = r.Double();
                 else if (f == 3 && w == 2) t.Bodies.Add(Body(r.Sub()));
+                else if (f == 6 && w == 0) t.AnchorTick = (long)r.Varint();
                 else r.Skip(w); // compact bodies (not asked for), impacts
             }
             return t;

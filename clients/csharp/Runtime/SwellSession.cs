@@ -165,6 +165,7 @@ namespace Swell
                     break;
                 case "tick":
                     var f = new TickFrame { Tick = (long)Json.Num(o, "tick"), T = Json.Num(o, "t") };
+                    if (Json.Get(o, "anchor_tick") is double) f.AnchorTick = (long)Json.Num(o, "anchor_tick");
                     foreach (var b in Json.List(o, "bodies"))
                     {
                         f.Bodies.Add(new BodyState

@@ -205,6 +205,7 @@ namespace Swell.Tests
                         var f1 = await Next(frames, f => f.Bodies.Count > 0);
                         Runner.Equal(ida, f1.Bodies.Single().Id, "by id");
                         Runner.Equal(f1.Tick / 20.0, f1.T, "t is the tick's start");
+                        Runner.Equal(Json.Num(a, "anchor_tick"), (double)f1.AnchorTick.Value, "the body world's anchor, as the spawn answered");
                         await s.Subscribe(new ulong[0], new[] { 50.0, 50, 150, 150 });
                         await Task.Delay(200);
                         lock (frames) frames.Clear();

@@ -327,7 +327,8 @@ SwellStatus swell_surface_displacement_normal_f32(const struct SwellSurface *sur
 // makes a scene's world. On success `*out` holds a new handle.
 //
 // The anchor is part of the bits: to reproduce the server's states, use the tick its world is
-// anchored at (the scene tick of the scene's first spawn, or of its last re-anchor).
+// anchored at (the scene tick of the scene's first spawn, or of its last re-anchor), which the
+// server publishes as `anchor_tick` (spawn answer, `GET …/bodies`, tick frames).
 //
 // # Errors
 // [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_UNSUPPORTED`] for a scene whose bodies make
@@ -487,7 +488,10 @@ SwellStatus swell_world_len(const struct SwellWorld *world, size_t *out);
 // server's streamed state. The server's next ticks also depend on where each hull cell's
 // height inversion starts (its warm start, not on the wire), so after this the prediction
 // follows the server to within the inversion tolerance (1 mm), not to the bit; rewinding to a
-// confirmed world ([`swell_world_assign`]) and replaying the inputs keeps the bits.
+// confirmed world ([`swell_world_assign`]) and replaying the inputs keeps the bits. The one
+// state it is on the bits from is a body's `carried.state` at a re-anchored world's
+// `anchor_tick` (`GET …/bodies`), put on a world anchored there: the server starts that world
+// cold too.
 //
 // # Errors
 // [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_NOT_FOUND`];

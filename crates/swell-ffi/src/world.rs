@@ -155,7 +155,8 @@ fn state_out(id: u64, b: &swell_waves::body::Body) -> SwellBodyState {
 /// makes a scene's world. On success `*out` holds a new handle.
 ///
 /// The anchor is part of the bits: to reproduce the server's states, use the tick its world is
-/// anchored at (the scene tick of the scene's first spawn, or of its last re-anchor).
+/// anchored at (the scene tick of the scene's first spawn, or of its last re-anchor), which the
+/// server publishes as `anchor_tick` (spawn answer, `GET …/bodies`, tick frames).
 ///
 /// # Errors
 /// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_UNSUPPORTED`] for a scene whose bodies make
@@ -435,12 +436,19 @@ pub unsafe extern "C" fn swell_world_input(
                 i.ticks
             )));
         }
+        // As the server: far ahead of a negative anchor the difference overflows.
+        let relative = from.checked_sub(w.anchor).ok_or_else(|| {
+            Error::invalid(format!(
+                "from_tick = {from} is out of range: more than i64::MAX ticks after the world's anchor {}",
+                w.anchor
+            ))
+        })?;
         w.world
             .input(BodyInput {
                 body: id,
                 force: i.force,
                 torque: i.torque,
-                from_tick: (from - w.anchor) as u64,
+                from_tick: relative as u64,
                 ticks: i.ticks,
             })
             .map_err(|e| Error::invalid(e.to_string()))
@@ -541,7 +549,10 @@ pub unsafe extern "C" fn swell_world_len(world: *const SwellWorld, out: *mut usi
 /// server's streamed state. The server's next ticks also depend on where each hull cell's
 /// height inversion starts (its warm start, not on the wire), so after this the prediction
 /// follows the server to within the inversion tolerance (1 mm), not to the bit; rewinding to a
-/// confirmed world ([`swell_world_assign`]) and replaying the inputs keeps the bits.
+/// confirmed world ([`swell_world_assign`]) and replaying the inputs keeps the bits. The one
+/// state it is on the bits from is a body's `carried.state` at a re-anchored world's
+/// `anchor_tick` (`GET …/bodies`), put on a world anchored there: the server starts that world
+/// cold too.
 ///
 /// # Errors
 /// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_NOT_FOUND`];

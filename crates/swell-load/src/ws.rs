@@ -651,6 +651,7 @@ mod tests {
                     bodies,
                     compact,
                     impacts,
+                    anchor_tick: None,
                 })),
             }
             .encode_to_vec();
