@@ -136,6 +136,10 @@ pub struct Limits {
     /// answer was written: an idle keep-alive connection is closed after it (and so is a client
     /// that trickles its headers). Upgraded WebSockets are not subject to it. 0: no limit.
     pub idle_timeout_ms: u64,
+    /// Longest a request's head (request line and headers) may take from its first byte, ms:
+    /// 408 `request_timeout`, and the connection closes. 0: no limit (the idle timeout still
+    /// applies).
+    pub head_timeout_ms: u64,
     /// Longest downtime, s of scene time, that a restarted server steps its bodies through
     /// before it is ready, so that they continue the trajectory of a server that never stopped
     /// (one boat on an FFT scene: ~4.5 ms a tick). After a longer one the bodies re-anchor at the
@@ -221,6 +225,7 @@ impl Default for Limits {
             ws_send_stall_ms: 10_000,
             max_connections: 10_000,
             idle_timeout_ms: 60_000,
+            head_timeout_ms: 10_000,
             catch_up_max_s: 3600,
             max_connections_per_peer: 256,
             body_timeout_ms: 15_000,
@@ -293,6 +298,11 @@ impl Limits {
     /// [`Limits::idle_timeout_ms`] as a duration; `None` when it is 0 (no limit).
     pub fn idle_timeout(&self) -> Option<Duration> {
         (self.idle_timeout_ms > 0).then(|| Duration::from_millis(self.idle_timeout_ms))
+    }
+
+    /// [`Limits::head_timeout_ms`] as a duration; `None` when it is 0 (no limit).
+    pub fn head_timeout(&self) -> Option<Duration> {
+        (self.head_timeout_ms > 0).then(|| Duration::from_millis(self.head_timeout_ms))
     }
 
     /// [`Limits::body_timeout_ms`] as a duration.

@@ -373,6 +373,7 @@ impl Server {
         let limits = api::serve::ConnectionLimits {
             max_connections: state.limits.max_connections,
             idle_timeout: state.limits.idle_timeout(),
+            head_timeout: state.limits.head_timeout(),
             per_peer: state.limits.max_connections_per_peer,
             send_stall: state.limits.http_send_stall(),
             policy: state.peer_policy.clone(),

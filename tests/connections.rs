@@ -158,6 +158,80 @@ async fn idle_connections_are_closed_after_the_idle_timeout_and_busy_ones_are_no
     s.stop().await;
 }
 
+/// Issue 27: a client that started a request and trickled its headers was closed without a
+/// word when the idle timeout (60 s) ran out. A head now has `head_timeout_ms` from its first
+/// byte: then 408 `request_timeout` with the JSON error, and the connection closes. Idle
+/// keep-alive connections (no head started), busy ones and WebSockets are not touched by it.
+#[tokio::test]
+async fn a_head_that_does_not_arrive_in_time_is_answered_408() {
+    let _turn = ONE_AT_A_TIME.lock().await;
+    let mut c = limited(100, 60_000);
+    c.limits.head_timeout_ms = 400;
+    let s = TestServer::start(c).await;
+    // A head trickled a byte every 100 ms: past 400 ms, 408 and the end of the connection.
+    let slow = TcpStream::connect(s.addr).await.unwrap();
+    let (mut rd, mut wr) = slow.into_split();
+    let start = Instant::now();
+    wr.write_all(b"GET /healthz HTTP/1.1\r\nhost: swell\r\n")
+        .await
+        .unwrap();
+    let trickle = async {
+        for b in b"x-slow: aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa" {
+            if wr.write_all(&[*b]).await.is_err() {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    };
+    let mut answer = Vec::new();
+    let read = async {
+        let _ = tokio::time::timeout(Duration::from_secs(5), rd.read_to_end(&mut answer)).await;
+        start.elapsed()
+    };
+    let ((), took) = tokio::join!(trickle, read);
+    let answer = String::from_utf8_lossy(&answer).into_owned();
+    assert!(answer.starts_with("HTTP/1.1 408"), "{answer:?}");
+    assert!(answer.contains("\"code\":\"request_timeout\""), "{answer}");
+    assert!(answer.contains("head_timeout_ms"), "{answer}");
+    assert!(
+        took >= Duration::from_millis(400) && took < Duration::from_secs(3),
+        "{took:?}"
+    );
+
+    // Idle after an answer for 2.5 head timeouts: still open and serving.
+    let mut idle = TcpStream::connect(s.addr).await.unwrap();
+    assert!(healthz(&mut idle, Duration::from_secs(5)).await.is_some());
+    tokio::time::sleep(Duration::from_millis(1000)).await;
+    let again = healthz(&mut idle, Duration::from_secs(5)).await;
+    assert!(again.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
+    // Busy: a request every 150 ms for 1.2 s.
+    let mut busy = TcpStream::connect(s.addr).await.unwrap();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1200) {
+        let a = healthz(&mut busy, Duration::from_secs(5)).await;
+        assert!(a.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
+        tokio::time::sleep(Duration::from_millis(150)).await;
+    }
+    // A WebSocket: its frames are not heads.
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    let (mut ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    for i in 0..4 {
+        ws.send(tungstenite::Message::text(format!(
+            r#"{{"type":"ping","id":{i},"client_time":0}}"#
+        )))
+        .await
+        .expect("the WebSocket is open");
+        let reply = tokio::time::timeout(Duration::from_secs(5), ws.next())
+            .await
+            .expect("an answer")
+            .expect("a message")
+            .expect("not an error");
+        assert!(reply.is_text(), "{reply:?}");
+        tokio::time::sleep(Duration::from_millis(300)).await;
+    }
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn open_connections_are_published() {
     let _turn = ONE_AT_A_TIME.lock().await;

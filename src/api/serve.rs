@@ -11,6 +11,12 @@
 //!   keep-alive connection is closed after it, and so is a client that trickles a request's
 //!   headers (slowloris). An upgraded WebSocket is not subject to it.
 //!
+//! - **`head_timeout`**: how long a request's head may take from its first byte. A client that
+//!   starts a request and does not finish its headers in time is answered 408
+//!   `request_timeout` (the JSON error) and the connection closes; hyper's own header timeout
+//!   (the idle timeout) closes without an answer, which is right for an idle connection but
+//!   leaves a slow client guessing.
+//!
 //! - **`per_peer`**: connections open at once from one client address (the TCP peer; peers in
 //!   the exempt list are not counted). One more is answered `429` with the JSON error and
 //!   closed at once, so one client cannot take every slot.
@@ -28,7 +34,7 @@
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::task::{Context, Poll};
 use std::time::Duration;
 
@@ -50,6 +56,8 @@ pub struct ConnectionLimits {
     pub max_connections: usize,
     /// Longest wait for a request's headers on an open connection; `None`: no limit.
     pub idle_timeout: Option<Duration>,
+    /// Longest a request's head may take from its first byte (408); `None`: no limit.
+    pub head_timeout: Option<Duration>,
     /// Connections open at once per client address.
     pub per_peer: usize,
     /// Longest a write may make no progress; `None`: no limit.
@@ -118,10 +126,19 @@ pub async fn serve(
             }
         };
         let app = app.clone();
+        let heads = Arc::new(Heads::default());
+        let seen = Arc::clone(&heads);
         let service = hyper::service::service_fn(move |mut req: hyper::Request<Incoming>| {
             req.extensions_mut().insert(PeerAddr(remote));
+            seen.start(req.headers().contains_key(hyper::header::UPGRADE));
+            let seen = Arc::clone(&seen);
             // The router is always ready: `oneshot` polls readiness and calls.
-            tower::ServiceExt::oneshot(app.clone(), req)
+            let answer = tower::ServiceExt::oneshot(app.clone(), req);
+            async move {
+                let r = answer.await;
+                seen.answered();
+                r
+            }
         });
         let (stop, done) = (stop_tx.clone(), done_rx.clone());
         let idle_timeout = limits.idle_timeout;
@@ -132,6 +149,9 @@ pub async fn serve(
             _peer: peer_slot,
             stall_after: limits.send_stall,
             stall: None,
+            heads,
+            head_after: limits.head_timeout,
+            head: None,
         };
         tokio::spawn(async move {
             let mut builder = hyper::server::conn::http1::Builder::new();
@@ -214,9 +234,52 @@ async fn refuse(mut tcp: TcpStream, permit: OwnedSemaphorePermit, per_peer: usiz
     drop(permit);
 }
 
+/// What the connection's service has seen, for the head deadline: requests whose heads were
+/// complete, whether one is being answered, and whether the connection was upgraded (from
+/// then on its bytes are WebSocket frames, not heads).
+#[derive(Debug, Default)]
+struct Heads {
+    complete: AtomicU64,
+    answering: AtomicBool,
+    upgrade: AtomicBool,
+}
+
+impl Heads {
+    fn start(&self, upgrade: bool) {
+        self.complete.fetch_add(1, Ordering::Relaxed);
+        self.answering.store(true, Ordering::Relaxed);
+        if upgrade {
+            self.upgrade.store(true, Ordering::Relaxed);
+        }
+    }
+
+    fn answered(&self) {
+        self.answering.store(false, Ordering::Relaxed);
+    }
+}
+
+/// The answer to a head that took longer than `head_timeout` (written straight to the socket:
+/// hyper has no request to answer yet).
+fn head_timeout_answer(after: Duration) -> Vec<u8> {
+    let body = format!(
+        "{{\"error\":{{\"code\":\"{code}\",\"message\":\"the request's headers did not arrive within {ms} ms of its first byte (head_timeout_ms)\"}}}}",
+        code = ErrorCode::RequestTimeout.as_str(),
+        ms = after.as_millis(),
+    );
+    let status = ErrorCode::RequestTimeout.status();
+    format!(
+        "HTTP/1.1 {} {}\r\ncontent-type: application/json\r\ncontent-length: {}\r\nconnection: close\r\n\r\n{body}",
+        status.as_str(),
+        status.canonical_reason().unwrap_or_default(),
+        body.len()
+    )
+    .into_bytes()
+}
+
 /// A TCP socket with its [`Slot`] and its place in the per-peer count; reads go straight
 /// through, writes too, unless one makes no progress for `stall_after`: then the connection
-/// fails with `TimedOut` and hyper drops it.
+/// fails with `TimedOut` and hyper drops it. A request head still incomplete `head_after` after
+/// its first byte is answered 408 here, and hyper then reads the end of the stream.
 struct Counted {
     tcp: TcpStream,
     _slot: Slot,
@@ -224,6 +287,11 @@ struct Counted {
     stall_after: Option<Duration>,
     /// Armed while a write is pending; disarmed by any progress.
     stall: Option<Pin<Box<Sleep>>>,
+    heads: Arc<Heads>,
+    head_after: Option<Duration>,
+    /// Armed at the first byte read while no request is being answered, with the count of
+    /// complete heads then; disarmed once that count moves. `Some((_, None))`: fired, answered.
+    head: Option<(u64, Option<Pin<Box<Sleep>>>)>,
 }
 
 impl Counted {
@@ -261,13 +329,58 @@ impl Counted {
     }
 }
 
+impl Counted {
+    /// The head deadline around a read that returned `p` (`got`: bytes it read).
+    fn head_deadline(
+        &mut self,
+        cx: &mut Context<'_>,
+        p: Poll<std::io::Result<()>>,
+        got: bool,
+    ) -> Poll<std::io::Result<()>> {
+        let Some(after) = self.head_after else {
+            return p;
+        };
+        if self.heads.upgrade.load(Ordering::Relaxed) {
+            self.head = None;
+            return p;
+        }
+        let complete = self.heads.complete.load(Ordering::Relaxed);
+        if let Some((n, Some(_))) = &self.head
+            && *n != complete
+        {
+            self.head = None; // that head arrived
+        }
+        if matches!(self.head, Some((_, None))) {
+            // Answered 408: the stream ends here for hyper.
+            return Poll::Ready(Ok(()));
+        }
+        if got && self.head.is_none() && !self.heads.answering.load(Ordering::Relaxed) {
+            self.head = Some((complete, Some(Box::pin(tokio::time::sleep(after)))));
+        }
+        if let (Poll::Pending, Some((_, Some(timer)))) = (&p, &mut self.head)
+            && timer.as_mut().poll(cx).is_ready()
+        {
+            metrics::counter!("swell_http_head_timeouts_total").increment(1);
+            // Best effort: a client that does not read cannot hold us here.
+            let _ = self.tcp.try_write(&head_timeout_answer(after));
+            self.head = Some((complete, None));
+            return Poll::Ready(Ok(()));
+        }
+        p
+    }
+}
+
 impl AsyncRead for Counted {
     fn poll_read(
         self: Pin<&mut Self>,
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<std::io::Result<()>> {
-        Pin::new(&mut self.get_mut().tcp).poll_read(cx, buf)
+        let this = self.get_mut();
+        let before = buf.filled().len();
+        let p = Pin::new(&mut this.tcp).poll_read(cx, buf);
+        let got = buf.filled().len() > before;
+        this.head_deadline(cx, p, got)
     }
 }
 
