@@ -15,7 +15,7 @@
 import { spawn } from 'node:child_process';
 import { createHash, randomBytes } from 'node:crypto';
 import { createServer, request as httpRequest } from 'node:http';
-import { mkdtempSync, readFileSync, readdirSync, rmSync } from 'node:fs';
+import { mkdtempSync, readFileSync, readdirSync, rmSync, writeFileSync } from 'node:fs';
 import { createServer as netServer } from 'node:net';
 import { tmpdir } from 'node:os';
 import { extname, join, dirname } from 'node:path';
@@ -122,7 +122,11 @@ const freePort = () => new Promise((r) => { const s = netServer(); s.listen(0, '
 const swellPort = await freePort();
 const dataDir = mkdtempSync(join(tmpdir(), 'swell-godot-data-'));
 const adminToken = randomBytes(12).toString('hex');
-const swell = spawn(swellBin, ['serve', '--bind', `127.0.0.1:${swellPort}`, '--data-dir', dataDir, '--admin-token', adminToken], { stdio: ['ignore', 'ignore', 'ignore'] });
+// Client messages over 16 KiB close the socket (1009): the reconnect test's way to make the server
+// drop a session (the tests' own requests are a few hundred bytes).
+const configPath = join(dataDir, 'swell.toml');
+writeFileSync(configPath, '[limits]\nws_max_message_bytes = 16384\n');
+const swell = spawn(swellBin, ['serve', '--bind', `127.0.0.1:${swellPort}`, '--data-dir', join(dataDir, 'data'), '--admin-token', adminToken, '--config', configPath], { stdio: ['ignore', 'ignore', 'ignore'] });
 const swellUp = async () => {
   for (let i = 0; i < 200; i++) {
     try { if ((await fetch(`http://127.0.0.1:${swellPort}/readyz`)).ok) return true; } catch { /* not yet */ }

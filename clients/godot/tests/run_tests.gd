@@ -47,6 +47,7 @@ func _ready() -> void:
 		await test_join_paused_and_rate2()
 		await test_ticks_and_interpolation()
 		await test_ocean_node()
+		await test_reconnect()
 	print("SWELL-GODOT-TESTS passed=%d failed=%d" % [passed, failed])
 
 
@@ -378,3 +379,35 @@ func test_ocean_node() -> void:
 		var layout := ", ".join(PackedStringArray(names))
 		check(ok, "ocean (%s): the include's material draws, its uniforms set every frame (%s)" % [id, layout], "last_time %s, block %d" % [ocean.last_time, ocean.last_block.size()])
 		ocean.queue_free()
+
+
+# The server drops the socket (here a message over the harness's 16 KiB ws_max_message_bytes:
+# Close 1009): the session reconnects after its backoff, re-sends its subscription (tick frames
+# come again) and answers requests on the new socket, its clock fit restarted and in sync.
+func test_reconnect() -> void:
+	var c = new_client()
+	var s = new_session("calm")
+	s.ping_interval = 0.2
+	var codes: Array = []
+	s.closed.connect(func(code): codes.append(code))
+	var frames: Array = []
+	s.tick.connect(func(f): frames.append(f))
+	await s.open()
+	s.subscribe()
+	await wait(0.5)
+	var before := frames.size()
+	s._ws.send_text("x".repeat(20000))
+	var deadline := wall() + 10.0
+	while s.reconnects < 1 and wall() < deadline:
+		await wait(0.05)
+	frames.clear()
+	await wait(1.0)
+	var pong = await s.ping()
+	var r = await c.clock("calm")
+	var err: float = s.server_time() - truth_of(r)
+	print("  reconnect: closed with %s, %d reconnect(s), %d frames before, %d in the second after; clock error %.3f ms" % [str(codes), s.reconnects, before, frames.size(), err * 1e3])
+	var ok: bool = codes.size() == 1 and s.reconnects == 1 and before > 5 and frames.size() > 5 and pong.get("type") == "pong" and absf(err) < bound(r)
+	check(ok, "reconnect: a dropped session reconnects, re-subscribes and answers, its clock in sync", "closes %s, reconnects %d, frames %d then %d, pong %s, err %s s" % [str(codes), s.reconnects, before, frames.size(), str(pong), err])
+	s.close()
+	s.queue_free()
+	c.queue_free()
