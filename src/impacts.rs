@@ -223,25 +223,6 @@ impl SceneImpacts {
         Ok(())
     }
 
-    /// Replaces the API impacts (restoring from the journal or re-reading the fleet's store).
-    /// With `announce`, impacts not held before are numbered as new (so tick frames carry
-    /// them); without, what was recently added is forgotten, so no frame carries restored
-    /// impacts as new.
-    pub fn restore(&self, impacts: Impacts, announce: bool) {
-        let mut g = self.write();
-        let fresh = if announce {
-            missing(g.api.events(), impacts.events())
-        } else {
-            g.recent.clear();
-            Vec::new()
-        };
-        g.api = Arc::new(expire(impacts, g.lifetime));
-        g.remerge();
-        for i in fresh {
-            g.announce(i);
-        }
-    }
-
     /// Mirrors the impacts a scene's bodies derived ([`crate::bodies::SceneBodies::sync_impacts`]
     /// calls it under the world's lock, after stepping and before publishing its states, so a
     /// tick frame that waited for the states also finds the impacts): `fresh`, the ones made
@@ -353,7 +334,7 @@ fn room(g: &Inner, impact: &Impact, window: f64) -> Result<(), AddError> {
 }
 
 /// The impacts of `new` that `old` does not hold (both canonical; duplicates counted).
-fn missing(old: &[Impact], new: &[Impact]) -> Vec<Impact> {
+pub fn missing(old: &[Impact], new: &[Impact]) -> Vec<Impact> {
     let mut out = Vec::new();
     let mut i = 0;
     for n in new {

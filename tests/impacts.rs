@@ -639,3 +639,75 @@ async fn bad_body_impact_settings_are_rejected_with_the_field_named() {
     assert!(v["spec"]["layers"][1].get("body_impacts").is_none(), "{v}");
     s.stop().await;
 }
+
+/// Issue 30: a fleet replica that re-read Redis replaced its scenes' impact sets directly,
+/// beside the one reducer. It now adds the impacts it lacks as the feed would (`Op::Impact`
+/// through `AppState::apply`, announced to tick frames), adds nothing twice, and keeps an
+/// impact Redis lost, as it keeps such a scene. (`resync_impacts` is what the re-read calls
+/// with Redis's lists; here it gets them by hand on a local server.)
+#[tokio::test]
+async fn a_fleet_re_read_adds_the_impacts_it_lacks_through_the_reducer() {
+    let s = TestServer::start(config()).await;
+    let (_, clock) = s.get_json("/v1/scenes/harbour/clock").await;
+    let now = clock["t"].as_f64().unwrap();
+    let (st, v) = impact(
+        &s,
+        "harbour",
+        json!({"t": now, "position": [1.0, 2.0], "strength": 0.2, "radius": 0.5}),
+    )
+    .await;
+    assert_eq!(st, 202, "{v}");
+    let ours = swell_waves::particles::Impact {
+        t: now,
+        position: [1.0, 2.0],
+        strength: 0.2,
+        radius: 0.5,
+    };
+    let missed = swell_waves::particles::Impact {
+        t: now + 0.5,
+        position: [6.0, 1.0],
+        strength: 0.3,
+        radius: 0.75,
+    };
+    let seen = s.state.scene("harbour").unwrap().scene.impacts.added();
+    let heights_before = heights(&s, "harbour", now + 2.0).await;
+    let scenes = vec!["harbour".to_owned()];
+    // Redis has the one we missed, not ours (lost): ours is kept, the missed one added.
+    let lists = vec![vec![serde_json::to_string(&missed).unwrap()]];
+    assert_eq!(
+        swell::store::fleet::resync_impacts(&s.state, &scenes, &lists),
+        1
+    );
+    let entry = s.state.scene("harbour").unwrap();
+    assert_eq!(entry.scene.impacts.api().events(), &[ours, missed]);
+    // Announced: a tick loop that saw everything before the re-read gets it as new.
+    assert_eq!(entry.scene.impacts.since(seen).1, vec![missed]);
+    assert_ne!(heights(&s, "harbour", now + 2.0).await, heights_before);
+    // Again, with both: nothing to add, nothing doubled.
+    let both = vec![vec![
+        serde_json::to_string(&ours).unwrap(),
+        serde_json::to_string(&missed).unwrap(),
+    ]];
+    assert_eq!(
+        swell::store::fleet::resync_impacts(&s.state, &scenes, &both),
+        0
+    );
+    assert_eq!(entry.scene.impacts.api().len(), 2);
+    // The same set as a server that got both through the API.
+    let other = TestServer::start(config()).await;
+    for i in [ours, missed] {
+        let (st, v) = impact(
+            &other,
+            "harbour",
+            json!({"t": i.t, "position": i.position, "strength": i.strength, "radius": i.radius}),
+        )
+        .await;
+        assert_eq!(st, 202, "{v}");
+    }
+    assert_eq!(
+        heights(&other, "harbour", now + 2.0).await,
+        heights(&s, "harbour", now + 2.0).await
+    );
+    other.stop().await;
+    s.stop().await;
+}

@@ -3,7 +3,8 @@
 //! Every path that changes scenes, clocks or a scene's impact set calls [`AppState::apply`]: a
 //! local write once its op is durable ([`super::store::Local`]), the journal's replay at start-up
 //! ([`super::restore`]) and a fleet's change feed on every replica, the writer included
-//! ([`crate::store::shared`]). So the three cannot drift apart (the shape of a replicated state
+//! ([`crate::store::shared`]), and its re-read of Redis after a reconnect (the scenes, clocks and
+//! impacts that differ, as ops: [`crate::store::fleet::resync_impacts`]). So the three cannot drift apart (the shape of a replicated state
 //! machine: one log, one `apply`). The rules:
 //!
 //! - a put replaces the scene; the replaced scene's clock stays unless the put moves its epoch

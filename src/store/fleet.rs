@@ -721,10 +721,12 @@ async fn apply_built(state: &AppState, op: Op, built: Option<Scene>) {
     state.apply(&op, prepared);
 }
 
-/// Makes every scene's API impacts what Redis holds (`scenes[i]`'s list is `lists[i]`; a
-/// scene without a list has none), announcing the ones this replica did not have (its tick
-/// frames carry impacts added while it was disconnected). Returns how many scenes changed.
-fn resync_impacts(state: &AppState, scenes: &[String], lists: &[Vec<String>]) -> usize {
+/// Adds to every scene the API impacts Redis holds that this replica lacks (`scenes[i]`'s list
+/// is `lists[i]`), each as the feed would have: an [`Op::Impact`] through [`AppState::apply`],
+/// oldest first, so its tick frames carry the ones added while it was disconnected. An impact
+/// this replica holds and Redis does not (Redis lost data) is kept, as scenes are, and logged.
+/// Returns how many scenes changed.
+pub fn resync_impacts(state: &AppState, scenes: &[String], lists: &[Vec<String>]) -> usize {
     use swell_waves::particles::{Impact, Impacts};
     let mut stored: HashMap<&str, Vec<Impact>> = HashMap::new();
     for (scene, list) in scenes.iter().zip(lists) {
@@ -751,9 +753,22 @@ fn resync_impacts(state: &AppState, scenes: &[String], lists: &[Vec<String>]) ->
                 continue;
             }
         };
-        if *scene.impacts.api() != want {
-            changed += 1;
-            scene.impacts.restore(want, true);
+        let have = scene.impacts.api();
+        let fresh = crate::impacts::missing(have.events(), want.events());
+        let extra = crate::impacts::missing(want.events(), have.events()).len();
+        if extra > 0 {
+            tracing::warn!(scene = %scene.id, extra, "store: Redis lacks impacts this replica holds (was its data lost?); keeping them");
+        }
+        if fresh.is_empty() {
+            continue;
+        }
+        changed += 1;
+        for impact in fresh {
+            let op = Op::Impact {
+                scene: scene.id.clone(),
+                impact,
+            };
+            state.apply(&op, Prepared::Nothing);
         }
     }
     changed
