@@ -46,6 +46,19 @@ typedef struct SwellWorld SwellWorld;
 // On an error, [`swell_last_error_message`] says what was wrong.
 typedef int32_t SwellStatus;
 
+// An impact on the scene's particle layer, as `GET /v1/scenes/{id}/impacts` and tick frames
+// list them: a ring of ripples spreading from `position` from scene time `t`.
+typedef struct SwellImpact {
+  // Scene time of the impact, s.
+  double t;
+  // World `[x, z]` of the impact, m.
+  double position[2];
+  // Height of the splash at the impact point at `t`, m, in (0, 100].
+  double strength;
+  // Radius of the ring's particles, m, in [0.01, 1000].
+  double radius;
+} SwellImpact;
+
 // What a scene is: its rates and the few facts a client branches on.
 typedef struct SwellSceneInfo {
   // Ticks per second of scene time (the body world's step rate), Hz.
@@ -211,6 +224,23 @@ const char *swell_last_error_message(void);
 
 // The code of the most recent call on this thread that failed ([`SWELL_OK`] if none has).
 SwellStatus swell_last_error_code(void);
+
+// Sets the impacts whose ripples the surface's queries include, replacing the set before
+// (`n` = 0 clears it): pass the scene's impacts as `GET /v1/scenes/{id}/impacts` lists them
+// (and add those tick frames announce), and queries give the server's bits for the same set.
+// Safe to call while other threads query: each query uses the set in force when it starts.
+// Body worlds do not feel impacts (see `swell_world_new`).
+//
+// # Errors
+// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] naming `impacts[i]` for an
+// impact the model rejects (a non-finite or out-of-range value), or more impacts than a scene
+// holds.
+//
+// # Safety
+// `surface` a live handle; `impacts` readable for `n` impacts (null when `n` is 0).
+SwellStatus swell_surface_set_impacts(const struct SwellSurface *surface,
+                                      const struct SwellImpact *impacts,
+                                      size_t n);
 
 // Builds a scene from its JSON spec (UTF-8, `len` bytes, no terminator needed): exactly the
 // text the server accepts for `PUT /v1/scenes/{id}` (`description`, `tick_hz`, `epoch` and the

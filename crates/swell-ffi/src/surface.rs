@@ -3,11 +3,12 @@
 //! layers included.
 
 use std::ffi::c_char;
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 
 use glam::DVec2;
 use swell_waves::body::{BodyFootprint, MAX_YAW};
 use swell_waves::fft::SampleFilter;
+use swell_waves::particles::{Impact, Impacts};
 use swell_waves::{
     Inversion, InversionMethod, Precision, QueryFields, QueryOptions, SurfaceAt, TimeSampling,
 };
@@ -20,6 +21,8 @@ use crate::scene::Scene;
 /// what they need, so it may be freed before them.
 pub struct SwellSurface {
     pub(crate) scene: Arc<Scene>,
+    /// The impacts whose ripples queries include ([`swell_surface_set_impacts`]).
+    impacts: RwLock<Arc<Impacts>>,
 }
 
 // What the docs promise of the handles, checked by the compiler: a surface may be queried from
@@ -237,10 +240,83 @@ impl SwellSurface {
     ) -> Result<SurfaceAt<'_>, Error> {
         finite("t", t)?;
         let s = &self.scene;
-        s.surface
+        let sea = s
+            .surface
             .at_memo(t, fields, options, &s.memo)
+            .map_err(|e| Error::invalid(e.to_string()))?;
+        // As the server's queries: the set's rings on the first particle layer, when there are
+        // any (`SceneImpacts::apply`).
+        let set = Arc::clone(&self.impacts.read().unwrap_or_else(|p| p.into_inner()));
+        if set.is_empty() {
+            return Ok(sea);
+        }
+        sea.with_impacts(&set)
             .map_err(|e| Error::invalid(e.to_string()))
     }
+}
+
+/// An impact on the scene's particle layer, as `GET /v1/scenes/{id}/impacts` and tick frames
+/// list them: a ring of ripples spreading from `position` from scene time `t`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SwellImpact {
+    /// Scene time of the impact, s.
+    pub t: f64,
+    /// World `[x, z]` of the impact, m.
+    pub position: [f64; 2],
+    /// Height of the splash at the impact point at `t`, m, in (0, 100].
+    pub strength: f64,
+    /// Radius of the ring's particles, m, in [0.01, 1000].
+    pub radius: f64,
+}
+
+/// Sets the impacts whose ripples the surface's queries include, replacing the set before
+/// (`n` = 0 clears it): pass the scene's impacts as `GET /v1/scenes/{id}/impacts` lists them
+/// (and add those tick frames announce), and queries give the server's bits for the same set.
+/// Safe to call while other threads query: each query uses the set in force when it starts.
+/// Body worlds do not feel impacts (see `swell_world_new`).
+///
+/// # Errors
+/// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] naming `impacts[i]` for an
+/// impact the model rejects (a non-finite or out-of-range value), or more impacts than a scene
+/// holds.
+///
+/// # Safety
+/// `surface` a live handle; `impacts` readable for `n` impacts (null when `n` is 0).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn swell_surface_set_impacts(
+    surface: *const SwellSurface,
+    impacts: *const SwellImpact,
+    n: usize,
+) -> SwellStatus {
+    guard(|| {
+        // SAFETY: the caller's contract above.
+        let s = unsafe { get(surface, "surface") }?;
+        let list: &[SwellImpact] = if n == 0 {
+            &[]
+        } else if impacts.is_null() {
+            return Err(Error::null("impacts"));
+        } else {
+            // SAFETY: non-null, and the caller promises `n` readable impacts.
+            unsafe { std::slice::from_raw_parts(impacts, n) }
+        };
+        let mut events = Vec::with_capacity(list.len());
+        for (i, m) in list.iter().enumerate() {
+            let impact = Impact {
+                t: m.t,
+                position: m.position,
+                strength: m.strength,
+                radius: m.radius,
+            };
+            impact
+                .validate(&format!("impacts[{i}]"))
+                .map_err(|e| Error::spec(&e))?;
+            events.push(impact);
+        }
+        let set = Impacts::from_events(events).map_err(|e| Error::spec(&e))?;
+        *s.impacts.write().unwrap_or_else(|p| p.into_inner()) = Arc::new(set);
+        Ok(())
+    })
 }
 
 /// Builds a scene from its JSON spec (UTF-8, `len` bytes, no terminator needed): exactly the
@@ -270,6 +346,7 @@ pub unsafe extern "C" fn swell_surface_new(
         let scene = Scene::from_json(text)?;
         *out = Box::into_raw(Box::new(SwellSurface {
             scene: Arc::new(scene),
+            impacts: RwLock::new(Arc::new(Impacts::default())),
         }));
         Ok(())
     })
