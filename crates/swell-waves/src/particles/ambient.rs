@@ -302,6 +302,55 @@ impl Ambient {
         }
     }
 
+    /// Slow reference of the fast path's order: every kept scale, then the 3×3 cells around x
+    /// in row-major order, then, per cell, a scan of every particle in index order keeping those
+    /// whose position at t ([`Ambient::position`]) lies in that cell. The same operands in the
+    /// same order as [`Ambient::visit`], with no index, so the fast path must give its bits.
+    /// Returns `(height, gradient, ∂h/∂t)`, each summed as [`super::ParticleField`] sums them.
+    pub fn sample_ordered_reference(
+        &self,
+        x: DVec2,
+        t: f64,
+        min_wavelength: f64,
+    ) -> (f64, DVec2, f64) {
+        let (mut h, mut g, mut v) = (0.0, DVec2::ZERO, 0.0);
+        let n = self.cells;
+        for (&s, &inv) in self.scales.iter().zip(&self.inv_sl) {
+            if 4.0 * s * self.radius < min_wavelength {
+                continue;
+            }
+            let q = DVec2::new(wrap(x.x * inv), wrap(x.y * inv));
+            let (cx, cz) = self.cell_of(q);
+            let sl = s * self.tile;
+            let neighbours: Vec<(u32, u32)> = if n == 1 {
+                vec![(0, 0)]
+            } else {
+                [n - 1, 0, 1]
+                    .iter()
+                    .flat_map(|&dz| [n - 1, 0, 1].map(|dx| ((cx + dx) % n, (cz + dz) % n)))
+                    .collect()
+            };
+            for cell in neighbours {
+                for i in 0..self.len() {
+                    let u = self.position(i, t);
+                    if self.cell_of(u) != cell {
+                        continue;
+                    }
+                    let mut d = q - u;
+                    d.x -= d.x.round();
+                    d.y -= d.y.round();
+                    if let Some((hk, gk)) = kernel(s * self.a[i], d, self.inv_rr2) {
+                        let (gk, pv) = (gk * inv, self.w[i] * sl);
+                        h += hk;
+                        g += gk;
+                        v += hk * 0.0 - gk.dot(pv);
+                    }
+                }
+            }
+        }
+        (h, g, v)
+    }
+
     /// Slow reference of the grid-indexed ambient sum: every particle at every kept scale, in
     /// index order, positions from [`Ambient::position`]. Returns `(height, gradient, ∂h/∂t)`.
     pub fn sample_reference(&self, x: DVec2, t: f64, min_wavelength: f64) -> (f64, DVec2, f64) {

@@ -481,3 +481,71 @@ fn defaults_are_valid_and_errors_name_fields() {
         .unwrap_err();
     assert_eq!(e.field(), "radius");
 }
+
+/// Ambient layers that stress the cell index: the harbour's (31² cells, three scales), a dense
+/// wind-driven one at the 128² cap, and coarse ones with 3, 4 and 5 cells a side (where the
+/// 3×3 neighbourhood is most of the tile).
+fn index_layers() -> Vec<ParticleLayer> {
+    let harbour = ParticleLayerSpec {
+        scales: vec![0.33, 0.66, 1.0],
+        ..Default::default()
+    };
+    let dense = ParticleLayerSpec {
+        count: 4096,
+        tile_size: 64.0,
+        radius: 0.4,
+        speed: Some(7.0),
+        direction: Some([1.0, 0.2]),
+        spread: 30.0,
+        scales: vec![0.5, 1.0],
+        ..Default::default()
+    };
+    let coarse = |radius: f64| ParticleLayerSpec {
+        count: 200,
+        tile_size: 10.0,
+        radius,
+        ..Default::default()
+    };
+    [harbour, dense, coarse(2.5), coarse(2.0), coarse(1.9)]
+        .iter()
+        .map(layer)
+        .collect()
+}
+
+fn ambient_bits(h: f64, g: DVec2, v: f64) -> [u64; 4] {
+    [h.to_bits(), g.x.to_bits(), g.y.to_bits(), v.to_bits()]
+}
+
+/// The fast ambient sum (through a [`ParticleField`], as queries reach it) gives the bits of
+/// [`ambient::Ambient::sample_ordered_reference`] (every particle scanned per neighbour cell) at
+/// seeded points and times: far apart, runs of nearby times, large |t|, and with scales left
+/// out by a minimum wavelength.
+#[test]
+fn ambient_index_gives_the_ordered_reference_bits() {
+    let mut rng = SwellRng::new(29, 4);
+    for l in index_layers() {
+        let amb = l.ambient();
+        let mut t = 0.0;
+        for k in 0..200 {
+            t = match k % 4 {
+                0 => rng.uniform() * 2.0e4 - 1.0e4,
+                1 => t + rng.uniform() * 0.05,
+                2 => 1.0e9 + rng.uniform() * 10.0,
+                _ => t - rng.uniform() * 0.5,
+            };
+            let f = l.field(t, None).unwrap();
+            for _ in 0..10 {
+                let x = DVec2::new(rng.uniform() * 400.0 - 200.0, rng.uniform() * 400.0 - 200.0);
+                let mw = if rng.uniform() < 0.25 { 3.0 } else { 0.0 };
+                let (h, g) = f.sample(&l, x, mw);
+                let v = f.vertical_velocity(&l, x, mw);
+                let (hr, gr, vr) = amb.sample_ordered_reference(x, t, mw);
+                assert_eq!(
+                    ambient_bits(h, g, v),
+                    ambient_bits(hr, gr, vr),
+                    "t {t} x {x} mw {mw}"
+                );
+            }
+        }
+    }
+}
