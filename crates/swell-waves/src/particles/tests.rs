@@ -518,8 +518,9 @@ fn ambient_bits(h: f64, g: DVec2, v: f64) -> [u64; 4] {
 
 /// The fast ambient sum (through a [`ParticleField`], as queries reach it) gives the bits of
 /// [`ambient::Ambient::sample_ordered_reference`] (every particle scanned per neighbour cell) at
-/// seeded points and times: far apart, runs of nearby times, large |t|, and with scales left
-/// out by a minimum wavelength.
+/// seeded points and times: far apart, runs of nearby times (answered from the layer's shared
+/// index), large |t|, with scales left out by a minimum wavelength, and fields asked enough
+/// points to build their own index.
 #[test]
 fn ambient_index_gives_the_ordered_reference_bits() {
     let mut rng = SwellRng::new(29, 4);
@@ -534,7 +535,8 @@ fn ambient_index_gives_the_ordered_reference_bits() {
                 _ => t - rng.uniform() * 0.5,
             };
             let f = l.field(t, None).unwrap();
-            for _ in 0..10 {
+            // Past OWN_INDEX_AFTER points a field switches to an index at exactly t.
+            for _ in 0..(if k % 8 < 4 { 10 } else { 40 }) {
                 let x = DVec2::new(rng.uniform() * 400.0 - 200.0, rng.uniform() * 400.0 - 200.0);
                 let mw = if rng.uniform() < 0.25 { 3.0 } else { 0.0 };
                 let (h, g) = f.sample(&l, x, mw);
@@ -548,4 +550,116 @@ fn ambient_index_gives_the_ordered_reference_bits() {
             }
         }
     }
+}
+
+/// The ambient sum at t through `index`, accumulated as [`ParticleField`] accumulates it.
+fn ambient_through(
+    amb: &ambient::Ambient,
+    index: &ambient::AmbientIndex,
+    x: DVec2,
+    t: f64,
+    mw: f64,
+) -> (f64, DVec2, f64) {
+    let (mut h, mut g, mut v) = (0.0, DVec2::ZERO, 0.0);
+    amb.visit(index, x, t, mw, &mut |hk, gk, pv| {
+        h += hk;
+        g += gk;
+        v += hk * 0.0 - gk.dot(pv);
+    });
+    (h, g, v)
+}
+
+/// The last `dt` (to the ulp, on the side of `dir`) at which an index at `t0` still serves
+/// `t0 + dt`.
+fn window_edge(amb: &ambient::Ambient, t0: f64, dir: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0_f64, 1.0e6_f64);
+    assert!(!amb.index_serves(t0, t0 + dir * hi));
+    loop {
+        let mid = lo + (hi - lo) / 2.0;
+        if mid == lo || mid == hi {
+            return dir * lo;
+        }
+        if amb.index_serves(t0, t0 + dir * mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+}
+
+/// One index serves a stretch of time with the bits of a grid built at each time: at seeded
+/// points, at times on the very edges of an index's window (the last serving time each side,
+/// to the ulp), inside it and at the index's own time, with |t0| from 0 to 1e9. At the edges
+/// particles have crossed into neighbouring cells, so the gathered 5×5 and the reordering are
+/// what keeps the bits. Just past an edge the index no longer serves, and `Ambient::index`
+/// builds one that does.
+#[test]
+fn ambient_index_window_edges_give_the_ordered_reference_bits() {
+    let mut rng = SwellRng::new(29, 5);
+    let mut crossed = 0;
+    for l in index_layers() {
+        let amb = l.ambient();
+        for k in 0..24 {
+            let t0 = match k % 3 {
+                0 => rng.uniform() * 200.0 - 100.0,
+                1 => 1.0e9 * (rng.uniform() - 0.5),
+                _ => 0.0,
+            };
+            let index = amb.build_index(t0);
+            // Tiles of under 5 cells a side gather every cell: any time is served.
+            let coarse = amb.index_serves(t0, t0 + 1.0e6);
+            let (back, ahead) = if coarse {
+                (-1.0e3, 1.0e3)
+            } else {
+                (window_edge(amb, t0, -1.0), window_edge(amb, t0, 1.0))
+            };
+            let times = [
+                t0 + back,
+                t0 + ahead,
+                t0,
+                t0 + back * rng.uniform(),
+                t0 + ahead * rng.uniform(),
+            ];
+            for &t in &times {
+                assert!(amb.index_serves(t0, t), "t0 {t0} t {t}");
+                crossed += (0..amb.len())
+                    .filter(|&i| {
+                        amb.cell_of(amb.position(i, t0)) != amb.cell_of(amb.position(i, t))
+                    })
+                    .count();
+                for _ in 0..40 {
+                    let x =
+                        DVec2::new(rng.uniform() * 400.0 - 200.0, rng.uniform() * 400.0 - 200.0);
+                    let mw = if rng.uniform() < 0.25 { 3.0 } else { 0.0 };
+                    let (h, g, v) = ambient_through(amb, &index, x, t, mw);
+                    let (hr, gr, vr) = amb.sample_ordered_reference(x, t, mw);
+                    assert_eq!(
+                        ambient_bits(h, g, v),
+                        ambient_bits(hr, gr, vr),
+                        "t0 {t0} t {t} x {x} mw {mw}"
+                    );
+                }
+            }
+            for t in [t0 + 2.0 * back, t0 + 2.0 * ahead] {
+                if coarse {
+                    continue;
+                }
+                assert!(!amb.index_serves(t0, t), "t0 {t0} t {t}");
+                let fresh = amb.index(t);
+                let x = DVec2::new(rng.uniform() * 400.0, rng.uniform() * 400.0);
+                assert_eq!(
+                    ambient_bits2(ambient_through(amb, &fresh, x, t, 0.0)),
+                    ambient_bits2(amb.sample_ordered_reference(x, t, 0.0)),
+                );
+            }
+        }
+    }
+    assert!(
+        crossed > 1000,
+        "particles changed cells inside windows: {crossed}"
+    );
+}
+
+fn ambient_bits2((h, g, v): (f64, DVec2, f64)) -> [u64; 4] {
+    ambient_bits(h, g, v)
 }
