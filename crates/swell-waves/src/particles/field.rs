@@ -79,9 +79,10 @@ const DIRECTION_TABLES: usize = 4;
 /// Points a field answers from the layer's shared ambient index (built for a nearby time, so
 /// each point gathers 5×5 cells and re-sorts what it finds) before it builds an index at
 /// exactly its own time (each point then reads 3×3 cells in order, as a per-time grid did).
-/// Building costs about what a few dozen windowed points cost over exact ones at 512
-/// particles, so a single point or a handful (a body's probes) never pay for a build, and a
-/// batch pays once. Either path gives the same bits.
+/// At `harbour` (512 particles, three scales; callgrind, `examples/point_cost.rs`) a build costs
+/// ~100k instructions and a point on the shared index ~8k more than one on an exact index, so
+/// the build pays for itself after about a dozen points: a single point or a handful (a body's
+/// probes) never pay for one, and a batch pays once. Either path gives the same bits.
 const OWN_INDEX_AFTER: u32 = 16;
 
 /// A particle layer frozen at one time.
