@@ -663,3 +663,24 @@ fn ambient_index_window_edges_give_the_ordered_reference_bits() {
 fn ambient_bits2((h, g, v): (f64, DVec2, f64)) -> [u64; 4] {
     ambient_bits(h, g, v)
 }
+
+/// Issue 29 item 4: every query at "now" has its own t, and each used to build the ambient
+/// particles' cell index afresh (512 positions and a counting sort per single-point height at
+/// `harbour`, most of its cost). Snapshots at nearby times must share the layer's index; one
+/// at a time the index cannot serve gets a new one, which the next nearby times then share.
+#[test]
+fn issue_29_queries_at_now_share_one_ambient_index() {
+    let l = layer(&ParticleLayerSpec {
+        scales: vec![0.33, 0.66, 1.0],
+        ..Default::default()
+    });
+    let amb = l.ambient();
+    let first = amb.index(1000.0);
+    for k in 1..1000 {
+        let t = 1000.0 + f64::from(k) * 17.0e-6;
+        assert!(std::sync::Arc::ptr_eq(&first, &amb.index(t)), "t {t}");
+    }
+    let later = amb.index(1010.0);
+    assert!(!std::sync::Arc::ptr_eq(&first, &later));
+    assert!(std::sync::Arc::ptr_eq(&later, &amb.index(1010.1)));
+}
