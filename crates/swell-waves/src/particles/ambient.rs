@@ -23,6 +23,8 @@
 //! (turning clockwise seen from above); with one, `φ_i = φ_wind + spread·(U − ½)`. Speed is the
 //! spec's or [`super::ripple::particle_speed`] of the radius.
 
+use std::sync::{Arc, Mutex, PoisonError};
+
 use glam::DVec2;
 
 use super::kernel::kernel;
@@ -52,6 +54,10 @@ pub struct Ambient {
     /// Grid cells per tile side: `floor(0.999·L/r)` capped at 128 (so a cell is wider than the
     /// kernel radius and a query looks at the 3×3 cells around it), or 1 when that is below 3.
     cells: u32,
+    /// The largest `|w_i.x|` or `|w_i.z|`, tiles/s: how fast a particle can cross cells.
+    w_max: f64,
+    /// The last index built ([`Ambient::index`]), shared by every query whose time it serves.
+    cache: IndexCache,
 }
 
 /// What [`Ambient::new`] is built from (validated by the layer).
@@ -68,21 +74,135 @@ pub(crate) struct AmbientParams<'a> {
     pub seed: u64,
 }
 
-/// The ambient particles' positions at one time, bucketed by grid cell (a counting sort, stable
-/// in particle index).
-#[derive(Debug, Clone)]
-pub(crate) struct AmbientGrid {
-    /// `start[c]..start[c + 1]` are cell c's entries; cells are row-major `cz·cells + cx`.
+/// The ambient particles bucketed by the cell each occupies at `t0` (a counting sort, stable
+/// in particle index). It serves every t at which no particle can be more than one cell from
+/// where it was at `t0` ([`Ambient::index_serves`]): a query at such a t gathers the 5×5 cells
+/// around its own cell, which hold every particle that is in the 3×3 it reads at t, and puts
+/// those back in the order a grid built at t would visit them. So one index answers a stretch
+/// of time (at `harbour`'s 2.5 m/s particles in 1.03 m cells, ±0.4 s) with a per-time grid's
+/// bits, and a query at "now" no longer pays for a 512-particle counting sort.
+#[derive(Debug)]
+pub(crate) struct AmbientIndex {
+    /// The time the cells are those of, s.
+    t0: f64,
+    /// `start[c]..start[c + 1]` are cell c's entries in `ids`; cells are row-major
+    /// `cz·cells + cx`.
     start: Vec<u32>,
+    /// The particles by cell at `t0`, ascending index within a cell.
     entries: Vec<Entry>,
 }
 
-/// One particle in [`AmbientGrid`]: position in tile units, amplitude, velocity in tiles/s.
+/// One particle in [`AmbientIndex`]: its position at `t0` in tile units (what a query at `t0`
+/// reads, so that one costs what a per-time grid's did), amplitude, velocity in tiles/s and
+/// index.
 #[derive(Debug, Clone, Copy, Default)]
 struct Entry {
     pos: DVec2,
     amp: f64,
     vel: DVec2,
+    id: u32,
+}
+
+/// Holds the last [`AmbientIndex`] built. Not part of the layer's value: a clone starts empty
+/// and any two compare equal, since which index answers a query changes no bit of it.
+#[derive(Default)]
+struct IndexCache(Mutex<Option<Arc<AmbientIndex>>>);
+
+impl Clone for IndexCache {
+    fn clone(&self) -> Self {
+        IndexCache::default()
+    }
+}
+
+impl PartialEq for IndexCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for IndexCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("IndexCache")
+    }
+}
+
+/// `v mod n` for `v < 3n` without a division (cell arithmetic runs per query and cell).
+#[inline]
+fn cyclic(v: u32, n: u32) -> u32 {
+    let v = if v >= n { v - n } else { v };
+    if v >= n { v - n } else { v }
+}
+
+/// Where cell `p` sits among the three cells `c − 1, c, c + 1` (cyclic, `n` a side) a query in
+/// cell c reads, in their visiting order; `None` outside them.
+#[inline]
+fn slot(p: u32, c: u32, n: u32) -> Option<u32> {
+    if n == 1 {
+        return Some(1);
+    }
+    let off = cyclic(p + n - c, n);
+    if off == n - 1 {
+        Some(0)
+    } else if off <= 1 {
+        Some(off + 1)
+    } else {
+        None
+    }
+}
+
+/// Most candidates a query keeps on the stack per scale; a denser neighbourhood spills to the
+/// heap. At the densest layer (16,384 particles in 128² cells) the 3×3 holds 9 on average.
+const STACK_CANDIDATES: usize = 32;
+
+/// The particles a query reads at one scale, as `(visiting key, entry, position at t)`: the
+/// key is `(slot_z·3 + slot_x) << 32 | particle index`, so ascending keys are a per-time grid's
+/// order.
+struct Candidates {
+    stack: [(u64, u32, DVec2); STACK_CANDIDATES],
+    len: usize,
+    heap: Vec<(u64, u32, DVec2)>,
+}
+
+impl Candidates {
+    #[inline]
+    fn new() -> Self {
+        Candidates {
+            stack: [(0, 0, DVec2::ZERO); STACK_CANDIDATES],
+            len: 0,
+            heap: Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, c: (u64, u32, DVec2)) {
+        if self.len < STACK_CANDIDATES {
+            self.stack[self.len] = c;
+            self.len += 1;
+        } else {
+            self.heap.push(c);
+        }
+    }
+
+    /// The candidates in key order (keys are distinct: one per particle).
+    #[inline]
+    fn sorted(&mut self) -> &[(u64, u32, DVec2)] {
+        if self.heap.is_empty() {
+            let s = &mut self.stack[..self.len];
+            // Insertion sort: a handful of entries, mostly gathered in order already.
+            for i in 1..s.len() {
+                let mut j = i;
+                while j > 0 && s[j - 1].0 > s[j].0 {
+                    s.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+            s
+        } else {
+            self.heap.extend_from_slice(&self.stack[..self.len]);
+            self.heap.sort_unstable_by_key(|c| c.0);
+            &self.heap
+        }
+    }
 }
 
 /// `⌊u⌋`, exactly, without a libm call where |u| < 2^52 (truncation through i64 is exact
@@ -142,7 +262,6 @@ impl Ambient {
         let cells = ((0.999 / rr).floor() as u32).min(MAX_CELLS);
         Ambient {
             u0,
-            w,
             a,
             tile: p.tile,
             radius: p.radius,
@@ -151,6 +270,12 @@ impl Ambient {
             inv_sl: p.scales.iter().map(|&s| 1.0 / (s * p.tile)).collect(),
             inv_rr2: 1.0 / (rr * rr),
             cells: if cells < 3 { 1 } else { cells },
+            w_max: w
+                .iter()
+                .map(|v| v.x.abs().max(v.y.abs()))
+                .fold(0.0, f64::max),
+            w,
+            cache: IndexCache::default(),
         }
     }
 
@@ -215,24 +340,66 @@ impl Ambient {
         DVec2::new(wrap(u.x), wrap(u.y))
     }
 
+    /// The grid cell `(cx, cz)` holding tile position u.
     #[inline]
-    fn cell_of(&self, u: DVec2) -> (u32, u32) {
+    pub(crate) fn cell_of(&self, u: DVec2) -> (u32, u32) {
         let n = self.cells;
         let c = |v: f64| ((v * f64::from(n)) as u32).min(n - 1);
         (c(u.x), c(u.y))
     }
 
-    /// Every particle's position at t, bucketed by cell (a counting sort, stable in index).
-    pub(crate) fn grid(&self, t: f64) -> AmbientGrid {
+    /// Whether an index of the cells at `t0` serves a query at t: a particle moves
+    /// `w·(t − t0)` between them, at most `w_max·|t − t0|` along either axis, and its computed
+    /// positions carry at most a few ulps of `|w·t| + 1` each (one product, one sum, the wrap
+    /// and `cell_of`'s scaling; the slack below is four times that). Under one cell of travel,
+    /// a particle's cell at t is at most one cell (cyclically) from its cell at `t0`, so the
+    /// 5×5 cells around a query's hold its 3×3 at t. At `t == t0` the cells are the same
+    /// computation, so an index always serves its own time (even where |t| is so large that
+    /// the slack exceeds a cell). Tiles of under 5 cells a side gather every cell: any t.
+    #[inline]
+    pub(crate) fn index_serves(&self, t0: f64, t: f64) -> bool {
+        if t == t0 || self.cells < 5 {
+            return true;
+        }
+        let slack = 4.0 * f64::EPSILON * (self.w_max * (t.abs() + t0.abs()) + 4.0);
+        f64::from(self.cells) * (self.w_max * (t - t0).abs() + slack) <= 0.99
+    }
+
+    /// An index that serves t ([`Ambient::index_serves`]): the last one built when it does
+    /// (shared by every query near that time), otherwise a new one at `t0 = t`, which replaces
+    /// it. Which index a query gets changes none of its bits.
+    pub(crate) fn index(&self, t: f64) -> Arc<AmbientIndex> {
+        let held = self
+            .cache
+            .0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        if let Some(index) = held.filter(|ix| self.index_serves(ix.t0, t)) {
+            return index;
+        }
+        // Built outside the lock: queries near the held index's time keep using it meanwhile.
+        let index = Arc::new(self.build_index(t));
+        *self.cache.0.lock().unwrap_or_else(PoisonError::into_inner) = Some(Arc::clone(&index));
+        index
+    }
+
+    /// The time an index's cells are those of, s.
+    pub(crate) fn index_time(index: &AmbientIndex) -> f64 {
+        index.t0
+    }
+
+    /// Every particle's cell at `t0`, bucketed (a counting sort, stable in index).
+    pub(crate) fn build_index(&self, t0: f64) -> AmbientIndex {
         let n = self.cells as usize;
         let mut start = vec![0u32; n * n + 1];
-        let placed: Vec<(DVec2, usize)> = (0..self.len())
+        let placed: Vec<(DVec2, u32)> = (0..self.len())
             .map(|i| {
-                let u = self.position(i, t);
+                let u = self.position(i, t0);
                 let (cx, cz) = self.cell_of(u);
                 let c = cz as usize * n + cx as usize;
                 start[c + 1] += 1;
-                (u, c)
+                (u, c as u32)
             })
             .collect();
         for c in 0..n * n {
@@ -242,34 +409,123 @@ impl Ambient {
         // which is cell c + 1's start: shift back by one.
         let mut entries = vec![Entry::default(); placed.len()];
         for (i, &(pos, c)) in placed.iter().enumerate() {
-            let k = start[c] as usize;
-            start[c] += 1;
-            entries[k] = Entry {
+            let k = &mut start[c as usize];
+            entries[*k as usize] = Entry {
                 pos,
                 amp: self.a[i],
                 vel: self.w[i],
+                id: i as u32,
             };
+            *k += 1;
         }
         for c in (1..=n * n).rev() {
             start[c] = start[c - 1];
         }
         start[0] = 0;
-        AmbientGrid { start, entries }
+        AmbientIndex { t0, start, entries }
     }
 
-    /// Visits every particle (at every kept scale) whose kernel reaches world point x, with
-    /// `(height, gradient, particle velocity)` in world units: scales in order, then the 3×3
-    /// cells around x in row-major order, then particles in index order within a cell. Scales
-    /// whose particles are narrower than `min_wavelength` (`4·s·r < min_wavelength`) are left
-    /// out.
+    /// Visits every particle (at every kept scale) whose kernel reaches world point x at time
+    /// t, with `(height, gradient, particle velocity)` in world units, in a per-time grid's
+    /// order: scales in order, then the 3×3 cells around x in row-major order, then particles
+    /// in index order within a cell ([`Ambient::sample_ordered_reference`] is that order by a
+    /// plain scan). Scales whose particles are narrower than `min_wavelength`
+    /// (`4·s·r < min_wavelength`) are left out.
+    ///
+    /// # Panics
+    /// In debug builds, if `index` does not serve t.
     #[inline]
     pub(crate) fn visit(
         &self,
-        grid: &AmbientGrid,
+        index: &AmbientIndex,
         x: DVec2,
+        t: f64,
         min_wavelength: f64,
         f: &mut impl FnMut(f64, DVec2, DVec2),
     ) {
+        debug_assert!(
+            self.index_serves(index.t0, t),
+            "index at {} for {t}",
+            index.t0
+        );
+        let n = self.cells;
+        // The cells gathered along each axis: the query's, widened by two each side (its 3×3
+        // plus the one cell a particle can have crossed since t0), or all of them.
+        let (span, back) = if n >= 5 { (5, n - 2) } else { (n, 0) };
+        for (&s, &inv) in self.scales.iter().zip(&self.inv_sl) {
+            if 4.0 * s * self.radius < min_wavelength {
+                continue;
+            }
+            let q = DVec2::new(wrap(x.x * inv), wrap(x.y * inv));
+            let (cx, cz) = self.cell_of(q);
+            let sl = s * self.tile;
+            let mut visit = |e: &Entry, pos: DVec2| {
+                let mut d = q - pos;
+                d.x -= d.x.round();
+                d.y -= d.y.round();
+                if let Some((h, g)) = kernel(s * e.amp, d, self.inv_rr2) {
+                    f(h, g * inv, e.vel * sl);
+                }
+            };
+            if index.t0 == t {
+                // The index's cells are the cells at t: read the 3×3 in order, as a grid built
+                // at t would.
+                let rows = if n == 1 { 1 } else { 3 };
+                for jz in 0..rows {
+                    let iz = if n == 1 {
+                        0
+                    } else {
+                        cyclic(cz + n - 1 + jz, n)
+                    };
+                    for jx in 0..rows {
+                        let ix = if n == 1 {
+                            0
+                        } else {
+                            cyclic(cx + n - 1 + jx, n)
+                        };
+                        let c = (iz * n + ix) as usize;
+                        let (lo, hi) = (index.start[c] as usize, index.start[c + 1] as usize);
+                        for e in &index.entries[lo..hi] {
+                            visit(e, e.pos);
+                        }
+                    }
+                }
+                continue;
+            }
+            let mut found = Candidates::new();
+            for jz in 0..span {
+                let iz = cyclic(cz + back + jz, n);
+                for jx in 0..span {
+                    let c = (iz * n + cyclic(cx + back + jx, n)) as usize;
+                    let (lo, hi) = (index.start[c] as usize, index.start[c + 1] as usize);
+                    for (k, e) in (lo..hi).zip(&index.entries[lo..hi]) {
+                        let u = self.position(e.id as usize, t);
+                        let (px, pz) = self.cell_of(u);
+                        if let (Some(sx), Some(sz)) = (slot(px, cx, n), slot(pz, cz, n)) {
+                            let key = (u64::from(sz * 3 + sx) << 32) | u64::from(e.id);
+                            found.push((key, k as u32, u));
+                        }
+                    }
+                }
+            }
+            for &(_, k, pos) in found.sorted() {
+                visit(&index.entries[k as usize], pos);
+            }
+        }
+    }
+
+    /// Slow reference of the fast path's order: every kept scale, then the 3×3 cells around x
+    /// in row-major order, then, per cell, a scan of every particle in index order keeping those
+    /// whose position at t ([`Ambient::position`]) lies in that cell. The same operands in the
+    /// same order as [`Ambient::visit`], with no index, so the fast path must give its bits.
+    /// Returns `(height, gradient, ∂h/∂t)`, each summed as [`super::ParticleField`] sums them.
+    pub fn sample_ordered_reference(
+        &self,
+        x: DVec2,
+        t: f64,
+        min_wavelength: f64,
+    ) -> (f64, DVec2, f64) {
+        let (mut h, mut g, mut v) = (0.0, DVec2::ZERO, 0.0);
         let n = self.cells;
         for (&s, &inv) in self.scales.iter().zip(&self.inv_sl) {
             if 4.0 * s * self.radius < min_wavelength {
@@ -278,28 +534,33 @@ impl Ambient {
             let q = DVec2::new(wrap(x.x * inv), wrap(x.y * inv));
             let (cx, cz) = self.cell_of(q);
             let sl = s * self.tile;
-            let mut cell = |c: usize| {
-                let (lo, hi) = (grid.start[c] as usize, grid.start[c + 1] as usize);
-                for e in &grid.entries[lo..hi] {
-                    let mut d = q - e.pos;
+            let neighbours: Vec<(u32, u32)> = if n == 1 {
+                vec![(0, 0)]
+            } else {
+                [n - 1, 0, 1]
+                    .iter()
+                    .flat_map(|&dz| [n - 1, 0, 1].map(|dx| ((cx + dx) % n, (cz + dz) % n)))
+                    .collect()
+            };
+            for cell in neighbours {
+                for i in 0..self.len() {
+                    let u = self.position(i, t);
+                    if self.cell_of(u) != cell {
+                        continue;
+                    }
+                    let mut d = q - u;
                     d.x -= d.x.round();
                     d.y -= d.y.round();
-                    if let Some((h, g)) = kernel(s * e.amp, d, self.inv_rr2) {
-                        f(h, g * inv, e.vel * sl);
+                    if let Some((hk, gk)) = kernel(s * self.a[i], d, self.inv_rr2) {
+                        let (gk, pv) = (gk * inv, self.w[i] * sl);
+                        h += hk;
+                        g += gk;
+                        v += hk * 0.0 - gk.dot(pv);
                     }
-                }
-            };
-            if n == 1 {
-                cell(0);
-                continue;
-            }
-            for dz in [n - 1, 0, 1] {
-                for dx in [n - 1, 0, 1] {
-                    let (ix, iz) = ((cx + dx) % n, (cz + dz) % n);
-                    cell(iz as usize * n as usize + ix as usize);
                 }
             }
         }
+        (h, g, v)
     }
 
     /// Slow reference of the grid-indexed ambient sum: every particle at every kept scale, in

@@ -1,10 +1,16 @@
 //! A particle layer at one time: what queries read.
 //!
 //! Built per evaluated time ([`super::ParticleLayer::field`]): the live rings are listed at once
-//! (a binary search in the impact list, then O(live impacts)); the spatial indexes are built
-//! lazily, on the first query that needs them, and shared by every query on the snapshot:
-//! - the ambient grid: every ambient particle's position at t bucketed into cells wider than a
-//!   particle, so a query reads the 3×3 cells around it (O(particles near the point));
+//! (a binary search in the impact list, then O(live impacts)); the spatial indexes are found
+//! or built lazily, on the first query that needs them, and shared by every query on the
+//! snapshot:
+//! - the ambient index: the ambient particles bucketed into cells wider than a particle, so a
+//!   query reads the 3×3 cells around it (O(particles near the point)). Not built per time:
+//!   the layer keeps the last one ([`super::ambient::Ambient::index`]), and an index of the
+//!   cells at t0 serves every t at which no particle can have crossed more than one cell since
+//!   (±0.4 s at `harbour`), so queries at "now", each at its own t, share one. Such a query
+//!   gathers the 5×5 cells around it and visits what lies in its 3×3 at t in the per-time
+//!   order; a snapshot that answers more than a few points builds its own index at exactly t;
 //! - the ring grid (only with more than [`RING_GRID_MIN`] live rings): each ring listed in the
 //!   cells its annulus `d ± r` crosses, so a query looks only at rings passing near it.
 //!
@@ -14,12 +20,13 @@
 //! bits with or without them.
 
 use std::collections::HashMap;
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use glam::DVec2;
 
 use super::ParticleLayer;
-use super::ambient::AmbientGrid;
+use super::ambient::{Ambient, AmbientIndex};
 use super::kernel::kernel;
 use super::ripple::{Ring, direction};
 use crate::math::{TAU, atan2};
@@ -69,12 +76,26 @@ const DIRECTION_TABLE_MAX: u32 = 72;
 /// the layer's `N0`, so their counts are `N0·3^g`).
 const DIRECTION_TABLES: usize = 4;
 
+/// Points a field answers from the layer's shared ambient index (built for a nearby time, so
+/// each point gathers 5×5 cells and re-sorts what it finds) before it builds an index at
+/// exactly its own time (each point then reads 3×3 cells in order, as a per-time grid did).
+/// At `harbour` (512 particles, three scales; callgrind, `examples/point_cost.rs`) a build costs
+/// ~100k instructions and a point on the shared index ~8k more than one on an exact index, so
+/// the build pays for itself after about a dozen points: a single point or a handful (a body's
+/// probes) never pay for one, and a batch pays once. Either path gives the same bits.
+const OWN_INDEX_AFTER: u32 = 16;
+
 /// A particle layer frozen at one time.
 #[derive(Debug)]
 pub struct ParticleField {
     t: f64,
     rings: Vec<LiveRing>,
-    ambient: OnceLock<AmbientGrid>,
+    /// The layer's shared ambient index for a window around t ([`Ambient::index`]).
+    ambient: OnceLock<Arc<AmbientIndex>>,
+    /// Points answered from `ambient` so far (counted until `own` exists).
+    windowed: AtomicU32,
+    /// An ambient index at exactly t, built after [`OWN_INDEX_AFTER`] windowed points.
+    own: OnceLock<AmbientIndex>,
     ring_grid: OnceLock<Option<RingGrid>>,
     /// The smallest particle count among the rings: table k holds `n_min·3^k` directions.
     n_min: u32,
@@ -88,6 +109,8 @@ impl ParticleField {
             n_min: rings.iter().map(|r| r.n).min().unwrap_or(1).max(1),
             rings,
             ambient: OnceLock::new(),
+            windowed: AtomicU32::new(0),
+            own: OnceLock::new(),
             ring_grid: OnceLock::new(),
             directions: Default::default(),
         }
@@ -133,6 +156,22 @@ impl ParticleField {
             .as_ref()
     }
 
+    /// The ambient index a query reads: the field's own at exactly t once it has one, the
+    /// shared one while that is at t or for the first [`OWN_INDEX_AFTER`] points, then its own.
+    #[inline]
+    fn ambient_index(&self, amb: &Ambient) -> &AmbientIndex {
+        if let Some(own) = self.own.get() {
+            return own;
+        }
+        let shared = self.ambient.get_or_init(|| amb.index(self.t));
+        if Ambient::index_time(shared) == self.t
+            || self.windowed.fetch_add(1, Ordering::Relaxed) < OWN_INDEX_AFTER
+        {
+            return shared;
+        }
+        self.own.get_or_init(|| amb.build_index(self.t))
+    }
+
     /// Visits every particle whose kernel reaches x: `(height, gradient, particle velocity,
     /// relative amplitude rate)`. Ambient first, then rings in canonical order.
     #[inline]
@@ -145,8 +184,10 @@ impl ParticleField {
     ) {
         let amb = layer.ambient();
         if !amb.is_empty() {
-            let grid = self.ambient.get_or_init(|| amb.grid(self.t));
-            amb.visit(grid, x, min_wavelength, &mut |h, g, v| f(h, g, v, 0.0));
+            let index = self.ambient_index(amb);
+            amb.visit(index, x, self.t, min_wavelength, &mut |h, g, v| {
+                f(h, g, v, 0.0)
+            });
         }
         if self.rings.is_empty() {
             return;

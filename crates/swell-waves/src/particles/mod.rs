@@ -16,8 +16,9 @@
 //! displacement: a particle layer never makes heights need inversion), and they ride on the
 //! other layers: they are evaluated at the undisplaced point like every layer.
 //!
-//! Per evaluated time a [`ParticleField`] indexes the particles in uniform grids, so a query
-//! costs O(particles near the point), not O(all particles); at most [`MAX_RINGS_PER_POINT`]
+//! A [`ParticleField`] (the layer at one time) finds the particles near a point through uniform
+//! grids (the ambient one shared across a window of times), so a query costs O(particles near
+//! the point), not O(all particles); at most [`MAX_RINGS_PER_POINT`]
 //! rings (the newest covering the point) add to one point, so piled-up splashes cannot make a
 //! query arbitrarily expensive.
 //!

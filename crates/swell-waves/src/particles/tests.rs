@@ -481,3 +481,206 @@ fn defaults_are_valid_and_errors_name_fields() {
         .unwrap_err();
     assert_eq!(e.field(), "radius");
 }
+
+/// Ambient layers that stress the cell index: the harbour's (31² cells, three scales), a dense
+/// wind-driven one at the 128² cap, and coarse ones with 3, 4 and 5 cells a side (where the
+/// 3×3 neighbourhood is most of the tile).
+fn index_layers() -> Vec<ParticleLayer> {
+    let harbour = ParticleLayerSpec {
+        scales: vec![0.33, 0.66, 1.0],
+        ..Default::default()
+    };
+    let dense = ParticleLayerSpec {
+        count: 4096,
+        tile_size: 64.0,
+        radius: 0.4,
+        speed: Some(7.0),
+        direction: Some([1.0, 0.2]),
+        spread: 30.0,
+        scales: vec![0.5, 1.0],
+        ..Default::default()
+    };
+    let coarse = |radius: f64| ParticleLayerSpec {
+        count: 200,
+        tile_size: 10.0,
+        radius,
+        ..Default::default()
+    };
+    [harbour, dense, coarse(2.5), coarse(2.0), coarse(1.9)]
+        .iter()
+        .map(layer)
+        .collect()
+}
+
+fn ambient_bits(h: f64, g: DVec2, v: f64) -> [u64; 4] {
+    [h.to_bits(), g.x.to_bits(), g.y.to_bits(), v.to_bits()]
+}
+
+/// The fast ambient sum (through a [`ParticleField`], as queries reach it) gives the bits of
+/// [`ambient::Ambient::sample_ordered_reference`] (every particle scanned per neighbour cell) at
+/// seeded points and times: far apart, runs of nearby times (answered from the layer's shared
+/// index), large |t|, with scales left out by a minimum wavelength, and fields asked enough
+/// points to build their own index.
+#[test]
+fn ambient_index_gives_the_ordered_reference_bits() {
+    let mut rng = SwellRng::new(29, 4);
+    for l in index_layers() {
+        let amb = l.ambient();
+        let mut t = 0.0;
+        for k in 0..200 {
+            t = match k % 4 {
+                0 => rng.uniform() * 2.0e4 - 1.0e4,
+                1 => t + rng.uniform() * 0.05,
+                2 => 1.0e9 + rng.uniform() * 10.0,
+                _ => t - rng.uniform() * 0.5,
+            };
+            let f = l.field(t, None).unwrap();
+            // Past OWN_INDEX_AFTER points a field switches to an index at exactly t.
+            for _ in 0..(if k % 8 < 4 { 10 } else { 40 }) {
+                let x = DVec2::new(rng.uniform() * 400.0 - 200.0, rng.uniform() * 400.0 - 200.0);
+                let mw = if rng.uniform() < 0.25 { 3.0 } else { 0.0 };
+                let (h, g) = f.sample(&l, x, mw);
+                let v = f.vertical_velocity(&l, x, mw);
+                let (hr, gr, vr) = amb.sample_ordered_reference(x, t, mw);
+                assert_eq!(
+                    ambient_bits(h, g, v),
+                    ambient_bits(hr, gr, vr),
+                    "t {t} x {x} mw {mw}"
+                );
+            }
+        }
+    }
+}
+
+/// The ambient sum at t through `index`, accumulated as [`ParticleField`] accumulates it.
+fn ambient_through(
+    amb: &ambient::Ambient,
+    index: &ambient::AmbientIndex,
+    x: DVec2,
+    t: f64,
+    mw: f64,
+) -> (f64, DVec2, f64) {
+    let (mut h, mut g, mut v) = (0.0, DVec2::ZERO, 0.0);
+    amb.visit(index, x, t, mw, &mut |hk, gk, pv| {
+        h += hk;
+        g += gk;
+        v += hk * 0.0 - gk.dot(pv);
+    });
+    (h, g, v)
+}
+
+/// The last `dt` (to the ulp, on the side of `dir`) at which an index at `t0` still serves
+/// `t0 + dt`.
+fn window_edge(amb: &ambient::Ambient, t0: f64, dir: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0_f64, 1.0e6_f64);
+    assert!(!amb.index_serves(t0, t0 + dir * hi));
+    loop {
+        let mid = lo + (hi - lo) / 2.0;
+        if mid == lo || mid == hi {
+            return dir * lo;
+        }
+        if amb.index_serves(t0, t0 + dir * mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+}
+
+/// One index serves a stretch of time with the bits of a grid built at each time: at seeded
+/// points, at times on the very edges of an index's window (the last serving time each side,
+/// to the ulp), inside it and at the index's own time, with |t0| from 0 to 1e9. At the edges
+/// particles have crossed into neighbouring cells, so the gathered 5×5 and the reordering are
+/// what keeps the bits. Just past an edge the index no longer serves, and `Ambient::index`
+/// builds one that does.
+#[test]
+fn ambient_index_window_edges_give_the_ordered_reference_bits() {
+    let mut rng = SwellRng::new(29, 5);
+    let mut crossed = 0;
+    for l in index_layers() {
+        let amb = l.ambient();
+        for k in 0..24 {
+            let t0 = match k % 3 {
+                0 => rng.uniform() * 200.0 - 100.0,
+                1 => 1.0e9 * (rng.uniform() - 0.5),
+                _ => 0.0,
+            };
+            let index = amb.build_index(t0);
+            // Tiles of under 5 cells a side gather every cell: any time is served.
+            let coarse = amb.index_serves(t0, t0 + 1.0e6);
+            let (back, ahead) = if coarse {
+                (-1.0e3, 1.0e3)
+            } else {
+                (window_edge(amb, t0, -1.0), window_edge(amb, t0, 1.0))
+            };
+            let times = [
+                t0 + back,
+                t0 + ahead,
+                t0,
+                t0 + back * rng.uniform(),
+                t0 + ahead * rng.uniform(),
+            ];
+            for &t in &times {
+                assert!(amb.index_serves(t0, t), "t0 {t0} t {t}");
+                crossed += (0..amb.len())
+                    .filter(|&i| {
+                        amb.cell_of(amb.position(i, t0)) != amb.cell_of(amb.position(i, t))
+                    })
+                    .count();
+                for _ in 0..40 {
+                    let x =
+                        DVec2::new(rng.uniform() * 400.0 - 200.0, rng.uniform() * 400.0 - 200.0);
+                    let mw = if rng.uniform() < 0.25 { 3.0 } else { 0.0 };
+                    let (h, g, v) = ambient_through(amb, &index, x, t, mw);
+                    let (hr, gr, vr) = amb.sample_ordered_reference(x, t, mw);
+                    assert_eq!(
+                        ambient_bits(h, g, v),
+                        ambient_bits(hr, gr, vr),
+                        "t0 {t0} t {t} x {x} mw {mw}"
+                    );
+                }
+            }
+            for t in [t0 + 2.0 * back, t0 + 2.0 * ahead] {
+                if coarse {
+                    continue;
+                }
+                assert!(!amb.index_serves(t0, t), "t0 {t0} t {t}");
+                let fresh = amb.index(t);
+                let x = DVec2::new(rng.uniform() * 400.0, rng.uniform() * 400.0);
+                assert_eq!(
+                    ambient_bits2(ambient_through(amb, &fresh, x, t, 0.0)),
+                    ambient_bits2(amb.sample_ordered_reference(x, t, 0.0)),
+                );
+            }
+        }
+    }
+    assert!(
+        crossed > 1000,
+        "particles changed cells inside windows: {crossed}"
+    );
+}
+
+fn ambient_bits2((h, g, v): (f64, DVec2, f64)) -> [u64; 4] {
+    ambient_bits(h, g, v)
+}
+
+/// Issue 29 item 4: every query at "now" has its own t, and each used to build the ambient
+/// particles' cell index afresh (512 positions and a counting sort per single-point height at
+/// `harbour`, most of its cost). Snapshots at nearby times must share the layer's index; one
+/// at a time the index cannot serve gets a new one, which the next nearby times then share.
+#[test]
+fn issue_29_queries_at_now_share_one_ambient_index() {
+    let l = layer(&ParticleLayerSpec {
+        scales: vec![0.33, 0.66, 1.0],
+        ..Default::default()
+    });
+    let amb = l.ambient();
+    let first = amb.index(1000.0);
+    for k in 1..1000 {
+        let t = 1000.0 + f64::from(k) * 17.0e-6;
+        assert!(std::sync::Arc::ptr_eq(&first, &amb.index(t)), "t {t}");
+    }
+    let later = amb.index(1010.0);
+    assert!(!std::sync::Arc::ptr_eq(&first, &later));
+    assert!(std::sync::Arc::ptr_eq(&later, &amb.index(1010.1)));
+}
