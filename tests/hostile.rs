@@ -992,3 +992,47 @@ async fn a_large_json_answer_is_encoded_as_it_is_sent() {
     assert_eq!(s.state.buffers.held(), 0);
     s.stop().await;
 }
+
+/// Large bodies and WebSocket messages are decoded off the reactor (`DECODE_OFF_REACTOR_BYTES`):
+/// what a client sees is the same, errors with their field paths included.
+#[tokio::test]
+async fn large_bodies_decode_off_the_reactor_with_the_same_answers() {
+    let s = TestServer::start(config()).await;
+    let mut points: Vec<Value> = (0..8000)
+        .map(|i| json!([f64::from(i) * 0.25, 1.0]))
+        .collect();
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/sample",
+            &json!({"t": 5.0, "points": points}),
+        )
+        .await;
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["height"].as_array().unwrap().len(), 8000);
+    points[7000] = json!([1.0, "x"]);
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/sample",
+            &json!({"t": 5.0, "points": points}),
+        )
+        .await;
+    assert_eq!((st, code(&v)), (400, "bad_json"), "{v}");
+    assert_eq!(v["error"]["field"], "points[7000][1]", "{v}");
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    let (mut ws, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    let msg = json!({"type": "sample", "id": 9, "t": 5.0, "points": points});
+    ws.send(Message::Text(msg.to_string().into()))
+        .await
+        .unwrap();
+    let Some(Ok(Message::Text(t))) = ws.next().await else {
+        panic!("no answer")
+    };
+    let v: Value = serde_json::from_str(&t).unwrap();
+    assert_eq!(
+        (v["type"].as_str(), v["id"].as_u64()),
+        (Some("error"), Some(9)),
+        "{v}"
+    );
+    assert_eq!(v["field"], "points[7000][1]", "{v}");
+    s.stop().await;
+}

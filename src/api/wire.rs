@@ -21,7 +21,7 @@ use serde::de::DeserializeOwned;
 use crate::api::json::read_bytes;
 use crate::error::{ApiError, ErrorCode};
 use crate::service::finite::check_answer;
-use crate::service::json::from_slice;
+use crate::service::json::{DECODE_OFF_REACTOR_BYTES, from_slice};
 use crate::service::types::{
     HeightResponse, OrientationRequest, OrientationResponse, SampleRequest, SampleResponse,
 };
@@ -111,17 +111,26 @@ pub fn decode_proto<T: FromProto>(bytes: &[u8]) -> Result<T, ApiError> {
 #[derive(Debug)]
 pub struct Body<T>(pub T);
 
-impl<S: Send + Sync, T: FromProto> FromRequest<S> for Body<T> {
+impl<S: Send + Sync, T: FromProto + Send + 'static> FromRequest<S> for Body<T> {
     type Rejection = ApiError;
 
     async fn from_request(req: Request, state: &S) -> Result<Self, ApiError> {
         let proto = names_protobuf(req.headers(), header::CONTENT_TYPE);
         let bytes = read_bytes(req, state).await?;
-        if proto {
-            decode_proto(&bytes).map(Body)
-        } else {
-            from_slice(&bytes).map(Body)
+        let big = bytes.len() >= DECODE_OFF_REACTOR_BYTES;
+        let decode = move || {
+            if proto {
+                decode_proto(&bytes).map(Body)
+            } else {
+                from_slice(&bytes).map(Body)
+            }
+        };
+        if big {
+            return tokio::task::spawn_blocking(decode)
+                .await
+                .map_err(ApiError::internal)?;
         }
+        decode()
     }
 }
 

@@ -74,6 +74,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::error::{ApiError, ErrorCode};
 use crate::peers::{Budget, Charge};
+use crate::service::json::DECODE_OFF_REACTOR_BYTES;
 use crate::service::query::{
     At, orientation_probes, orientation_request_bytes, resolve_time, run_orientation, run_sample,
     runs_inline, sample_request_bytes,
@@ -591,11 +592,20 @@ pub async fn session<W, R>(
                         ));
                         continue;
                     }
+                    // A large message (a big sample) is decoded on the blocking pool, as HTTP
+                    // bodies are (`DECODE_OFF_REACTOR_BYTES`): this session waits for it, the
+                    // other connections on this reactor thread do not.
                     Some(Ok(Message::Text(t))) => match codec {
+                        Codec::Json if t.len() >= DECODE_OFF_REACTOR_BYTES => {
+                            off_reactor(move || messages::decode_json(t.as_str())).await
+                        }
                         Codec::Json => messages::decode_json(t.as_str()),
                         Codec::Protobuf => Err(wrong_frame("text", PROTOBUF_PROTOCOL, "binary")),
                     },
                     Some(Ok(Message::Binary(b))) => match codec {
+                        Codec::Protobuf if b.len() >= DECODE_OFF_REACTOR_BYTES => {
+                            off_reactor(move || messages::decode_protobuf(&b)).await
+                        }
                         Codec::Protobuf => messages::decode_protobuf(&b),
                         Codec::Json => Err(wrong_frame("binary", JSON_PROTOCOL, "text")),
                     },
@@ -792,6 +802,20 @@ fn clock_event(state: &AppState, scene_id: &str, queue: &Queue) {
             event: Event::Clock(state.read_clock(&entry)),
         });
     }
+}
+
+/// Decodes a large message on the blocking pool.
+async fn off_reactor(
+    decode: impl FnOnce() -> Result<Incoming, DecodeError> + Send + 'static,
+) -> Result<Incoming, DecodeError> {
+    tokio::task::spawn_blocking(decode)
+        .await
+        .unwrap_or_else(|e| {
+            Err(DecodeError {
+                id: None,
+                error: ApiError::internal(e),
+            })
+        })
 }
 
 /// Acts on one client message.
