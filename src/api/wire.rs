@@ -43,8 +43,8 @@ impl Format {
     /// Bytes a number of an answer takes at most in this format (for the byte budget).
     pub fn number_bytes(self) -> usize {
         match self {
-            Format::Json => crate::service::query::JSON_NUMBER_BYTES,
-            Format::Protobuf => crate::service::query::PROTOBUF_NUMBER_BYTES,
+            Format::Json => crate::service::types::JSON_NUMBER_BYTES,
+            Format::Protobuf => crate::service::types::PROTOBUF_NUMBER_BYTES,
         }
     }
 }
@@ -216,7 +216,7 @@ impl SampleReply {
     /// Whether this answer is encoded as it is sent.
     pub fn streams(format: Format, numbers: usize) -> bool {
         format == Format::Json
-            && numbers.saturating_mul(crate::service::query::JSON_NUMBER_BYTES)
+            && numbers.saturating_mul(crate::service::types::JSON_NUMBER_BYTES)
                 >= STREAMED_ANSWER_BYTES
     }
 }

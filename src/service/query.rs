@@ -223,16 +223,11 @@ pub fn run_sample(
     Ok(out)
 }
 
-/// Bytes one number of an answer takes at most as JSON (`-1.2345678901234567e-308,`).
-pub const JSON_NUMBER_BYTES: usize = 25;
-
-/// Bytes one number of an answer takes as protobuf (a packed double).
-pub const PROTOBUF_NUMBER_BYTES: usize = 8;
-
 /// The bytes a sample of `points` points asking `fields` holds while it is answered, for the
 /// byte budget ([`crate::Limits::max_buffered_bytes`]): its world points (16 B each) and the
 /// answer's arrays (8 B a number), plus `encoded_per_number` bytes a number when the answer is
-/// encoded whole ([`JSON_NUMBER_BYTES`] or [`PROTOBUF_NUMBER_BYTES`]; 0 when it is encoded as
+/// encoded whole ([`crate::service::types::JSON_NUMBER_BYTES`] or
+/// [`crate::service::types::PROTOBUF_NUMBER_BYTES`]; 0 when it is encoded as
 /// it is sent). An estimate from above for the answer, ± a block of results.
 pub fn sample_bytes(points: usize, fields: QueryFields, encoded_per_number: usize) -> usize {
     points.saturating_mul(16 + numbers_per_point(fields) * (8 + encoded_per_number))

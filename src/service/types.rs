@@ -224,6 +224,12 @@ pub struct SampleResponse {
     pub residual: Option<Vec<f64>>,
 }
 
+/// Bytes one number of an answer takes at most as JSON (`-1.2345678901234567e-308,`).
+pub const JSON_NUMBER_BYTES: usize = 25;
+
+/// Bytes one number of an answer takes as protobuf (a packed double).
+pub const PROTOBUF_NUMBER_BYTES: usize = 8;
+
 impl SampleResponse {
     /// An answer at `t` with an empty array, room for `points`, for each of `fields`.
     pub fn with_fields(t: f64, fields: swell_waves::QueryFields, points: usize) -> SampleResponse {

@@ -42,8 +42,8 @@ impl Codec {
     /// Bytes a number of an answer takes at most in this codec (for the byte budget).
     pub fn number_bytes(self) -> usize {
         match self {
-            Codec::Json => crate::service::query::JSON_NUMBER_BYTES,
-            Codec::Protobuf => crate::service::query::PROTOBUF_NUMBER_BYTES,
+            Codec::Json => crate::service::types::JSON_NUMBER_BYTES,
+            Codec::Protobuf => crate::service::types::PROTOBUF_NUMBER_BYTES,
         }
     }
 }
@@ -412,7 +412,7 @@ pub fn encode_json(out: &Outgoing) -> String {
             + 3 * r.displacement.as_ref().map_or(0, Vec::len)
             + 2 * r.jacobian.as_ref().map_or(0, Vec::len)
             + r.residual.as_ref().map_or(0, Vec::len);
-        let mut buf = Vec::with_capacity(128 + numbers * crate::service::query::JSON_NUMBER_BYTES);
+        let mut buf = Vec::with_capacity(128 + numbers * crate::service::types::JSON_NUMBER_BYTES);
         if serde_json::to_writer(&mut buf, &json).is_ok()
             && let Ok(text) = String::from_utf8(buf)
         {
