@@ -120,7 +120,7 @@ impl<S: Send + Sync, T: FromProto> FromRequest<S> for Body<T> {
         if proto {
             decode_proto(&bytes).map(Body)
         } else {
-            from_slice(&bytes).map(Body)
+            from_slice(&bytes).map(Body).map_err(ApiError::from)
         }
     }
 }
