@@ -1,11 +1,13 @@
 //! The one mapping from each lower layer's error to [`ApiError`]: the domain says what went
-//! wrong ([`SceneError`], [`BodyError`]) and the JSON decoder where ([`JsonError`]); here, and
+//! wrong ([`SceneError`], [`BodyError`]), the JSON decoder where ([`JsonError`]), the answer
+//! guard which number was not finite ([`NonFinite`]); here, and
 //! only here, each becomes the code, status, message and field a client sees. Callers above the
 //! domain keep using `?`.
 
 use super::{ApiError, ErrorCode};
 use crate::bodies::BodyError;
 use crate::scene::SceneError;
+use crate::service::finite::NonFinite;
 use crate::service::json::JsonError;
 
 /// 400 `bad_json` with the decoder's message and field path.
@@ -42,5 +44,13 @@ impl From<BodyError> for ApiError {
             BodyError::Invalid { field, message } => ApiError::invalid(field, message),
             BodyError::Rejected(e) => ApiError::invalid_spec(&e),
         }
+    }
+}
+
+/// 500 `non_finite_result` naming where in the answer the number was (logged as an error: a
+/// model fault, not the client's).
+impl From<NonFinite> for ApiError {
+    fn from(nf: NonFinite) -> Self {
+        ApiError::non_finite(&nf)
     }
 }

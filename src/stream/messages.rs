@@ -16,7 +16,7 @@ use serde_json::{Map, Value};
 
 use crate::error::{ApiError, ErrorCode};
 use crate::scene::clock::ClockReading;
-use crate::service::finite::check_answer;
+use crate::service::finite::ensure_finite;
 use crate::service::json;
 use crate::service::types::{
     OrientationRequest, OrientationResponse, SampleRequest, SampleResponse, Tick,
@@ -179,22 +179,22 @@ impl Outgoing {
                 scene_time,
                 rate,
                 ..
-            } => check_answer(&PongNumbers {
+            } => ensure_finite(&PongNumbers {
                 client_time: *client_time,
                 scene_time: *scene_time,
                 rate: *rate,
             }),
-            Event::Clock(r) => check_answer(r),
-            Event::SampleResult(r) => check_answer(r),
-            Event::OrientationResult(r) => check_answer(r),
-            Event::Tick(t) => check_answer(t.as_ref()),
+            Event::Clock(r) => ensure_finite(r),
+            Event::SampleResult(r) => ensure_finite(r),
+            Event::OrientationResult(r) => ensure_finite(r),
+            Event::Tick(t) => ensure_finite(t.as_ref()),
             Event::Error(_) => Ok(()),
         };
         match checked {
             Ok(()) => self,
-            Err(e) => Outgoing {
+            Err(nf) => Outgoing {
                 id: self.id,
-                event: Event::Error(e),
+                event: Event::Error(nf.into()),
             },
         }
     }
