@@ -404,13 +404,13 @@ pub fn parse_toml(text: &str) -> Result<FileContents, String> {
     let file: FileConfig = toml::from_str(text).map_err(|e| e.to_string())?;
     let mut scenes = Vec::new();
     for (id, value) in file.scenes {
-        crate::scene::validate_id(&id).map_err(|e| format!("scenes.{id}: {}", e.message))?;
+        crate::scene::validate_id(&id).map_err(|e| format!("scenes.{id}: {e}"))?;
         // Through serde_json::Value so the TOML and the HTTP body share one parser (and its
         // unknown-field checks).
         let json = serde_json::to_value(&value).map_err(|e| format!("scenes.{id}: {e}"))?;
         let spec = SceneSpec::from_value(json).map_err(|e| {
-            let field = e.field.map(|f| format!(".{f}")).unwrap_or_default();
-            format!("scenes.{id}{field}: {}", e.message)
+            let field = e.field().map(|f| format!(".{f}")).unwrap_or_default();
+            format!("scenes.{id}{field}: {e}")
         })?;
         scenes.push((id, spec));
     }

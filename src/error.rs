@@ -1,6 +1,10 @@
 //! [`ApiError`]: the one error every handler returns, rendered as
 //! `{"error":{"code","message","field"?}}` with a fitting status.
 //!
+//! Lower layers return their own errors (`scene::SceneError`, `bodies::BodyError`,
+//! `service::json::JsonError`); `mapping` turns each into an [`ApiError`], so the domain knows
+//! nothing of codes or statuses.
+//!
 //! Client mistakes (4xx) are logged at `debug` at most; only server faults (5xx) are logged as
 //! errors, and their internals never reach the client.
 
@@ -10,6 +14,7 @@ use serde::Serialize;
 use swell_waves::SpecError;
 
 mod code;
+mod mapping;
 pub use code::ErrorCode;
 
 /// A request that could not be answered: a stable machine-readable `code` (which fixes the

@@ -471,3 +471,42 @@ fn only_the_top_layer_names_app_state() {
         .collect();
     assert!(wrong.is_empty(), "AppState below the top layers: {wrong:?}");
 }
+
+/// Issue 30: the domain returns domain errors and the API maps them. Before, the domain modules
+/// built `ApiError`s themselves (`ErrorCode::SceneFull` in the body driver, `invalid_spec` in
+/// `Scene::build`), so a scene or a body world knew HTTP statuses. Now they return `SceneError`,
+/// `BodyError`, … and `crate::error` maps each to an `ApiError` once; this fails if a domain
+/// module names `ApiError` or `ErrorCode` again (comments and `#[cfg(test)]` modules aside: a
+/// test may check what a client would see).
+#[test]
+fn the_domain_names_no_api_error() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut paths = Vec::new();
+    walk(&src, &mut paths);
+    let domain = ["scene", "bodies", "impacts", "frames", "journal"];
+    let mut checked = 0;
+    let mut naming = Vec::new();
+    for p in &paths {
+        let rel = p
+            .strip_prefix(&src)
+            .unwrap()
+            .to_string_lossy()
+            .replace('\\', "/");
+        if !domain.iter().any(|m| in_module(&rel, m)) {
+            continue;
+        }
+        checked += 1;
+        let code = code_of(&std::fs::read_to_string(p).unwrap());
+        for name in ["ApiError", "ErrorCode"] {
+            if code.contains(name) {
+                naming.push(format!("{rel} names {name}"));
+            }
+        }
+    }
+    assert!(checked > 10, "found only {checked} domain files");
+    naming.sort();
+    assert!(
+        naming.is_empty(),
+        "domain modules that speak HTTP (return a domain error; map it in crate::error):\n{naming:#?}"
+    );
+}

@@ -20,7 +20,7 @@ use serde::de::DeserializeOwned;
 
 use crate::api::json::read_bytes;
 use crate::error::{ApiError, ErrorCode};
-use crate::service::finite::check_answer;
+use crate::service::finite::ensure_finite;
 use crate::service::json::{DECODE_OFF_REACTOR_BYTES, from_slice};
 use crate::service::types::{
     HeightResponse, OrientationRequest, OrientationResponse, SampleRequest, SampleResponse,
@@ -122,7 +122,7 @@ impl<S: Send + Sync, T: FromProto + Send + 'static> FromRequest<S> for Body<T> {
             if proto {
                 decode_proto(&bytes).map(Body)
             } else {
-                from_slice(&bytes).map(Body)
+                from_slice(&bytes).map(Body).map_err(ApiError::from)
             }
         };
         if big {
@@ -187,11 +187,11 @@ fn protobuf_response(status: axum::http::StatusCode, bytes: Vec<u8>) -> Response
 }
 
 impl<T: ToProto> IntoResponse for Reply<T> {
-    /// Checks the answer for non-finite numbers ([`check_answer`]) and encodes it; a
+    /// Checks the answer for non-finite numbers ([`ensure_finite`]) and encodes it; a
     /// non-finite answer becomes a 500 `non_finite_result` error in either format.
     fn into_response(self) -> Response {
-        if let Err(e) = check_answer(&self.1) {
-            return e.into_response();
+        if let Err(nf) = ensure_finite(&self.1) {
+            return ApiError::from(nf).into_response();
         }
         match self.0 {
             Format::Json => axum::Json(self.1).into_response(),
@@ -227,8 +227,8 @@ impl IntoResponse for SampleReply {
         if !SampleReply::streams(format, answer.numbers()) {
             return Reply(format, answer).into_response();
         }
-        if let Err(e) = check_answer(&answer) {
-            return e.into_response();
+        if let Err(nf) = ensure_finite(&answer) {
+            return ApiError::from(nf).into_response();
         }
         let mut r = axum::body::Body::new(SampleJsonBody::new(answer)).into_response();
         r.headers_mut().insert(

@@ -9,8 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Advance, InputRequest, SceneBodies, Sea, SpawnRequest, body_not_found};
-use crate::error::{ApiError, ErrorCode};
+use super::{Advance, BodyError, InputRequest, SceneBodies, Sea, SpawnRequest};
 use crate::scene::Scene;
 
 /// A body command as logged.
@@ -41,21 +40,22 @@ pub enum BodyCmd {
 /// body's id.
 ///
 /// # Errors
-/// 409 `scene_full` for a spawn into a world that holds `max_bodies` already; 404 for a body
-/// that is not there; 400/422 for a request the body model rejects (nothing changed then).
+/// [`BodyError::SceneFull`] for a spawn into a world that holds `max_bodies` already;
+/// [`BodyError::NotFound`] for a body that is not there; [`BodyError::Invalid`] or
+/// [`BodyError::Rejected`] for a request the body model rejects (nothing changed then).
 pub fn apply(
     b: &mut SceneBodies,
     scene: &str,
     cmd: &BodyCmd,
     max_bodies: usize,
-) -> Result<Option<u64>, ApiError> {
+) -> Result<Option<u64>, BodyError> {
     match cmd {
         BodyCmd::Spawn(req) => {
             if b.len() >= max_bodies {
-                return Err(ApiError::new(
-                    ErrorCode::SceneFull,
-                    format!("scene {scene} already has {max_bodies} bodies, the limit"),
-                ));
+                return Err(BodyError::SceneFull {
+                    scene: scene.to_owned(),
+                    max: max_bodies,
+                });
             }
             b.spawn(req).map(Some)
         }
@@ -63,7 +63,7 @@ pub fn apply(
             if b.remove(*id) {
                 Ok(None)
             } else {
-                Err(body_not_found(*id))
+                Err(BodyError::NotFound { id: *id })
             }
         }
         BodyCmd::Input { id, input } => b.input(*id, input).map(|()| None),

@@ -246,7 +246,8 @@ impl SceneBodies {
                 tick_hz,
                 gravity,
             } => {
-                let mut b = SceneBodies::new(anchor, tick_hz, gravity).map_err(|e| e.message)?;
+                let mut b =
+                    SceneBodies::new(anchor, tick_hz, gravity).map_err(|e| e.to_string())?;
                 b.events.clear();
                 Ok(b)
             }

@@ -11,6 +11,7 @@
 //! state and the rest of its inputs: the bodies carry on from where they were.
 
 pub mod drive;
+pub mod error;
 pub mod event;
 pub mod registry;
 
@@ -21,8 +22,8 @@ use swell_waves::body::{BodyInput, BodySpec, World, WorldSettings};
 use swell_waves::particles::{Impact, Impacts};
 use swell_waves::{QueryOptions, Surface, SurfaceAt};
 
-use crate::error::{ApiError, ErrorCode};
 pub use crate::service::types::BodyState;
+pub use error::BodyError;
 pub use event::{BodyEvent, WorldRecord};
 
 /// Largest number of ticks a loop iteration steps to catch up with the clock; beyond it the world
@@ -257,17 +258,13 @@ pub struct BodiesRecord {
     pub bodies: Vec<BodyRecord>,
 }
 
-fn model_error(e: &swell_waves::SpecError) -> ApiError {
-    ApiError::invalid_spec(e)
-}
-
 impl SceneBodies {
     /// An empty body world anchored at scene tick `anchor`.
     ///
     /// # Errors
-    /// 422 if `tick_hz` or `gravity` is out of the model's range.
-    pub fn new(anchor: i64, tick_hz: f64, gravity: f64) -> Result<SceneBodies, ApiError> {
-        let world = World::new(settings(anchor, tick_hz, gravity)).map_err(|e| model_error(&e))?;
+    /// [`BodyError::Rejected`] if `tick_hz` or `gravity` is out of the model's range.
+    pub fn new(anchor: i64, tick_hz: f64, gravity: f64) -> Result<SceneBodies, BodyError> {
+        let world = World::new(settings(anchor, tick_hz, gravity))?;
         Ok(SceneBodies {
             world,
             specs: BTreeMap::new(),
@@ -324,12 +321,13 @@ impl SceneBodies {
     /// Adds a body; returns its id.
     ///
     /// # Errors
-    /// 422 with the model's message for an invalid spec or state.
-    pub fn spawn(&mut self, req: &SpawnRequest) -> Result<u64, ApiError> {
+    /// [`BodyError::Invalid`] for a non-finite position or a yaw out of range;
+    /// [`BodyError::Rejected`] with the model's message for an invalid spec or state.
+    pub fn spawn(&mut self, req: &SpawnRequest) -> Result<u64, BodyError> {
         let spec = req.body_spec(self.gravity);
         for (i, v) in req.position.iter().enumerate() {
             if !v.is_finite() {
-                return Err(ApiError::invalid(
+                return Err(BodyError::invalid(
                     format!("position[{i}]"),
                     format!("position[{i}] = {v} must be finite"),
                 ));
@@ -339,7 +337,7 @@ impl SceneBodies {
         // rotation.
         let max_yaw = swell_waves::body::MAX_YAW;
         if !(req.yaw.is_finite() && req.yaw.abs() <= max_yaw) {
-            return Err(ApiError::invalid(
+            return Err(BodyError::invalid(
                 "yaw",
                 format!(
                     "yaw = {} must be finite with |yaw| <= {max_yaw} rad",
@@ -349,7 +347,7 @@ impl SceneBodies {
         }
         let state =
             swell_waves::body::BodyState::at_rest(glam::DVec3::from_array(req.position), req.yaw);
-        let id = self.world.add(&spec, state).map_err(|e| model_error(&e))?;
+        let id = self.world.add(&spec, state)?;
         self.spawned(id, self.tick());
         self.events.push(BodyEvent::Spawned {
             at: self.tick(),
@@ -390,29 +388,30 @@ impl SceneBodies {
     /// Queues an input for body `id`.
     ///
     /// # Errors
-    /// 404 unknown body; 400 for a tick in the past, a bad span or a non-finite component.
-    pub fn input(&mut self, id: u64, req: &InputRequest) -> Result<(), ApiError> {
+    /// [`BodyError::NotFound`] for an unknown body; [`BodyError::Invalid`] for a tick in the
+    /// past, a bad span or a non-finite component.
+    pub fn input(&mut self, id: u64, req: &InputRequest) -> Result<(), BodyError> {
         if self.world.body(id).is_none() {
-            return Err(body_not_found(id));
+            return Err(BodyError::NotFound { id });
         }
         let now = self.tick();
         let from = req.from_tick.unwrap_or(now);
         if from < now {
-            return Err(ApiError::invalid(
+            return Err(BodyError::invalid(
                 "from_tick",
                 format!("from_tick = {from} is in the past: the bodies are at tick {now}"),
             ));
         }
         let ticks = req.ticks.unwrap_or(1);
         if !(1..=10_000_000).contains(&ticks) {
-            return Err(ApiError::invalid(
+            return Err(BodyError::invalid(
                 "ticks",
                 format!("ticks = {ticks} is out of range: 1..=10000000"),
             ));
         }
         // `from >= now >= anchor`, but far ahead of a negative anchor the difference overflows.
         let Some(relative) = from.checked_sub(self.anchor) else {
-            return Err(ApiError::invalid(
+            return Err(BodyError::invalid(
                 "from_tick",
                 format!(
                     "from_tick = {from} is out of range: more than i64::MAX ticks after the bodies' anchor {}",
@@ -429,7 +428,7 @@ impl SceneBodies {
         };
         self.world.input(input).map_err(|e| {
             let field = e.field().trim_start_matches("input.").to_owned();
-            ApiError::invalid(field, e.to_string())
+            BodyError::invalid(field, e.to_string())
         })?;
         self.events.push(BodyEvent::Input { at: now, input });
         Ok(())
@@ -732,12 +731,12 @@ impl SceneBodies {
     /// One body's state.
     ///
     /// # Errors
-    /// 404 if there is no such body.
-    pub fn state(&self, id: u64) -> Result<BodyState, ApiError> {
+    /// [`BodyError::NotFound`] if there is no such body.
+    pub fn state(&self, id: u64) -> Result<BodyState, BodyError> {
         self.world
             .body(id)
             .map(|b| out(id, b))
-            .ok_or_else(|| body_not_found(id))
+            .ok_or(BodyError::NotFound { id })
     }
 
     /// The persisted form.
@@ -760,11 +759,14 @@ impl SceneBodies {
 
     /// Rebuilds from a persisted record, anchored at the record's tick. Bodies that no longer
     /// validate are skipped (and logged).
+    ///
+    /// # Errors
+    /// [`BodyError::Rejected`] if `tick_hz` or `gravity` is out of the model's range.
     pub fn from_record(
         rec: &BodiesRecord,
         tick_hz: f64,
         gravity: f64,
-    ) -> Result<SceneBodies, ApiError> {
+    ) -> Result<SceneBodies, BodyError> {
         let mut b = SceneBodies::new(rec.tick, tick_hz, gravity)?;
         b.events.clear();
         for r in &rec.bodies {
@@ -815,13 +817,10 @@ fn out(id: u64, b: &swell_waves::body::Body) -> BodyState {
     }
 }
 
-/// 404 for an unknown body.
-pub fn body_not_found(id: u64) -> ApiError {
-    ApiError::new(
-        ErrorCode::BodyNotFound,
-        format!("no body with id {id} in this scene"),
-    )
-    .with_field("body")
+/// [`BodyError::NotFound`] for body `id`.
+#[must_use]
+pub fn body_not_found(id: u64) -> BodyError {
+    BodyError::NotFound { id }
 }
 
 #[cfg(test)]
@@ -1061,15 +1060,16 @@ mod tests {
             from_tick: Some(3),
             ticks: None,
         };
-        assert_eq!(a.input(id, &req).unwrap_err().status(), 400);
-        assert_eq!(a.input(99, &req).unwrap_err().status(), 404);
+        let seen = |e: BodyError| crate::error::ApiError::from(e);
+        assert_eq!(seen(a.input(id, &req).unwrap_err()).status(), 400);
+        assert_eq!(seen(a.input(99, &req).unwrap_err()).status(), 404);
         let bad = InputRequest {
             force: [f64::NAN, 0.0, 0.0],
             from_tick: None,
             ..req
         };
         assert_eq!(
-            a.input(id, &bad).unwrap_err().field.as_deref(),
+            seen(a.input(id, &bad).unwrap_err()).field.as_deref(),
             Some("force[0]")
         );
     }
@@ -1219,7 +1219,7 @@ mod tests {
             from_tick: Some(i64::MAX),
             ticks: None,
         };
-        let e = b.input(id, &req).unwrap_err();
+        let e = crate::error::ApiError::from(b.input(id, &req).unwrap_err());
         assert_eq!(e.field.as_deref(), Some("from_tick"), "{}", e.message);
     }
 

@@ -14,7 +14,6 @@ use std::time::Duration;
 use tokio::sync::watch;
 
 use super::{BodiesRecord, BodyState, SceneBodies};
-use crate::error::ApiError;
 
 /// The bodies' states as the body loop (or an admin change) last left them.
 #[derive(Debug, Clone, PartialEq)]
@@ -108,14 +107,15 @@ impl BodyRegistry {
     /// The bodies of scene `id`, created empty (anchored at `tick`) if needed.
     ///
     /// # Errors
-    /// 422 if the scene's tick rate or gravity is outside the body model's range.
+    /// [`super::BodyError::Rejected`] if the scene's tick rate or gravity is outside the body
+    /// model's range.
     pub fn get_or_create(
         &self,
         id: &str,
         tick: i64,
         tick_hz: f64,
         gravity: f64,
-    ) -> Result<Arc<SceneBodiesCell>, ApiError> {
+    ) -> Result<Arc<SceneBodiesCell>, super::BodyError> {
         let mut map = self.map();
         if let Some(c) = map.get(id) {
             return Ok(c.clone());

@@ -2,6 +2,7 @@
 //! [`Surface`], and its clock.
 //!
 //! - [`builtin`] — the scenes `swell serve` starts with.
+//! - [`error`] — [`SceneError`], why a spec or id was refused.
 //! - [`clock`] — scene time anchored to wall time: `t = offset + rate·(unix_now − anchor)` from
 //!   the scene epoch; pause, rate, seek.
 //! - [`store`] — the clock record, and the reader of the pre-journal data dir layout (changes
@@ -9,6 +10,7 @@
 
 pub mod builtin;
 pub mod clock;
+pub mod error;
 pub mod particles;
 pub mod store;
 
@@ -20,8 +22,8 @@ use swell_waves::body::MAX_TICK_HZ;
 use swell_waves::surface::layer_seed;
 use swell_waves::{Layer, LayerSpec, Surface, SurfaceSpec};
 
-use crate::error::ApiError;
 pub use clock::Clock;
+pub use error::SceneError;
 
 /// Longest scene description, bytes.
 pub const MAX_DESCRIPTION: usize = 4096;
@@ -60,7 +62,7 @@ pub const DEFAULT_TICK_HZ: f64 = 30.0;
 impl<'de> Deserialize<'de> for SceneSpec {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let v = Value::deserialize(d)?;
-        SceneSpec::from_value(v).map_err(|e| serde::de::Error::custom(e.message))
+        SceneSpec::from_value(v).map_err(serde::de::Error::custom)
     }
 }
 
@@ -69,36 +71,47 @@ impl SceneSpec {
     /// fields; the surface itself is validated when it is built ([`Scene::build`]).
     ///
     /// # Errors
-    /// 400 `bad_json` naming the path of a wrongly typed or unknown field; 422 `invalid_spec` for
-    /// a bad `tick_hz` or description.
-    pub fn from_value(v: Value) -> Result<SceneSpec, ApiError> {
+    /// [`SceneError::Malformed`] naming the path of a wrongly typed or unknown field;
+    /// [`SceneError::Rejected`] for a bad `tick_hz`, `epoch` or description.
+    pub fn from_value(v: Value) -> Result<SceneSpec, SceneError> {
+        let malformed = |message: &str, field: Option<&str>| SceneError::Malformed {
+            message: message.to_owned(),
+            field: field.map(str::to_owned),
+        };
         let Value::Object(mut map) = v else {
-            return Err(ApiError::bad_json("a scene spec must be a JSON object"));
+            return Err(malformed("a scene spec must be a JSON object", None));
         };
         let description = match map.remove("description") {
             None | Some(Value::Null) => String::new(),
             Some(Value::String(s)) => s,
             Some(_) => {
-                return Err(
-                    ApiError::bad_json("description must be a string").with_field("description")
-                );
+                return Err(malformed(
+                    "description must be a string",
+                    Some("description"),
+                ));
             }
         };
         let tick_hz = match map.remove("tick_hz") {
             None | Some(Value::Null) => DEFAULT_TICK_HZ,
             Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
             Some(_) => {
-                return Err(ApiError::bad_json("tick_hz must be a number").with_field("tick_hz"));
+                return Err(malformed("tick_hz must be a number", Some("tick_hz")));
             }
         };
         let epoch = match map.remove("epoch") {
             None | Some(Value::Null) => None,
             Some(Value::Number(n)) => Some(n.as_f64().unwrap_or(f64::NAN)),
             Some(_) => {
-                return Err(ApiError::bad_json("epoch must be a number").with_field("epoch"));
+                return Err(malformed("epoch must be a number", Some("epoch")));
             }
         };
-        let surface: SurfaceSpec = crate::service::json::from_value(Value::Object(map))?;
+        let surface: SurfaceSpec =
+            crate::service::json::from_value(Value::Object(map)).map_err(|e| {
+                SceneError::Malformed {
+                    message: e.message,
+                    field: e.field,
+                }
+            })?;
         let spec = SceneSpec {
             description,
             tick_hz,
@@ -112,32 +125,28 @@ impl SceneSpec {
     /// Checks the scene's own fields.
     ///
     /// # Errors
-    /// 422 naming `tick_hz` or `description`.
-    pub fn validate(&self) -> Result<(), ApiError> {
+    /// [`SceneError::Rejected`] naming `tick_hz`, `epoch` or `description`.
+    pub fn validate(&self) -> Result<(), SceneError> {
         // The body model's limit: a scene's bodies step at the scene's tick rate, so a scene may
         // not tick faster than a body world can.
         if !(self.tick_hz.is_finite() && self.tick_hz > 0.0 && self.tick_hz <= MAX_TICK_HZ) {
-            return Err(ApiError::invalid_spec(
-                &swell_waves::SpecError::OutOfRange {
-                    field: "tick_hz".into(),
-                    value: self.tick_hz,
-                    allowed: format!("in (0, {MAX_TICK_HZ}] Hz"),
-                },
-            ));
+            return Err(SceneError::Rejected(swell_waves::SpecError::OutOfRange {
+                field: "tick_hz".into(),
+                value: self.tick_hz,
+                allowed: format!("in (0, {MAX_TICK_HZ}] Hz"),
+            }));
         }
         if let Some(e) = self.epoch
             && !(e.is_finite() && (0.0..=MAX_EPOCH).contains(&e))
         {
-            return Err(ApiError::invalid_spec(
-                &swell_waves::SpecError::OutOfRange {
-                    field: "epoch".into(),
-                    value: e,
-                    allowed: format!("Unix seconds in [0, {MAX_EPOCH}]"),
-                },
-            ));
+            return Err(SceneError::Rejected(swell_waves::SpecError::OutOfRange {
+                field: "epoch".into(),
+                value: e,
+                allowed: format!("Unix seconds in [0, {MAX_EPOCH}]"),
+            }));
         }
         if self.description.len() > MAX_DESCRIPTION {
-            return Err(ApiError::invalid_spec(&swell_waves::SpecError::BadLength {
+            return Err(SceneError::Rejected(swell_waves::SpecError::BadLength {
                 field: "description".into(),
                 len: self.description.len(),
                 allowed: format!("at most {MAX_DESCRIPTION} bytes"),
@@ -163,8 +172,8 @@ impl SceneSpec {
 /// Checks a scene id: `[a-z0-9-]{1,64}`.
 ///
 /// # Errors
-/// 400 `invalid_value` naming `id`.
-pub fn validate_id(id: &str) -> Result<(), ApiError> {
+/// [`SceneError::BadId`].
+pub fn validate_id(id: &str) -> Result<(), SceneError> {
     let ok = !id.is_empty()
         && id.len() <= 64
         && id
@@ -173,10 +182,7 @@ pub fn validate_id(id: &str) -> Result<(), ApiError> {
     if ok {
         Ok(())
     } else {
-        Err(ApiError::invalid(
-            "id",
-            format!("scene id {id:?} must match [a-z0-9-]{{1,64}}"),
-        ))
+        Err(SceneError::BadId { id: id.to_owned() })
     }
 }
 
@@ -217,10 +223,10 @@ impl Scene {
     /// Validates and builds a scene. CPU work (an FFT layer's spectrum): call off the reactor.
     ///
     /// # Errors
-    /// 422 with the model's message and field.
-    pub fn build(id: &str, spec: SceneSpec) -> Result<Scene, ApiError> {
+    /// [`SceneError::Rejected`] with the model's message and field.
+    pub fn build(id: &str, spec: SceneSpec) -> Result<Scene, SceneError> {
         spec.validate()?;
-        let surface = Surface::new(&spec.surface).map_err(|e| ApiError::invalid_spec(&e))?;
+        let surface = Surface::new(&spec.surface)?;
         let spec_hash = fnv1a64_hex(spec.canonical_json().as_bytes());
         let impacts = crate::impacts::SceneImpacts::default();
         if let Some(layer) = surface.impact_layer() {

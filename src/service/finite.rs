@@ -7,7 +7,8 @@
 //! anyone remembering to add it here) and names the first NaN or infinity it meets. Every
 //! transport calls it just before encoding — [`crate::api::wire::Reply`] for HTTP JSON and
 //! protobuf, the WebSocket session's send queue for socket answers and tick frames — and sends
-//! [`ApiError::non_finite`] in place of the answer.
+//! the error a [`NonFinite`] maps to (`ApiError::non_finite`, in `crate::error`) in place of
+//! the answer.
 //!
 //! The walk allocates nothing for a finite answer: the path is only built on the way back out
 //! from a bad number.
@@ -16,8 +17,6 @@ use std::fmt;
 
 use serde::Serialize;
 use serde::ser;
-
-use crate::error::ApiError;
 
 /// A non-finite number found in an answer.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,14 +60,6 @@ pub fn ensure_finite<T: Serialize + ?Sized>(answer: &T) -> Result<(), NonFinite>
             Err(NonFinite { path, value })
         }
     }
-}
-
-/// [`ensure_finite`] with the error an answer turns into.
-///
-/// # Errors
-/// [`ApiError::non_finite`] naming the first non-finite number.
-pub fn check_answer<T: Serialize + ?Sized>(answer: &T) -> Result<(), ApiError> {
-    ensure_finite(answer).map_err(|nf| ApiError::non_finite(&nf))
 }
 
 fn push_name(path: &mut String, name: &str) {
@@ -433,7 +424,7 @@ mod tests {
         let e = ensure_finite(&orientation(f64::NAN)).unwrap_err();
         assert_eq!(e.path, "bodies[1].heave");
         assert!(e.value.is_nan());
-        let api = check_answer(&orientation(f64::NAN)).unwrap_err();
+        let api = crate::error::ApiError::from(ensure_finite(&orientation(f64::NAN)).unwrap_err());
         assert_eq!(
             (api.status().as_u16(), api.code.as_str()),
             (500, "non_finite_result")

@@ -51,7 +51,7 @@ pub fn build(id: &str, spec: &Value) -> Option<Scene> {
     match SceneSpec::from_value(spec.clone()).and_then(|s| Scene::build(id, s)) {
         Ok(s) => Some(s),
         Err(e) => {
-            tracing::error!(scene = %id, error = %e.message, "skipping a scene that does not build");
+            tracing::error!(scene = %id, error = %e, "skipping a scene that does not build");
             None
         }
     }

@@ -504,7 +504,7 @@ impl AppState {
         }
         for (id, spec) in configured {
             let scene = Scene::build(id, spec.clone())
-                .map_err(|e| format!("configured scene {id}: {}", e.message))?;
+                .map_err(|e| format!("configured scene {id}: {e}"))?;
             self.insert_loaded(scene, None);
         }
         let empty = recovered
@@ -541,7 +541,7 @@ impl AppState {
                     match SceneSpec::from_value(v).and_then(|spec| Scene::build(&id, spec)) {
                         Ok(scene) => self.insert_loaded(scene, None),
                         Err(e) => {
-                            tracing::error!(scene = %id, error = %e.message, "skipping persisted scene that no longer builds");
+                            tracing::error!(scene = %id, error = %e, "skipping persisted scene that no longer builds");
                         }
                     }
                 }
@@ -571,7 +571,7 @@ impl AppState {
                         .map_err(|e| e.to_string())
                         .and_then(|r| {
                             crate::bodies::SceneBodies::from_record(&r, hz, g)
-                                .map_err(|e| e.message)
+                                .map_err(|e| e.to_string())
                         }) {
                         Ok(b) => {
                             bodies_found = true;

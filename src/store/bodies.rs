@@ -323,7 +323,7 @@ impl FleetBodies {
             .get(scene)
             .is_some_and(|c| c.lock().state(id).is_ok());
         if !known {
-            return Err(crate::bodies::body_not_found(id));
+            return Err(crate::bodies::body_not_found(id).into());
         }
         let wanted = state.read_clock(&entry).tick + 1;
         self.append(state, scene, &BodyCmd::Remove { id }, wanted)
@@ -351,7 +351,7 @@ impl FleetBodies {
             .get(scene)
             .is_some_and(|c| c.lock().state(id).is_ok());
         if !known {
-            return Err(crate::bodies::body_not_found(id));
+            return Err(crate::bodies::body_not_found(id).into());
         }
         // The same checks as a local input, on a scratch world with one body.
         let mut probe = crate::bodies::SceneBodies::new(now, hz, g)?;
@@ -595,7 +595,7 @@ impl FleetBodies {
                     Ok(c) => c,
                     Err(e) => {
                         if matches!(cmd, BodyCmd::Spawn(_)) {
-                            self.record(&nonce, Err(e));
+                            self.record(&nonce, Err(e.into()));
                         }
                         continue;
                     }
@@ -620,13 +620,18 @@ impl FleetBodies {
             let out =
                 crate::bodies::drive::apply(&mut b, scene, &cmd, state.limits.max_scene_bodies);
             let spawned = match cmd {
-                BodyCmd::Spawn(_) => Some(out.and_then(|id| match id {
-                    Some(id) => b.state(id).map(|state| SpawnedBody {
-                        state,
-                        spawn_tick: b.tick(),
-                        anchor_tick: b.anchor(),
-                    }),
-                    None => Err(ApiError::internal("a spawn gave no body id")),
+                BodyCmd::Spawn(_) => Some(out.map_err(ApiError::from).and_then(|id| {
+                    match id {
+                        Some(id) => b
+                            .state(id)
+                            .map_err(ApiError::from)
+                            .map(|state| SpawnedBody {
+                                state,
+                                spawn_tick: b.tick(),
+                                anchor_tick: b.anchor(),
+                            }),
+                        None => Err(ApiError::internal("a spawn gave no body id")),
+                    }
                 })),
                 _ => None,
             };

@@ -16,7 +16,7 @@ use serde_json::{Map, Value};
 
 use crate::error::{ApiError, ErrorCode};
 use crate::scene::clock::ClockReading;
-use crate::service::finite::check_answer;
+use crate::service::finite::ensure_finite;
 use crate::service::json;
 use crate::service::types::{
     OrientationRequest, OrientationResponse, SampleRequest, SampleResponse, Tick,
@@ -179,22 +179,22 @@ impl Outgoing {
                 scene_time,
                 rate,
                 ..
-            } => check_answer(&PongNumbers {
+            } => ensure_finite(&PongNumbers {
                 client_time: *client_time,
                 scene_time: *scene_time,
                 rate: *rate,
             }),
-            Event::Clock(r) => check_answer(r),
-            Event::SampleResult(r) => check_answer(r),
-            Event::OrientationResult(r) => check_answer(r),
-            Event::Tick(t) => check_answer(t.as_ref()),
+            Event::Clock(r) => ensure_finite(r),
+            Event::SampleResult(r) => ensure_finite(r),
+            Event::OrientationResult(r) => ensure_finite(r),
+            Event::Tick(t) => ensure_finite(t.as_ref()),
             Event::Error(_) => Ok(()),
         };
         match checked {
             Ok(()) => self,
-            Err(e) => Outgoing {
+            Err(nf) => Outgoing {
                 id: self.id,
-                event: Event::Error(e),
+                event: Event::Error(nf.into()),
             },
         }
     }
@@ -239,7 +239,8 @@ struct SubscribeBody {
 /// `bad_json` for text that is not an object, a missing or unknown `type`, a bad `id`, or a
 /// payload that does not decode (with the field's path); the id is kept when it was readable.
 pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
-    let value: Value = json::from_slice(text.as_bytes()).map_err(|e| DecodeError::new(None, e))?;
+    let value: Value =
+        json::from_slice(text.as_bytes()).map_err(|e| DecodeError::new(None, e.into()))?;
     let Value::Object(mut map) = value else {
         return Err(DecodeError::new(
             None,
@@ -273,12 +274,20 @@ pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
     };
     let rest = Value::Object(map);
     let request = match ty.as_str() {
-        "ping" => json::from_value::<PingBody>(rest).map(|p| Request::Ping {
-            client_time: p.client_time,
-        }),
-        "sample" => json::from_value(rest).map(Request::Sample),
-        "orientation" => json::from_value(rest).map(Request::Orientation),
-        "subscribe" => json::from_value::<SubscribeBody>(rest).and_then(|s| {
+        "ping" => json::from_value::<PingBody>(rest)
+            .map(|p| Request::Ping {
+                client_time: p.client_time,
+            })
+            .map_err(ApiError::from),
+        "sample" => json::from_value(rest)
+            .map(Request::Sample)
+            .map_err(ApiError::from),
+        "orientation" => json::from_value(rest)
+            .map(Request::Orientation)
+            .map_err(ApiError::from),
+        "subscribe" => json::from_value::<SubscribeBody>(rest)
+            .map_err(ApiError::from)
+            .and_then(|s| {
             if s.compact {
                 return Err(ApiError::invalid(
                     "compact",

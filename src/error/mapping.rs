@@ -1,0 +1,56 @@
+//! The one mapping from each lower layer's error to [`ApiError`]: the domain says what went
+//! wrong ([`SceneError`], [`BodyError`]), the JSON decoder where ([`JsonError`]), the answer
+//! guard which number was not finite ([`NonFinite`]); here, and
+//! only here, each becomes the code, status, message and field a client sees. Callers above the
+//! domain keep using `?`.
+
+use super::{ApiError, ErrorCode};
+use crate::bodies::BodyError;
+use crate::scene::SceneError;
+use crate::service::finite::NonFinite;
+use crate::service::json::JsonError;
+
+/// 400 `bad_json` with the decoder's message and field path.
+impl From<JsonError> for ApiError {
+    fn from(e: JsonError) -> Self {
+        ApiError::bad_json(e.message).with_field(e.field.unwrap_or_default())
+    }
+}
+
+/// A malformed spec is 400 `bad_json`, a bad id 400 `invalid_value` naming `id`, and a spec the
+/// model rejects 422 `invalid_spec` with the model's message and field.
+impl From<SceneError> for ApiError {
+    fn from(e: SceneError) -> Self {
+        match e {
+            SceneError::Malformed { message, field } => {
+                ApiError::bad_json(message).with_field(field.unwrap_or_default())
+            }
+            SceneError::Rejected(e) => ApiError::invalid_spec(&e),
+            SceneError::BadId { .. } => ApiError::invalid("id", e.to_string()),
+        }
+    }
+}
+
+/// An unknown body is 404 `body_not_found` naming `body`; a spawn past the limit 409
+/// `scene_full`; a bad request value 400 `invalid_value` at its field; a spec or settings the
+/// model rejects 422 `invalid_spec`.
+impl From<BodyError> for ApiError {
+    fn from(e: BodyError) -> Self {
+        match e {
+            BodyError::NotFound { .. } => {
+                ApiError::new(ErrorCode::BodyNotFound, e.to_string()).with_field("body")
+            }
+            BodyError::SceneFull { .. } => ApiError::new(ErrorCode::SceneFull, e.to_string()),
+            BodyError::Invalid { field, message } => ApiError::invalid(field, message),
+            BodyError::Rejected(e) => ApiError::invalid_spec(&e),
+        }
+    }
+}
+
+/// 500 `non_finite_result` naming where in the answer the number was (logged as an error: a
+/// model fault, not the client's).
+impl From<NonFinite> for ApiError {
+    fn from(nf: NonFinite) -> Self {
+        ApiError::non_finite(&nf)
+    }
+}
