@@ -517,7 +517,8 @@ impl Ambient {
     /// Slow reference of the fast path's order: every kept scale, then the 3×3 cells around x
     /// in row-major order, then, per cell, a scan of every particle in index order keeping those
     /// whose position at t ([`Ambient::position`]) lies in that cell. The same operands in the
-    /// same order as [`Ambient::visit`], with no index, so the fast path must give its bits.
+    /// same order as the indexed walk (`Ambient::visit`), with no index, so the fast path must
+    /// give its bits.
     /// Returns `(height, gradient, ∂h/∂t)`, each summed as [`super::ParticleField`] sums them.
     pub fn sample_ordered_reference(
         &self,
