@@ -90,7 +90,7 @@ fn spawn(body: &[u8]) {
         let mut b = world(scene);
         match b.spawn(&req) {
             Ok(_) => step(&mut b, scene, &req),
-            Err(e) => assert_client_error(&e),
+            Err(e) => assert_client_error(&swell::ApiError::from(e)),
         }
     }
 }
@@ -110,6 +110,6 @@ fn input(body: &[u8]) {
     let id = b.spawn(&boat).expect("the boat spawns");
     match b.input(id, &req) {
         Ok(()) => step(&mut b, scene, &req),
-        Err(e) => assert_client_error(&e),
+        Err(e) => assert_client_error(&swell::ApiError::from(e)),
     }
 }

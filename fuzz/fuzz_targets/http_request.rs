@@ -82,10 +82,9 @@ fuzz_target!(|data: &[u8]| {
     // A URI the client could not have sent (bytes that are not allowed in one) is not a request.
     let Ok(req) = req else { return };
     let f = fixture();
-    let resp = f
-        .rt
-        .block_on(f.app.clone().oneshot(req))
-        .expect("the router is infallible");
+    let resp =
+        f.rt.block_on(f.app.clone().oneshot(req))
+            .expect("the router is infallible");
     let status = resp.status();
     assert!(
         !status.is_server_error() || status.as_u16() == 503,
@@ -99,10 +98,9 @@ fuzz_target!(|data: &[u8]| {
             .unwrap_or("")
             .to_owned();
         assert!(ct.starts_with("application/json"), "{status} as {ct:?}");
-        let body = f
-            .rt
-            .block_on(axum::body::to_bytes(resp.into_body(), 1 << 20))
-            .expect("an error body");
+        let body =
+            f.rt.block_on(axum::body::to_bytes(resp.into_body(), 1 << 20))
+                .expect("an error body");
         let v: serde_json::Value = serde_json::from_slice(&body).expect("a JSON error");
         assert!(v["error"]["code"].is_string(), "{v}");
     }

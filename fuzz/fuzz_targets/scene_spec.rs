@@ -13,6 +13,6 @@ fuzz_target!(|data: &[u8]| {
     };
     match SceneSpec::from_value(value) {
         Ok(spec) => swell_fuzz::check_spec("fuzz", spec),
-        Err(e) => swell_fuzz::assert_client_error(&e),
+        Err(e) => swell_fuzz::assert_client_error(&swell::ApiError::from(e)),
     }
 });

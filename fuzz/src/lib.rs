@@ -195,7 +195,7 @@ pub fn check_spec(id: &str, spec: swell::scene::SceneSpec) {
     }
     let scene = match Scene::build(id, spec) {
         Ok(s) => s,
-        Err(e) => return assert_client_error(&e),
+        Err(e) => return assert_client_error(&swell::error::ApiError::from(e)),
     };
     // A cache of its own: this scene is used once, and its frames must not evict the built-ins'.
     let frames = FrameCache::new(4);
