@@ -2,12 +2,15 @@
 // class library: Unity and .NET Standard 2.1 have no System.Text.Json).
 //
 // Values are plain objects: Dictionary<string, object> (keys in document order), List<object>,
-// string, double, bool, null. Numbers are parsed with double.Parse (invariant culture), which
-// rounds correctly, so a number the server wrote with its shortest round-trip form reads back to
-// the server's bits; numbers are written with the "R" format, checked to round-trip.
+// string, double, bool, null. Numbers are read to the nearest double, ties to even
+// (ParseDouble: the runtime's double.Parse, then corrected against the decimal's exact value;
+// Mono's double.Parse reads about one in 3,600 shortest-form decimals one ulp off), so a number
+// the server wrote with its shortest round-trip form reads back to the server's bits; numbers are
+// written with the "R" format, checked to round-trip.
 using System;
 using System.Collections.Generic;
 using System.Globalization;
+using System.Numerics;
 using System.Text;
 
 namespace Swell
@@ -77,7 +80,70 @@ namespace Swell
             int start = i;
             while (i < s.Length && "+-0123456789.eE".IndexOf(s[i]) >= 0) i++;
             if (start == i) throw new FormatException("unexpected '" + c + "' at " + i);
-            return double.Parse(s.Substring(start, i - start), NumberStyles.Float, CultureInfo.InvariantCulture);
+            return ParseDouble(s.Substring(start, i - start));
+        }
+
+        /// <summary>
+        /// A decimal number (JSON's grammar) to the nearest double, ties to even: the runtime's
+        /// double.Parse, then moved by an ulp while the decimal's exact value lies beyond the
+        /// midpoint to a neighbour (compared exactly, in integers).
+        /// </summary>
+        /// <exception cref="FormatException">Not a number.</exception>
+        public static double ParseDouble(string text)
+        {
+            double x = double.Parse(text, NumberStyles.Float, CultureInfo.InvariantCulture);
+            if (x == 0 || double.IsInfinity(x) || double.IsNaN(x)) return x;
+            BigInteger digits;
+            int exp10;
+            Decimal(text, out digits, out exp10);
+            double a = Math.Abs(x);
+            for (int step = 0; step < 4; step++)
+            {
+                long bits = BitConverter.DoubleToInt64Bits(a);
+                bool odd = (bits & 1) != 0;
+                int up = CompareToMidpoint(digits, exp10, bits, true);
+                if (up > 0 || (up == 0 && odd)) { a = BitConverter.Int64BitsToDouble(bits + 1); continue; }
+                int down = CompareToMidpoint(digits, exp10, bits, false);
+                if (down < 0 || (down == 0 && odd)) { a = BitConverter.Int64BitsToDouble(bits - 1); continue; }
+                break;
+            }
+            return x < 0 ? -a : a;
+        }
+
+        // |text| = digits · 10^exp10.
+        static void Decimal(string text, out BigInteger digits, out int exp10)
+        {
+            string t = text.TrimStart('-', '+');
+            int e = t.IndexOfAny(new[] { 'e', 'E' });
+            exp10 = e < 0 ? 0 : int.Parse(t.Substring(e + 1), NumberStyles.AllowLeadingSign, CultureInfo.InvariantCulture);
+            string mant = e < 0 ? t : t.Substring(0, e);
+            int dot = mant.IndexOf('.');
+            if (dot >= 0)
+            {
+                exp10 -= mant.Length - dot - 1;
+                mant = mant.Remove(dot, 1);
+            }
+            digits = BigInteger.Parse(mant, CultureInfo.InvariantCulture);
+        }
+
+        // Compares digits·10^exp10 with the midpoint between the positive finite double of `bits`
+        // and its upper (`up`) or lower neighbour: -1, 0 or 1.
+        static int CompareToMidpoint(BigInteger digits, int exp10, long bits, bool up)
+        {
+            int field = (int)(bits >> 52);
+            long frac = bits & ((1L << 52) - 1);
+            long m = field == 0 ? frac : frac | (1L << 52);
+            int k = field == 0 ? -1074 : field - 1075;
+            // The midpoint n·2^p: (2m ± 1)·2^(k−1), or (4m − 1)·2^(k−2) below a binade's first double.
+            BigInteger n;
+            int p;
+            if (up) { n = 2 * (BigInteger)m + 1; p = k - 1; }
+            else if (frac == 0 && field > 1) { n = 4 * (BigInteger)m - 1; p = k - 2; }
+            else { n = 2 * (BigInteger)m - 1; p = k - 1; }
+            BigInteger l = digits, r = n;
+            if (exp10 >= 0) l *= BigInteger.Pow(10, exp10); else r *= BigInteger.Pow(10, -exp10);
+            if (p >= 0) r <<= p; else l <<= -p;
+            return l.CompareTo(r);
         }
 
         static bool Word(string s, ref int i, string w)
@@ -137,7 +203,9 @@ namespace Swell
         {
             if (double.IsNaN(x) || double.IsInfinity(x)) throw new ArgumentException("JSON has no " + x);
             string r = x.ToString("R", CultureInfo.InvariantCulture);
-            if (BitConverter.DoubleToInt64Bits(double.Parse(r, CultureInfo.InvariantCulture)) != BitConverter.DoubleToInt64Bits(x))
+            // Checked with the exact reader: Mono's "R" is checked with its own double.Parse, so
+            // it can give 15 digits that read back (correctly) to a neighbour.
+            if (BitConverter.DoubleToInt64Bits(ParseDouble(r)) != BitConverter.DoubleToInt64Bits(x))
                 r = x.ToString("G17", CultureInfo.InvariantCulture);
             return r;
         }

@@ -100,6 +100,29 @@ namespace Swell.Tests
                 }
             });
 
+            Runner.T("JSON numbers read to the nearest double (Mono's double.Parse does not, 1 in ~3,600)", () =>
+            {
+                // Shortest forms another runtime's double.Parse read one ulp off (found against
+                // Python's correctly rounded float()); the bits are the nearest doubles.
+                Runner.Equal(unchecked((long)0xc0045dd1ee5e85c5UL), BitConverter.DoubleToInt64Bits(Json.ParseDouble("-2.545810568103408")), "-2.545810568103408");
+                Runner.Equal(unchecked((long)0xbfe9228e8fbf8561UL), BitConverter.DoubleToInt64Bits(Json.ParseDouble("-0.78546836925322")), "-0.78546836925322");
+                Runner.Equal(unchecked((long)0xc005d97c779cd70dUL), BitConverter.DoubleToInt64Bits(Json.ParseDouble("-2.731194433664206")), "-2.731194433664206");
+                // Ties to even, subnormals, binade edges, exponents.
+                Runner.Equal(BitConverter.DoubleToInt64Bits(9007199254740992.0), BitConverter.DoubleToInt64Bits(Json.ParseDouble("9007199254740993")), "2^53 + 1 (tie, to even)");
+                Runner.Equal(BitConverter.DoubleToInt64Bits(9007199254740996.0), BitConverter.DoubleToInt64Bits(Json.ParseDouble("9007199254740995")), "2^53 + 3 (tie, to even)");
+                Runner.Equal(1L, BitConverter.DoubleToInt64Bits(Json.ParseDouble("4.9406564584124654e-324")), "least subnormal");
+                Runner.Equal(BitConverter.DoubleToInt64Bits(1.0), BitConverter.DoubleToInt64Bits(Json.ParseDouble("1.00000000000000011102230246251565404236316680908203125")), "1 + half an ulp (tie, to even)");
+                Runner.Equal(BitConverter.DoubleToInt64Bits(1e300), BitConverter.DoubleToInt64Bits(Json.ParseDouble("1E300")), "1E300");
+                // What Json.Number writes reads back, over magnitudes the wire carries.
+                var rng = new Random(28);
+                for (int i = 0; i < 100000; i++)
+                {
+                    double x = (rng.NextDouble() * 2 - 1) * Math.PI * Math.Pow(10, rng.Next(-8, 9));
+                    string r = Json.Number(x);
+                    Runner.Equal(BitConverter.DoubleToInt64Bits(x), BitConverter.DoubleToInt64Bits(Json.ParseDouble(r)), r);
+                }
+            });
+
             Runner.T("JSON numbers round-trip to the bit", () =>
             {
                 var rng = new Random(5);
