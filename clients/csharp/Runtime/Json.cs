@@ -84,18 +84,30 @@ namespace Swell
         }
 
         /// <summary>
-        /// A decimal number (JSON's grammar) to the nearest double, ties to even: the runtime's
-        /// double.Parse, then moved by an ulp while the decimal's exact value lies beyond the
+        /// A decimal number (JSON's grammar) to the nearest double, ties to even. Numbers of at
+        /// most 2^53 in their digits and a power of ten within ±22 are one correctly rounded
+        /// multiplication or division of two exact doubles (Clinger's fast path: most of what
+        /// the server writes, at the cost of double.Parse); the rest take the runtime's
+        /// double.Parse, then move by an ulp while the decimal's exact value lies beyond the
         /// midpoint to a neighbour (compared exactly, in integers).
         /// </summary>
         /// <exception cref="FormatException">Not a number.</exception>
         public static double ParseDouble(string text)
         {
+            bool negative;
+            ulong small;
+            int exp10;
+            bool fits = Decimal(text, out negative, out small, out exp10);
+            if (fits && small == 0) return negative ? -0.0 : 0.0;
+            if (fits && small <= (1UL << 53) && exp10 >= -22 && exp10 <= 22)
+            {
+                double d = small;
+                d = exp10 >= 0 ? d * ExactPow10[exp10] : d / ExactPow10[-exp10];
+                return negative ? -d : d;
+            }
             double x = double.Parse(text, NumberStyles.Float, CultureInfo.InvariantCulture);
             if (x == 0 || double.IsInfinity(x) || double.IsNaN(x)) return x;
-            BigInteger digits;
-            int exp10;
-            Decimal(text, out digits, out exp10);
+            BigInteger digits = fits ? new BigInteger(small) : LongDecimal(text, out exp10);
             double a = Math.Abs(x);
             for (int step = 0; step < 4; step++)
             {
@@ -110,8 +122,39 @@ namespace Swell
             return x < 0 ? -a : a;
         }
 
-        // |text| = digits · 10^exp10.
-        static void Decimal(string text, out BigInteger digits, out int exp10)
+        // 10^0 … 10^22: every one an exact double.
+        static readonly double[] ExactPow10 =
+        {
+            1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+            1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+        };
+
+        // |text| = small · 10^exp10, read without allocating; false when its digits (leading
+        // zeros aside) do not fit a ulong (then LongDecimal reads it).
+        static bool Decimal(string text, out bool negative, out ulong small, out int exp10)
+        {
+            negative = false;
+            small = 0;
+            exp10 = 0;
+            int i = 0, n = text.Length;
+            if (i < n && (text[i] == '-' || text[i] == '+')) negative = text[i++] == '-';
+            bool fits = true, dot = false;
+            for (; i < n; i++)
+            {
+                char c = text[i];
+                if (c == '.') { dot = true; continue; }
+                if (c < '0' || c > '9') break;
+                if (dot) exp10--;
+                if (small > (ulong.MaxValue - 9) / 10) { fits = false; continue; }
+                small = small * 10 + (ulong)(c - '0');
+            }
+            if (i < n && (text[i] == 'e' || text[i] == 'E'))
+                exp10 += int.Parse(text.Substring(i + 1), NumberStyles.AllowLeadingSign, CultureInfo.InvariantCulture);
+            return fits;
+        }
+
+        // |text| = digits · 10^exp10, for a decimal with more digits than a ulong holds.
+        static BigInteger LongDecimal(string text, out int exp10)
         {
             string t = text.TrimStart('-', '+');
             int e = t.IndexOfAny(new[] { 'e', 'E' });
@@ -123,7 +166,7 @@ namespace Swell
                 exp10 -= mant.Length - dot - 1;
                 mant = mant.Remove(dot, 1);
             }
-            digits = BigInteger.Parse(mant, CultureInfo.InvariantCulture);
+            return BigInteger.Parse(mant, CultureInfo.InvariantCulture);
         }
 
         // Compares digits·10^exp10 with the midpoint between the positive finite double of `bits`
@@ -141,9 +184,23 @@ namespace Swell
             else if (frac == 0 && field > 1) { n = 4 * (BigInteger)m - 1; p = k - 2; }
             else { n = 2 * (BigInteger)m - 1; p = k - 1; }
             BigInteger l = digits, r = n;
-            if (exp10 >= 0) l *= BigInteger.Pow(10, exp10); else r *= BigInteger.Pow(10, -exp10);
+            if (exp10 >= 0) l *= Pow10(exp10); else r *= Pow10(-exp10);
             if (p >= 0) r <<= p; else l <<= -p;
             return l.CompareTo(r);
+        }
+
+        // 10^e as an integer, cached (JSON numbers reach e ≈ 343; each is made once).
+        static readonly BigInteger[] Pow10Cache = new BigInteger[400];
+        static readonly bool[] Pow10Made = new bool[400];
+
+        static BigInteger Pow10(int e)
+        {
+            if (e >= Pow10Cache.Length) return BigInteger.Pow(10, e);
+            lock (Pow10Cache)
+            {
+                if (!Pow10Made[e]) { Pow10Cache[e] = BigInteger.Pow(10, e); Pow10Made[e] = true; }
+                return Pow10Cache[e];
+            }
         }
 
         static bool Word(string s, ref int i, string w)
