@@ -229,11 +229,12 @@ fn paths_of(f: &File, children: &BTreeSet<String>) -> Vec<Vec<String>> {
 }
 
 /// The file-level import graph of `src/`: file → files it imports.
-fn graph() -> BTreeMap<String, BTreeSet<String>> {
+/// Every file under `src/`, its path relative to it and its code without comments.
+fn sources() -> Vec<File> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut paths = Vec::new();
     walk(&src, &mut paths);
-    let files: Vec<File> = paths
+    paths
         .iter()
         .map(|p| {
             let rel = p
@@ -247,6 +248,12 @@ fn graph() -> BTreeMap<String, BTreeSet<String>> {
                 rel,
             }
         })
+        .collect()
+}
+
+fn graph() -> BTreeMap<String, BTreeSet<String>> {
+    let files: Vec<File> = sources()
+        .into_iter()
         .filter(|f| f.rel != "main.rs") // the binary, a crate of its own
         .collect();
     let by_module: BTreeMap<Vec<String>, String> = files
@@ -443,26 +450,17 @@ fn the_layers_point_down() {
 
 #[test]
 fn only_the_top_layer_names_app_state() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut paths = Vec::new();
-    walk(&src, &mut paths);
-    let mut naming = Vec::new();
-    for p in &paths {
-        let rel = p
-            .strip_prefix(&src)
-            .unwrap()
-            .to_string_lossy()
-            .replace('\\', "/");
-        let code = code_of(&std::fs::read_to_string(p).unwrap());
-        if code.contains("AppState") {
-            naming.push(rel);
-        }
-    }
+    let files = sources();
+    let mut naming: Vec<String> = files
+        .iter()
+        .filter(|f| f.code.contains("AppState"))
+        .map(|f| f.rel.clone())
+        .collect();
     naming.sort();
     println!(
         "{} of {} files name AppState: {naming:?}",
         naming.len(),
-        paths.len()
+        files.len()
     );
     let allowed = ["state", "api", "stream", "service", "store"];
     let wrong: Vec<&String> = naming
@@ -480,26 +478,17 @@ fn only_the_top_layer_names_app_state() {
 /// test may check what a client would see).
 #[test]
 fn the_domain_names_no_api_error() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut paths = Vec::new();
-    walk(&src, &mut paths);
     let domain = ["scene", "bodies", "impacts", "frames", "journal"];
     let mut checked = 0;
     let mut naming = Vec::new();
-    for p in &paths {
-        let rel = p
-            .strip_prefix(&src)
-            .unwrap()
-            .to_string_lossy()
-            .replace('\\', "/");
-        if !domain.iter().any(|m| in_module(&rel, m)) {
+    for f in sources() {
+        if !domain.iter().any(|m| in_module(&f.rel, m)) {
             continue;
         }
         checked += 1;
-        let code = code_of(&std::fs::read_to_string(p).unwrap());
         for name in ["ApiError", "ErrorCode"] {
-            if code.contains(name) {
-                naming.push(format!("{rel} names {name}"));
+            if f.code.contains(name) {
+                naming.push(format!("{} names {name}", f.rel));
             }
         }
     }

@@ -257,6 +257,36 @@ impl SampleResponse {
             + self.residual.as_ref().map_or(0, Vec::len)
     }
 
+    /// A seeded answer for encoder tests: `n` points, the arrays whose bit is set in `mask` (1
+    /// height, 2 normal, 4 displacement, 8 jacobian and folded, 16 residual), numbers drawn from
+    /// integers, tiny and large magnitudes and arbitrary finite bit patterns.
+    #[cfg(test)]
+    pub fn seeded(rng: &mut swell_waves::math::SwellRng, n: usize, mask: u32) -> SampleResponse {
+        let mut f = || -> f64 {
+            let u = rng.uniform() * 2.0 - 1.0;
+            match rng.next_u32() % 4 {
+                0 => (u * 3.0).round(),
+                1 => u * 1e-300,
+                2 => u * 1e6,
+                _ => f64::from_bits(rng.next_u64() >> 2) * u.signum(),
+            }
+        };
+        let t = f();
+        let mut v = |on: bool, k: usize| on.then(|| (0..n * k).map(|_| f()).collect::<Vec<_>>());
+        let triples = |v: Option<Vec<f64>>| {
+            v.map(|v| v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+        };
+        SampleResponse {
+            t,
+            height: v(mask & 1 != 0, 1),
+            normal: triples(v(mask & 2 != 0, 3)),
+            displacement: triples(v(mask & 4 != 0, 3)),
+            jacobian: v(mask & 8 != 0, 1),
+            folded: (mask & 8 != 0).then(|| (0..n).map(|i| i % 3 == 0).collect()),
+            residual: v(mask & 16 != 0, 1),
+        }
+    }
+
     /// Appends `results`, in order, to each array the answer has.
     pub fn extend(&mut self, results: &[swell_waves::PointResult]) {
         if let Some(v) = &mut self.height {

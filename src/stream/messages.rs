@@ -416,12 +416,8 @@ pub fn encode_json(out: &Outgoing) -> String {
             kind: "sample_result",
         };
         // Sized once: 25 bytes a number at most.
-        let numbers = r.height.as_ref().map_or(0, Vec::len)
-            + 3 * r.normal.as_ref().map_or(0, Vec::len)
-            + 3 * r.displacement.as_ref().map_or(0, Vec::len)
-            + 2 * r.jacobian.as_ref().map_or(0, Vec::len)
-            + r.residual.as_ref().map_or(0, Vec::len);
-        let mut buf = Vec::with_capacity(128 + numbers * crate::service::types::JSON_NUMBER_BYTES);
+        let mut buf =
+            Vec::with_capacity(128 + r.numbers() * crate::service::types::JSON_NUMBER_BYTES);
         if serde_json::to_writer(&mut buf, &json).is_ok()
             && let Ok(text) = String::from_utf8(buf)
         {
@@ -511,38 +507,8 @@ mod tests {
     fn a_sample_answer_is_encoded_as_the_generic_path_encodes_it() {
         let mut rng = swell_waves::math::SwellRng::new(28, 0);
         for round in 0..200 {
-            let n = rng.next_u32() % 20;
-            // Integers, tiny and large magnitudes, arbitrary finite bit patterns.
-            let mut f = || -> f64 {
-                let u = rng.uniform() * 2.0 - 1.0;
-                match rng.next_u32() % 4 {
-                    0 => (u * 3.0).round(),
-                    1 => u * 1e-300,
-                    2 => u * 1e6,
-                    _ => f64::from_bits(rng.next_u64() >> 2) * u.signum(),
-                }
-            };
-            let mut r = SampleResponse {
-                t: f(),
-                ..Default::default()
-            };
-            let mask = round % 32;
-            if mask & 1 != 0 {
-                r.height = Some((0..n).map(|_| f()).collect());
-            }
-            if mask & 2 != 0 {
-                r.normal = Some((0..n).map(|_| [f(), f(), f()]).collect());
-            }
-            if mask & 4 != 0 {
-                r.displacement = Some((0..n).map(|_| [f(), f(), f()]).collect());
-            }
-            if mask & 8 != 0 {
-                r.jacobian = Some((0..n).map(|_| f()).collect());
-                r.folded = Some((0..n).map(|i| i % 3 == 0).collect());
-            }
-            if mask & 16 != 0 {
-                r.residual = Some((0..n).map(|_| f()).collect());
-            }
+            let n = (rng.next_u32() % 20) as usize;
+            let r = SampleResponse::seeded(&mut rng, n, round % 32);
             let id = (round % 3 != 0).then_some(round as u64);
             let out = Outgoing {
                 id,

@@ -5,28 +5,14 @@
 //!
 //! Run: `cargo bench -p swell-waves --bench impacts` (add `-- --quick` for a fast pass).
 
+mod common;
+
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec2;
-use serde_json::json;
 use swell_waves::particles::{Impact, Impacts};
-use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec};
-
-/// The built-in `harbour` scene's layers.
-fn harbour() -> Surface {
-    let spec: SurfaceSpec = serde_json::from_value(json!({"layers": [
-        {"kind": "gerstner", "waves": [
-            {"amplitude": 0.12, "wavelength": 26, "direction": [1, 0.3], "steepness": 0.4},
-            {"amplitude": 0.05, "wavelength": 9, "direction": [0.2, 1], "steepness": 0.4, "phase": 1.3}
-        ]},
-        {"kind": "particles", "count": 512, "tile_size": 32, "radius": 1.0, "amplitude": 0.03,
-         "scales": [0.33, 0.66, 1.0],
-         "ripples": {"particles": 8, "decay": 30, "floor": 0.0001, "lifetime": 60}}
-    ]}))
-    .unwrap();
-    Surface::new(&spec).unwrap()
-}
+use swell_waves::{QueryFields, QueryOptions};
 
 /// 2,000 points on a 50 × 40 grid, 2 m apart.
 fn points() -> Vec<DVec2> {
@@ -53,7 +39,7 @@ pub fn big_impacts(n: usize, t: f64) -> Impacts {
 }
 
 fn impacts(c: &mut Criterion) {
-    let s = harbour();
+    let s = common::harbour();
     let pts = points();
     let t = 1000.0;
     let mut g = c.benchmark_group("impacts");

@@ -7,40 +7,14 @@
 //!
 //! Run: `cargo bench -p swell-waves --bench point` (add `-- --quick` for a fast pass).
 
+mod common;
+
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec2;
-use serde_json::json;
 use swell_waves::math::SwellRng;
-use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec};
-
-fn surface(v: serde_json::Value) -> Surface {
-    let spec: SurfaceSpec = serde_json::from_value(v).unwrap();
-    Surface::new(&spec).unwrap()
-}
-
-/// The built-in `harbour` scene's surface (src/scene/builtin.rs).
-fn harbour() -> Surface {
-    surface(json!({"seed": 21, "layers": [
-        {"kind": "gerstner", "waves": [
-            {"amplitude": 0.12, "wavelength": 26, "direction": [1, 0.3], "steepness": 0.4},
-            {"amplitude": 0.05, "wavelength": 9, "direction": [0.2, 1], "steepness": 0.4, "phase": 1.3}
-        ]},
-        {"kind": "particles", "count": 512, "tile_size": 32, "radius": 1.0, "amplitude": 0.03,
-         "scales": [0.33, 0.66, 1.0],
-         "ripples": {"particles": 8, "decay": 30, "floor": 0.0001, "lifetime": 60}}
-    ]}))
-}
-
-/// The built-in `lake` scene's surface.
-fn lake() -> Surface {
-    surface(json!({"seed": 7, "depth": 12, "layers": [
-        {"kind": "gerstner",
-         "waves": [{"amplitude": 0.25, "wavelength": 22, "direction": [1, 0.4], "steepness": 0.5}],
-         "cascade": {"wavelength": 8, "amplitude": 0.08, "steepness": 0.5, "direction": [1, 0.4]}}
-    ]}))
-}
+use swell_waves::{QueryFields, QueryOptions};
 
 /// 1,024 seeded points in a 400 m square.
 fn points() -> Vec<DVec2> {
@@ -53,7 +27,7 @@ fn points() -> Vec<DVec2> {
 fn point(c: &mut Criterion) {
     let pts = points();
     let mut g = c.benchmark_group("point_height_now");
-    for (name, s) in [("lake", lake()), ("harbour", harbour())] {
+    for (name, s) in [("lake", common::lake()), ("harbour", common::harbour())] {
         let (mut t, mut i) = (1.0e6, 0usize);
         g.bench_function(name, |b| {
             b.iter(|| {

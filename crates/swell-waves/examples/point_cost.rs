@@ -12,12 +12,15 @@
 //! (instructions for n queries − for 0) / n is one query's count. A third argument k asks k
 //! points of each snapshot (a small batch) instead of one.
 
+// The built-in scenes' surfaces, shared with the benches.
+#[path = "../benches/common/mod.rs"]
+mod common;
+
 use std::hint::black_box;
 
 use glam::DVec2;
-use serde_json::json;
 use swell_waves::math::SwellRng;
-use swell_waves::{QueryFields, QueryOptions, Surface, SurfaceSpec};
+use swell_waves::{QueryFields, QueryOptions};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -26,26 +29,11 @@ fn main() {
     let k: usize = args
         .next()
         .map_or(1, |s| s.parse().expect("points per snapshot"));
-    // The built-in scenes' surfaces (src/scene/builtin.rs).
-    let spec = match scene.as_str() {
-        "harbour" => json!({"seed": 21, "layers": [
-            {"kind": "gerstner", "waves": [
-                {"amplitude": 0.12, "wavelength": 26, "direction": [1, 0.3], "steepness": 0.4},
-                {"amplitude": 0.05, "wavelength": 9, "direction": [0.2, 1], "steepness": 0.4, "phase": 1.3}
-            ]},
-            {"kind": "particles", "count": 512, "tile_size": 32, "radius": 1.0, "amplitude": 0.03,
-             "scales": [0.33, 0.66, 1.0],
-             "ripples": {"particles": 8, "decay": 30, "floor": 0.0001, "lifetime": 60}}
-        ]}),
-        "lake" => json!({"seed": 7, "depth": 12, "layers": [
-            {"kind": "gerstner",
-             "waves": [{"amplitude": 0.25, "wavelength": 22, "direction": [1, 0.4], "steepness": 0.5}],
-             "cascade": {"wavelength": 8, "amplitude": 0.08, "steepness": 0.5, "direction": [1, 0.4]}}
-        ]}),
+    let s = match scene.as_str() {
+        "harbour" => common::harbour(),
+        "lake" => common::lake(),
         other => panic!("harbour or lake, not {other}"),
     };
-    let spec: SurfaceSpec = serde_json::from_value(spec).expect("spec");
-    let s = Surface::new(&spec).expect("surface");
     let mut rng = SwellRng::new(29, 4);
     let mut t = 1.0e6;
     let mut sum = 0.0;
