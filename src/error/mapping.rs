@@ -1,12 +1,15 @@
 //! The one mapping from each lower layer's error to [`ApiError`]: the domain says what went
-//! wrong ([`SceneError`], [`BodyError`]), the JSON decoder where ([`JsonError`]), the answer
-//! guard which number was not finite ([`NonFinite`]); here, and
-//! only here, each becomes the code, status, message and field a client sees. Callers above the
+//! wrong ([`SceneError`], [`BodyError`]), the query service which field or limit
+//! ([`QueryError`], [`ClockUpdateError`], [`TimeOutOfRange`]), the JSON decoder where
+//! ([`JsonError`]), the answer guard which number was not finite ([`NonFinite`]); here, and only
+//! here, each becomes the code, status, message and field a client sees. Callers above the
 //! domain keep using `?`.
 
 use super::{ApiError, ErrorCode};
 use crate::bodies::BodyError;
+use crate::config::TimeOutOfRange;
 use crate::scene::SceneError;
+use crate::service::error::{ClockUpdateError, QueryError};
 use crate::service::finite::NonFinite;
 use crate::service::json::JsonError;
 
@@ -52,5 +55,47 @@ impl From<BodyError> for ApiError {
 impl From<NonFinite> for ApiError {
     fn from(nf: NonFinite) -> Self {
         ApiError::non_finite(&nf)
+    }
+}
+
+/// 400 `invalid_value` naming the time's field.
+impl From<TimeOutOfRange> for ApiError {
+    fn from(e: TimeOutOfRange) -> Self {
+        ApiError::invalid(e.field.clone(), e.to_string())
+    }
+}
+
+/// 400 `invalid_value` naming `t` or `rate`.
+impl From<ClockUpdateError> for ApiError {
+    fn from(e: ClockUpdateError) -> Self {
+        ApiError::invalid(e.field().to_owned(), e.to_string())
+    }
+}
+
+/// Too many points or probes is 413 `too_many_points`, too many bodies 413 `too_many_bodies`
+/// (naming `bodies`); a name in `fields` that is not a field 400 `unknown_field`; a bad
+/// coordinate, yaw, time or query setting 400 `invalid_value` at its field; a query past its
+/// deadline 503 `timeout`; a failed query task 500 `internal` (logged, not sent).
+impl From<QueryError> for ApiError {
+    fn from(e: QueryError) -> Self {
+        let field = e.field().unwrap_or_default();
+        match e {
+            QueryError::TooManyPoints { .. } => {
+                ApiError::new(ErrorCode::TooManyPoints, e.to_string())
+            }
+            QueryError::TooManyBodies { .. } => {
+                ApiError::new(ErrorCode::TooManyBodies, e.to_string())
+            }
+            QueryError::UnknownField { .. } => {
+                ApiError::new(ErrorCode::UnknownField, e.to_string())
+            }
+            QueryError::Coordinate { .. }
+            | QueryError::Yaw { .. }
+            | QueryError::Time(_)
+            | QueryError::Rejected(_) => ApiError::new(ErrorCode::InvalidValue, e.to_string()),
+            QueryError::Timeout { .. } => ApiError::new(ErrorCode::Timeout, e.to_string()),
+            QueryError::Task(detail) => return ApiError::internal(detail),
+        }
+        .with_field(field)
     }
 }

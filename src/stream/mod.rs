@@ -74,6 +74,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::error::{ApiError, ErrorCode};
 use crate::peers::{Budget, Charge};
+use crate::service::error::QueryError;
 use crate::service::json::DECODE_OFF_REACTOR_BYTES;
 use crate::service::query::{
     At, orientation_probes, orientation_request_bytes, resolve_time, run_orientation, run_sample,
@@ -944,7 +945,7 @@ fn query(
     permits: &Arc<Semaphore>,
     Asked { id, t, bytes }: Asked,
     inline: impl FnOnce(&AppState, &crate::scene::Scene, At) -> bool,
-    run: impl FnOnce(&AppState, &crate::scene::Scene, At) -> Result<Event, ApiError> + Send + 'static,
+    run: impl FnOnce(&AppState, &crate::scene::Scene, At) -> Result<Event, QueryError> + Send + 'static,
 ) {
     let Ok(permit) = Arc::clone(permits).try_acquire_owned() else {
         queue.error(
@@ -969,7 +970,7 @@ fn query(
         drop(permit);
         match run(state, &scene, at) {
             Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
-            Err(e) => queue.error(id, e),
+            Err(e) => queue.error(id, e.into()),
         }
         return;
     }
@@ -978,12 +979,12 @@ fn query(
     state.tasks.spawn(async move {
         let result = tokio::task::spawn_blocking(move || run(&st, &scene, at))
             .await
-            .map_err(ApiError::internal)
+            .map_err(|e| QueryError::Task(e.to_string()))
             .and_then(|r| r);
         drop(permit);
         match result {
             Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
-            Err(e) => queue.error(id, e),
+            Err(e) => queue.error(id, e.into()),
         }
     });
 }
