@@ -1,13 +1,14 @@
 //! The one mapping from each lower layer's error to [`ApiError`]: the domain says what went
 //! wrong ([`SceneError`], [`BodyError`]), the query service which field or limit
-//! ([`QueryError`], [`ClockUpdateError`], [`TimeOutOfRange`]), the JSON decoder where
-//! ([`JsonError`]), the answer guard which number was not finite ([`NonFinite`]); here, and only
-//! here, each becomes the code, status, message and field a client sees. Callers above the
-//! domain keep using `?`.
+//! ([`QueryError`], [`ClockUpdateError`], [`TimeOutOfRange`]), the byte budget which limit
+//! ([`OverBudget`], [`ReserveRefused`]), the JSON decoder where ([`JsonError`]), the answer
+//! guard which number was not finite ([`NonFinite`]); here, and only here, each becomes the
+//! code, status, message and field a client sees. Callers above the domain keep using `?`.
 
 use super::{ApiError, ErrorCode};
 use crate::bodies::BodyError;
 use crate::config::TimeOutOfRange;
+use crate::peers::{OverBudget, ReserveRefused};
 use crate::scene::SceneError;
 use crate::service::error::{ClockUpdateError, QueryError};
 use crate::service::finite::NonFinite;
@@ -97,5 +98,21 @@ impl From<QueryError> for ApiError {
             QueryError::Task(detail) => return ApiError::internal(detail),
         }
         .with_field(field)
+    }
+}
+
+/// 503 `overloaded`: a charge over the byte budget, counted in
+/// `swell_http_buffer_budget_refused_total` (here, where the refusal becomes an answer).
+impl From<OverBudget> for ApiError {
+    fn from(e: OverBudget) -> Self {
+        metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
+        ApiError::overloaded(e.to_string())
+    }
+}
+
+/// 503 `overloaded` naming the bytes asked for and the limit (counted where it was refused).
+impl From<ReserveRefused> for ApiError {
+    fn from(e: ReserveRefused) -> Self {
+        ApiError::overloaded(e.to_string())
     }
 }

@@ -296,7 +296,7 @@ impl Queue {
         match c.reserve(n) {
             Ok(()) => Some(c),
             Err(e) => {
-                self.error(id, e);
+                self.error(id, e.into());
                 None
             }
         }
@@ -320,7 +320,7 @@ impl Queue {
             Ok(()) => self.push_out(Out::Answer(m, charge)),
             Err(which) => {
                 drop((m, charge));
-                self.error(id, which.error());
+                self.error(id, which.into());
             }
         }
     }
