@@ -2,8 +2,9 @@
 //! `{"error":{"code","message","field"?}}` with a fitting status.
 //!
 //! Lower layers return their own errors (`scene::SceneError`, `bodies::BodyError`,
-//! `service::json::JsonError`); `mapping` turns each into an [`ApiError`], so the domain knows
-//! nothing of codes or statuses.
+//! `service::error::QueryError`, `service::json::JsonError`, `wire::convert::ConvertError`, …);
+//! `mapping` turns each into an [`ApiError`], so nothing below the transports knows codes or
+//! statuses. `protobuf` gives an [`ApiError`] its protobuf form.
 //!
 //! Client mistakes (4xx) are logged at `debug` at most; only server faults (5xx) are logged as
 //! errors, and their internals never reach the client.
@@ -15,6 +16,7 @@ use swell_waves::SpecError;
 
 mod code;
 mod mapping;
+mod protobuf;
 pub use code::ErrorCode;
 
 /// A request that could not be answered: a stable machine-readable `code` (which fixes the

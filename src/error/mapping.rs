@@ -1,9 +1,10 @@
 //! The one mapping from each lower layer's error to [`ApiError`]: the domain says what went
 //! wrong ([`SceneError`], [`BodyError`]), the query service which field or limit
 //! ([`QueryError`], [`ClockUpdateError`], [`TimeOutOfRange`]), the byte budget which limit
-//! ([`OverBudget`], [`ReserveRefused`]), the JSON decoder where ([`JsonError`]), the answer
-//! guard which number was not finite ([`NonFinite`]); here, and only here, each becomes the
-//! code, status, message and field a client sees. Callers above the domain keep using `?`.
+//! ([`OverBudget`], [`ReserveRefused`]), the JSON and protobuf decoders where ([`JsonError`],
+//! [`ConvertError`]), the answer guard which number was not finite ([`NonFinite`]); here, and
+//! only here, each becomes the code, status, message and field a client sees. Callers above the
+//! domain keep using `?`.
 
 use super::{ApiError, ErrorCode};
 use crate::bodies::BodyError;
@@ -13,6 +14,7 @@ use crate::scene::SceneError;
 use crate::service::error::{ClockUpdateError, QueryError};
 use crate::service::finite::NonFinite;
 use crate::service::json::JsonError;
+use crate::wire::convert::ConvertError;
 
 /// 400 `bad_json` with the decoder's message and field path.
 impl From<JsonError> for ApiError {
@@ -114,5 +116,12 @@ impl From<OverBudget> for ApiError {
 impl From<ReserveRefused> for ApiError {
     fn from(e: ReserveRefused) -> Self {
         ApiError::overloaded(e.to_string())
+    }
+}
+
+/// 400 `invalid_value` naming the protobuf field that could not be converted.
+impl From<ConvertError> for ApiError {
+    fn from(e: ConvertError) -> Self {
+        ApiError::invalid(e.field().to_owned(), e.to_string())
     }
 }
