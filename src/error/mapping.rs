@@ -1,10 +1,11 @@
 //! The one mapping from each lower layer's error to [`ApiError`]: the domain says what went
-//! wrong ([`SceneError`], [`BodyError`]), the query service which field or limit
-//! ([`QueryError`], [`ClockUpdateError`], [`TimeOutOfRange`]), the byte budget which limit
-//! ([`OverBudget`], [`ReserveRefused`]), the JSON and protobuf decoders where ([`JsonError`],
-//! [`ConvertError`]), the answer guard which number was not finite ([`NonFinite`]); here, and
-//! only here, each becomes the code, status, message and field a client sees. Callers above the
-//! domain keep using `?`.
+//! wrong ([`SceneError`], [`BodyError`]), the registry and its store what they refused
+//! ([`StateError`]), the query service which field or limit ([`QueryError`],
+//! [`ClockUpdateError`], [`TimeOutOfRange`]), the byte budget which limit ([`OverBudget`],
+//! [`ReserveRefused`]), the JSON and protobuf decoders where ([`JsonError`], [`ConvertError`]),
+//! the answer guard which number was not finite ([`NonFinite`]); here, and only here, each
+//! becomes the code, status, message and field a client sees. Callers above the domain keep
+//! using `?`.
 
 use super::{ApiError, ErrorCode};
 use crate::bodies::BodyError;
@@ -14,6 +15,7 @@ use crate::scene::SceneError;
 use crate::service::error::{ClockUpdateError, QueryError};
 use crate::service::finite::NonFinite;
 use crate::service::json::JsonError;
+use crate::state::StateError;
 use crate::wire::convert::ConvertError;
 
 /// 400 `bad_json` with the decoder's message and field path.
@@ -123,5 +125,33 @@ impl From<ReserveRefused> for ApiError {
 impl From<ConvertError> for ApiError {
     fn from(e: ConvertError) -> Self {
         ApiError::invalid(e.field().to_owned(), e.to_string())
+    }
+}
+
+/// An unknown scene is 404 `not_found` (also when a concurrent change through another replica
+/// removed it); a new scene past `max_scenes` 409 `too_many_scenes`; FFT frames past
+/// `max_fft_bytes` 422 `fft_budget` naming `layers`; an impact past a limit 409
+/// `too_many_impacts`, one the model rejects 400 `invalid_value` at its field; an unreachable
+/// shared store 503 `store_unavailable`; a fault on our side 500 `internal` (its detail was
+/// logged where it happened and is not sent). Scene, body and clock errors map as their own.
+impl From<StateError> for ApiError {
+    fn from(e: StateError) -> Self {
+        match e {
+            StateError::SceneNotFound { id } => ApiError::scene_not_found(&id),
+            StateError::SceneGone { .. } => ApiError::new(ErrorCode::NotFound, e.to_string()),
+            StateError::TooManyScenes { .. } => {
+                ApiError::new(ErrorCode::TooManyScenes, e.to_string())
+            }
+            StateError::FftBudget { .. } => {
+                ApiError::new(ErrorCode::FftBudget, e.to_string()).with_field("layers")
+            }
+            StateError::Scene(e) => e.into(),
+            StateError::Body(e) => e.into(),
+            StateError::Clock(e) => e.into(),
+            StateError::TooManyImpacts(why) => ApiError::new(ErrorCode::TooManyImpacts, why),
+            StateError::ImpactRejected(e) => ApiError::invalid(e.field(), e.to_string()),
+            StateError::StoreUnavailable(why) => ApiError::new(ErrorCode::StoreUnavailable, why),
+            StateError::Internal(_) => ApiError::new(ErrorCode::Internal, "internal server error"),
+        }
     }
 }

@@ -845,7 +845,7 @@ fn handle(
                     },
                 });
             }
-            Err(e) => queue.error(id, e),
+            Err(e) => queue.error(id, e.into()),
         },
         Request::Subscribe {
             ticks,
@@ -860,7 +860,7 @@ fn handle(
                 *subscribed = false;
                 queue.push_out(Out::Unsubscribe);
             } else if let Err(e) = state.scene(scene_id) {
-                queue.error(id, e);
+                queue.error(id, e.into());
             } else {
                 *subscribed = true;
                 queue.push_out(Out::Subscribe(
@@ -961,6 +961,7 @@ fn query(
     };
     let resolved = state
         .scene(scene_id)
+        .map_err(ApiError::from)
         .and_then(|entry| Ok((resolve_time(state, &entry, t)?, Arc::clone(&entry.scene))));
     let (at, scene) = match resolved {
         Ok(v) => v,
