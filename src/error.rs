@@ -89,20 +89,6 @@ impl ApiError {
         Self::new(ErrorCode::InvalidSpec, e.to_string()).with_field(e.field())
     }
 
-    /// 400 `invalid_value` from a model error about a query (times, options, bodies).
-    pub fn invalid_query(e: &SpecError) -> Self {
-        Self::invalid(e.field(), e.to_string())
-    }
-
-    /// 413 `too_many_points`.
-    pub fn too_many_points(field: &str, n: usize, max: usize) -> Self {
-        Self::new(
-            ErrorCode::TooManyPoints,
-            format!("{field} asks for {n} points; at most {max} per request"),
-        )
-        .with_field(field)
-    }
-
     /// 500 `internal`: something failed on our side. The detail is logged, not sent.
     pub fn internal(detail: impl std::fmt::Display) -> Self {
         tracing::error!(%detail, "internal error");
