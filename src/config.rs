@@ -271,22 +271,33 @@ impl Default for SnapshotPolicy {
     }
 }
 
+/// A time from a client that is not finite or is beyond [`Limits::max_time`]
+/// ([`Limits::check_time`]). The `Display` text is the whole message for people.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field} = {t} is out of range: a finite time with |t| <= {max}")]
+pub struct TimeOutOfRange {
+    /// Path of the offending field (`t`, `impacts[0].t`).
+    pub field: String,
+    /// The time as given, s.
+    pub t: f64,
+    /// The largest |t| allowed, s ([`Limits::max_time`]).
+    pub max: f64,
+}
+
 impl Limits {
     /// Checks a time given by a client.
     ///
     /// # Errors
-    /// 400 naming `field` if `t` is not finite or beyond [`Limits::max_time`].
-    pub fn check_time(&self, t: f64, field: &str) -> Result<f64, crate::error::ApiError> {
+    /// [`TimeOutOfRange`] naming `field` if `t` is not finite or beyond [`Limits::max_time`].
+    pub fn check_time(&self, t: f64, field: &str) -> Result<f64, TimeOutOfRange> {
         if t.is_finite() && t.abs() <= self.max_time {
             Ok(t)
         } else {
-            Err(crate::error::ApiError::invalid(
-                field,
-                format!(
-                    "{field} = {t} is out of range: a finite time with |t| <= {}",
-                    self.max_time
-                ),
-            ))
+            Err(TimeOutOfRange {
+                field: field.to_owned(),
+                t,
+                max: self.max_time,
+            })
         }
     }
 

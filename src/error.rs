@@ -2,8 +2,9 @@
 //! `{"error":{"code","message","field"?}}` with a fitting status.
 //!
 //! Lower layers return their own errors (`scene::SceneError`, `bodies::BodyError`,
-//! `service::json::JsonError`); `mapping` turns each into an [`ApiError`], so the domain knows
-//! nothing of codes or statuses.
+//! `service::error::QueryError`, `service::json::JsonError`, `wire::convert::ConvertError`, …);
+//! `mapping` turns each into an [`ApiError`], so nothing below the transports knows codes or
+//! statuses. `protobuf` gives an [`ApiError`] its protobuf form.
 //!
 //! Client mistakes (4xx) are logged at `debug` at most; only server faults (5xx) are logged as
 //! errors, and their internals never reach the client.
@@ -15,6 +16,7 @@ use swell_waves::SpecError;
 
 mod code;
 mod mapping;
+mod protobuf;
 pub use code::ErrorCode;
 
 /// A request that could not be answered: a stable machine-readable `code` (which fixes the
@@ -85,20 +87,6 @@ impl ApiError {
     /// 422 `invalid_spec`: the model rejected a scene spec; message and field are the model's.
     pub fn invalid_spec(e: &SpecError) -> Self {
         Self::new(ErrorCode::InvalidSpec, e.to_string()).with_field(e.field())
-    }
-
-    /// 400 `invalid_value` from a model error about a query (times, options, bodies).
-    pub fn invalid_query(e: &SpecError) -> Self {
-        Self::invalid(e.field(), e.to_string())
-    }
-
-    /// 413 `too_many_points`.
-    pub fn too_many_points(field: &str, n: usize, max: usize) -> Self {
-        Self::new(
-            ErrorCode::TooManyPoints,
-            format!("{field} asks for {n} points; at most {max} per request"),
-        )
-        .with_field(field)
     }
 
     /// 500 `internal`: something failed on our side. The detail is logged, not sent.

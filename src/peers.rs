@@ -13,8 +13,6 @@ use std::time::Instant;
 
 use axum::http::HeaderMap;
 
-use crate::error::ApiError;
-
 /// The TCP peer of a connection, put in every request's extensions by the accept loop
 /// ([`crate::api::serve`]). Requests built in-process (tests driving the `Router` directly) have none
 /// and are treated as an exempt local peer.
@@ -249,30 +247,58 @@ struct BudgetInner {
     peers: HashMap<IpAddr, usize>,
 }
 
-/// Which limit a charge ran into.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Which limit a charge ran into. Its `Display` text is the message a client reads (`crate::error`
+/// maps it to 503 `overloaded`, counted in `swell_http_buffer_budget_refused_total`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum OverBudget {
     /// The server's total ([`crate::Limits::max_buffered_bytes`]).
+    #[error(
+        "the server holds as many request and answer bytes as it allows (max_buffered_bytes); retry shortly"
+    )]
     Total,
     /// This client's share ([`crate::Limits::max_buffered_bytes_per_peer`]).
+    #[error(
+        "this client holds as many request and answer bytes as it may (max_buffered_bytes_per_peer); read your answers or ask for fewer points, then retry"
+    )]
     Peer,
 }
 
 impl OverBudget {
-    /// The 503 `overloaded` for a charge over this limit (HTTP and WebSocket), counted in
-    /// `swell_http_buffer_budget_refused_total`.
-    pub fn error(self) -> ApiError {
-        metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
-        let msg = match self {
-            OverBudget::Total => {
-                "the server holds as many request and answer bytes as it allows (max_buffered_bytes); retry shortly"
-            }
-            OverBudget::Peer => {
-                "this client holds as many request and answer bytes as it may (max_buffered_bytes_per_peer); read your answers or ask for fewer points, then retry"
-            }
-        };
-        ApiError::overloaded(msg)
+    /// The limit's name in the configuration.
+    #[must_use]
+    pub fn limit_name(self) -> &'static str {
+        match self {
+            OverBudget::Total => "max_buffered_bytes",
+            OverBudget::Peer => "max_buffered_bytes_per_peer",
+        }
     }
+
+    /// Whose bytes the limit bounds, in words.
+    #[must_use]
+    pub fn whose(self) -> &'static str {
+        match self {
+            OverBudget::Total => "the server",
+            OverBudget::Peer => "one client",
+        }
+    }
+}
+
+/// A query's reservation ([`Charge::reserve`]) that would take its holder past a limit: the
+/// bytes asked for, the limit and its value. Nothing was charged. `crate::error` maps it to
+/// 503 `overloaded`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "answering this request would hold {n} more bytes until the answer is sent, over what {} may hold at once ({} = {max}); ask for fewer points or fields, or read the answers already sent, then retry",
+    which.whose(),
+    which.limit_name()
+)]
+pub struct ReserveRefused {
+    /// Bytes asked for.
+    pub n: usize,
+    /// The limit it ran into.
+    pub which: OverBudget,
+    /// That limit's value, bytes.
+    pub max: usize,
 }
 
 impl Budget {
@@ -339,21 +365,16 @@ impl Charge {
     /// [`Charge::grow`] for a query's work and answer before it runs.
     ///
     /// # Errors
-    /// 503 `overloaded` naming the bytes asked for and the limit they would exceed.
-    pub fn reserve(&mut self, n: usize) -> Result<(), ApiError> {
+    /// [`ReserveRefused`] naming the bytes asked for and the limit they would exceed (counted in
+    /// `swell_http_buffer_budget_refused_total`).
+    pub fn reserve(&mut self, n: usize) -> Result<(), ReserveRefused> {
         self.grow(n).map_err(|which| {
             metrics::counter!("swell_http_buffer_budget_refused_total").increment(1);
-            let (name, max, whose) = match which {
-                OverBudget::Total => ("max_buffered_bytes", self.budget.max_total, "the server"),
-                OverBudget::Peer => (
-                    "max_buffered_bytes_per_peer",
-                    self.budget.max_peer,
-                    "one client",
-                ),
+            let max = match which {
+                OverBudget::Total => self.budget.max_total,
+                OverBudget::Peer => self.budget.max_peer,
             };
-            ApiError::overloaded(format!(
-                "answering this request would hold {n} more bytes until the answer is sent, over what {whose} may hold at once ({name} = {max}); ask for fewer points or fields, or read the answers already sent, then retry"
-            ))
+            ReserveRefused { n, which, max }
         })
     }
 

@@ -6,6 +6,8 @@
 //!   `api`, `stream` or `wire`;
 //! - no import circle spans more than two files (every strongly connected component of the
 //!   graph has at most two).
+//! - only the transports (`api`, `stream`) and `error` name `ApiError` or `ErrorCode`; every
+//!   layer below returns an error of its own, mapped once in `crate::error::mapping`.
 //!
 //! An arrow `a.rs -> b.rs` is a path in `a.rs` that names `b.rs`'s module or an item in it:
 //! `crate::…` anywhere in code, `super::…`, and `use`/`pub use` of a child module in a module
@@ -497,5 +499,42 @@ fn the_domain_names_no_api_error() {
     assert!(
         naming.is_empty(),
         "domain modules that speak HTTP (return a domain error; map it in crate::error):\n{naming:#?}"
+    );
+}
+
+/// Issue 30: `ApiError` (a code with its HTTP status) is built only where a request is answered.
+/// Before, the query service, the registry, the stores, the byte budget, the protobuf decoder
+/// and the config's time check all built `ApiError`s (15 files outside `api/`), so a layer below
+/// the transports chose HTTP statuses. Now each returns its own error (`QueryError`,
+/// `StateError`, `ReserveRefused`, `ConvertError`, `TimeOutOfRange`, …) and `crate::error`
+/// maps each once. This fails if any other file names `ApiError` or `ErrorCode` again
+/// (comments and `#[cfg(test)]` modules aside: a test may check what a client would see).
+///
+/// Allowed: `api/` and `stream/` (the transports: they answer HTTP requests and WebSocket
+/// messages, and `stream/` writes `error` frames with the same code, message and field as HTTP,
+/// plus the WebSocket-only codes `unknown_type` and `wrong_frame_type`, and refuses upgrades
+/// with HTTP answers), `error.rs` and `error/` (the type, its codes and the mapping), and
+/// `lib.rs` (which re-exports it).
+#[test]
+fn only_the_transports_name_api_error() {
+    let allowed = ["api", "stream", "error"];
+    let mut naming = Vec::new();
+    let files = sources();
+    for f in &files {
+        if f.rel == "lib.rs" || allowed.iter().any(|m| in_module(&f.rel, m)) {
+            continue;
+        }
+        for name in ["ApiError", "ErrorCode"] {
+            if f.code.contains(name) {
+                naming.push(format!("{} names {name}", f.rel));
+            }
+        }
+    }
+    assert!(files.len() > 40, "found only {} files", files.len());
+    naming.sort();
+    assert!(
+        naming.is_empty(),
+        "layers below the transports that speak HTTP (return an error of the layer's own; map \
+         it in crate::error::mapping):\n{naming:#?}"
     );
 }

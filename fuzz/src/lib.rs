@@ -134,9 +134,11 @@ fn assert_answer_lengths(r: &SampleResponse, n: usize) {
     }
 }
 
-/// Panics unless `e` is a client error (4xx): the server blaming itself for a request means a
-/// number went non-finite or an invariant broke.
-pub fn assert_client_error(e: &ApiError) {
+/// Panics unless `e` is a client error (4xx) as the server would answer it (any lower layer's
+/// error, e.g. a `QueryError`, through the server's one mapping into an [`ApiError`]): the
+/// server blaming itself for a request means a number went non-finite or an invariant broke.
+pub fn assert_client_error<E: Clone + Into<ApiError>>(e: &E) {
+    let e: ApiError = e.clone().into();
     assert!(
         e.status().is_client_error(),
         "a request was answered {} {}: {} (field {:?})",

@@ -159,7 +159,7 @@ fn rate_limited(what: &str, retry_after: f64) -> Response {
 }
 
 fn over_budget(which: OverBudget) -> Response {
-    let mut r = which.error().into_response();
+    let mut r = ApiError::from(which).into_response();
     r.headers_mut()
         .insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
     r
@@ -178,7 +178,7 @@ impl Reserve {
     /// 503 `overloaded` naming the budget the request would exceed.
     pub fn bytes(&self, n: usize) -> Result<(), ApiError> {
         match &self.0 {
-            Some(c) => lock(c).reserve(n),
+            Some(c) => Ok(lock(c).reserve(n)?),
             None => Ok(()),
         }
     }

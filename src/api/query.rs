@@ -45,6 +45,7 @@ pub async fn height(
         run_height(&st.frames, &st.limits, &scene, at, q.x, q.z)
     })
     .await
+    .map_err(ApiError::from)
     .map(|r| Reply(format, r))
 }
 
@@ -72,6 +73,7 @@ pub async fn sample(
         run_sample(&st.frames, &st.limits, &scene, at, &req)
     })
     .await
+    .map_err(ApiError::from)
     .map(|r| SampleReply(format, r))
 }
 
@@ -100,5 +102,6 @@ pub async fn orientation(
         run_orientation(&st.frames, &st.limits, &scene, at, &req)
     })
     .await
+    .map_err(ApiError::from)
     .map(|r| Reply(format, r))
 }

@@ -82,14 +82,14 @@ pub trait FromProto: DeserializeOwned + Sized {
 impl FromProto for SampleRequest {
     type Proto = v1::SampleRequest;
     fn from_proto(p: v1::SampleRequest) -> Result<Self, ApiError> {
-        p.try_into()
+        Ok(p.try_into()?)
     }
 }
 
 impl FromProto for OrientationRequest {
     type Proto = v1::OrientationRequest;
     fn from_proto(p: v1::OrientationRequest) -> Result<Self, ApiError> {
-        p.try_into()
+        Ok(p.try_into()?)
     }
 }
 

@@ -5,10 +5,13 @@
 //!
 //! - [`types`] — request and response structs shared by every transport (JSON and protobuf).
 //! - [`query`] — time resolution, field and accuracy parsing, and the blocking `run_*` queries.
+//! - [`error`] — why a query or a clock change was refused ([`error::QueryError`],
+//!   [`error::ClockUpdateError`]); `crate::error` maps them to what a client sees.
 //! - [`json`] — JSON decoding with the path of a bad field in the error.
 //! - [`finite`] — the check every answer passes before it is encoded: no NaN or infinity on
 //!   the wire.
 
+pub mod error;
 pub mod finite;
 pub mod json;
 pub mod query;

@@ -14,12 +14,12 @@ use swell_waves::body::MAX_YAW;
 use swell_waves::{Inversion, QueryFields, QueryOptions};
 
 use crate::config::Limits;
-use crate::error::{ApiError, ErrorCode};
 use crate::frames::FrameCache;
 use crate::scene::{Scene, SceneEntry};
+use crate::service::error::QueryError;
 use crate::service::types::{
-    Accuracy, BodyOrientation, FIELD_NAMES, HeightResponse, OrientationRequest,
-    OrientationResponse, SampleRequest, SampleResponse,
+    Accuracy, BodyOrientation, HeightResponse, OrientationRequest, OrientationResponse,
+    SampleRequest, SampleResponse,
 };
 use crate::state::AppState;
 
@@ -30,23 +30,20 @@ const POINTS_PER_THREAD: usize = 8192;
 /// Checks a time given by a client.
 ///
 /// # Errors
-/// 400 naming `field` if `t` is not finite or beyond `limits.max_time`.
-pub fn check_time(limits: &Limits, t: f64, field: &str) -> Result<f64, ApiError> {
-    limits.check_time(t, field)
+/// [`QueryError::Time`] naming `field` if `t` is not finite or beyond `limits.max_time`.
+pub fn check_time(limits: &Limits, t: f64, field: &str) -> Result<f64, QueryError> {
+    Ok(limits.check_time(t, field)?)
 }
 
-fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f64, ApiError> {
+fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f64, QueryError> {
     if v.is_finite() && v.abs() <= limits.max_coordinate {
         Ok(v)
     } else {
-        let f = field();
-        Err(ApiError::invalid(
-            f.clone(),
-            format!(
-                "{f} = {v} is out of range: a finite coordinate with |x| <= {} m",
-                limits.max_coordinate
-            ),
-        ))
+        Err(QueryError::Coordinate {
+            field: field(),
+            value: v,
+            max: limits.max_coordinate,
+        })
     }
 }
 
@@ -64,7 +61,11 @@ pub struct At {
 ///
 /// # Errors
 /// As [`check_time`].
-pub fn resolve_time(state: &AppState, entry: &SceneEntry, t: Option<f64>) -> Result<At, ApiError> {
+pub fn resolve_time(
+    state: &AppState,
+    entry: &SceneEntry,
+    t: Option<f64>,
+) -> Result<At, QueryError> {
     let now = state.read_clock(entry).t;
     match t {
         Some(t) => Ok(At {
@@ -78,8 +79,8 @@ pub fn resolve_time(state: &AppState, entry: &SceneEntry, t: Option<f64>) -> Res
 /// Parses `fields` names into [`QueryFields`] (default: height).
 ///
 /// # Errors
-/// 400 `unknown_field` naming the first unknown name.
-pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, ApiError> {
+/// [`QueryError::UnknownField`] naming the first unknown name.
+pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, QueryError> {
     let Some(names) = names else {
         return Ok(QueryFields::HEIGHT);
     };
@@ -92,14 +93,10 @@ pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, ApiError> {
             "jacobian" => f.jacobian = true,
             "residual" => f.residual = true,
             other => {
-                return Err(ApiError::new(
-                    ErrorCode::UnknownField,
-                    format!(
-                        "fields[{i}] = {other:?} is not a field; expected one of {}",
-                        FIELD_NAMES.join(", ")
-                    ),
-                )
-                .with_field(format!("fields[{i}]")));
+                return Err(QueryError::UnknownField {
+                    index: i,
+                    name: other.to_owned(),
+                });
             }
         }
     }
@@ -109,8 +106,9 @@ pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, ApiError> {
 /// Query options from the wire's accuracy settings (defaults for whatever is absent).
 ///
 /// # Errors
-/// 400 naming `accuracy.iterations` or `accuracy.tolerance` (the model's check).
-pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
+/// [`QueryError::Rejected`] naming `accuracy.iterations` or `accuracy.tolerance` (the model's
+/// check).
+pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, QueryError> {
     let mut o = QueryOptions::default();
     if let Some(a) = acc {
         let d = Inversion::default();
@@ -129,7 +127,7 @@ pub fn query_options(acc: Option<&Accuracy>) -> Result<QueryOptions, ApiError> {
             o.time = t;
         }
     }
-    o.validate().map_err(|e| ApiError::invalid_query(&e))?;
+    o.validate()?;
     Ok(o)
 }
 
@@ -143,22 +141,23 @@ pub const DEADLINE_BLOCK: usize = 8192;
 /// World point = `origin + point`, added in f64 (and not at all when there is no origin).
 ///
 /// # Errors
-/// 413 too many points; 400 for an unknown field name, bad accuracy, or a non-finite or
-/// out-of-range coordinate; 503 `timeout` when the work runs past `request_timeout_ms`
-/// (checked every [`DEADLINE_BLOCK`] points).
+/// [`QueryError::TooManyPoints`]; [`QueryError::UnknownField`], [`QueryError::Rejected`] (bad
+/// accuracy) or [`QueryError::Coordinate`] (a non-finite or out-of-range coordinate);
+/// [`QueryError::Timeout`] when the work runs past `request_timeout_ms` (checked every
+/// [`DEADLINE_BLOCK`] points).
 pub fn run_sample(
     frames: &FrameCache,
     limits: &Limits,
     scene: &Scene,
     At { t, now }: At,
     req: &SampleRequest,
-) -> Result<SampleResponse, ApiError> {
+) -> Result<SampleResponse, QueryError> {
     if req.points.len() > limits.max_points {
-        return Err(ApiError::too_many_points(
-            "points",
-            req.points.len(),
-            limits.max_points,
-        ));
+        return Err(QueryError::TooManyPoints {
+            field: "points",
+            n: req.points.len(),
+            max: limits.max_points,
+        });
     }
     let fields = parse_fields(req.fields.as_deref())?;
     let options = query_options(req.accuracy.as_ref())?;
@@ -188,11 +187,7 @@ pub fn run_sample(
     let sea = if world.is_empty() {
         None
     } else {
-        Some(
-            frames
-                .surface_at(scene, t, now, fields, &options)
-                .map_err(|e| ApiError::invalid_query(&e))?,
-        )
+        Some(frames.surface_at(scene, t, now, fields, &options)?)
     };
     let threads = (world.len() / POINTS_PER_THREAD).clamp(
         1,
@@ -206,13 +201,9 @@ pub fn run_sample(
         for block in world.chunks(DEADLINE_BLOCK) {
             if std::time::Instant::now() > deadline {
                 metrics::counter!("swell_queries_abandoned_total").increment(1);
-                return Err(ApiError::new(
-                    ErrorCode::Timeout,
-                    format!(
-                        "the sample took longer than {} ms (request_timeout_ms); ask for fewer points",
-                        limits.request_timeout_ms
-                    ),
-                ));
+                return Err(QueryError::Timeout {
+                    ms: limits.request_timeout_ms,
+                });
             }
             // Only a block's results are held at once: the answer's arrays take 8 B a value,
             // a `PointResult` ~90 B whatever was asked.
@@ -270,7 +261,7 @@ pub fn orientation_request_bytes(req: &OrientationRequest, encoded_per_number: u
 /// otherwise. Bit-identical to the same point in [`run_sample`] with default accuracy.
 ///
 /// # Errors
-/// 400 for a non-finite or out-of-range coordinate.
+/// [`QueryError::Coordinate`] for a non-finite or out-of-range coordinate.
 pub fn run_height(
     frames: &FrameCache,
     limits: &Limits,
@@ -278,12 +269,10 @@ pub fn run_height(
     At { t, now }: At,
     x: f64,
     z: f64,
-) -> Result<HeightResponse, ApiError> {
+) -> Result<HeightResponse, QueryError> {
     let x = check_coord(limits, x, || "x".into())?;
     let z = check_coord(limits, z, || "z".into())?;
-    let sea = frames
-        .surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())
-        .map_err(|e| ApiError::invalid_query(&e))?;
+    let sea = frames.surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())?;
     let r = sea.query(DVec2::new(x, z), QueryFields::HEIGHT);
     metrics::counter!("swell_points_sampled_total").increment(1);
     Ok(HeightResponse {
@@ -295,24 +284,21 @@ pub fn run_height(
 /// Orientation of every body at `at`. Blocking unless [`runs_inline`] said otherwise.
 ///
 /// # Errors
-/// 413 too many bodies or probes in total; 400 naming `bodies[i].…` for a bad body.
+/// [`QueryError::TooManyBodies`], or [`QueryError::TooManyPoints`] for too many probes in total;
+/// [`QueryError::Coordinate`], [`QueryError::Yaw`] or [`QueryError::Rejected`] naming
+/// `bodies[i].…` for a bad body.
 pub fn run_orientation(
     frames: &FrameCache,
     limits: &Limits,
     scene: &Scene,
     At { t, now }: At,
     req: &OrientationRequest,
-) -> Result<OrientationResponse, ApiError> {
+) -> Result<OrientationResponse, QueryError> {
     if req.bodies.len() > limits.max_bodies {
-        return Err(ApiError::new(
-            ErrorCode::TooManyBodies,
-            format!(
-                "bodies has {} entries; at most {} per request",
-                req.bodies.len(),
-                limits.max_bodies
-            ),
-        )
-        .with_field("bodies"));
+        return Err(QueryError::TooManyBodies {
+            n: req.bodies.len(),
+            max: limits.max_bodies,
+        });
     }
     // The default footprint has 9 probes.
     let probes: usize = req
@@ -321,39 +307,31 @@ pub fn run_orientation(
         .map(|b| b.probes.as_ref().map_or(9, Vec::len))
         .sum();
     if probes > limits.max_points {
-        return Err(ApiError::too_many_points(
-            "bodies",
-            probes,
-            limits.max_points,
-        ));
+        return Err(QueryError::TooManyPoints {
+            field: "bodies",
+            n: probes,
+            max: limits.max_points,
+        });
     }
     let mut bodies = Vec::with_capacity(req.bodies.len());
     for (i, b) in req.bodies.iter().enumerate() {
         check_coord(limits, b.position[0], || format!("bodies[{i}].position[0]"))?;
         check_coord(limits, b.position[1], || format!("bodies[{i}].position[1]"))?;
         if !(b.yaw.is_finite() && b.yaw.abs() <= MAX_YAW) {
-            return Err(ApiError::invalid(
-                format!("bodies[{i}].yaw"),
-                format!(
-                    "bodies[{i}].yaw = {} is out of range: a finite angle with |yaw| <= {MAX_YAW} rad",
-                    b.yaw
-                ),
-            ));
+            return Err(QueryError::Yaw {
+                field: format!("bodies[{i}].yaw"),
+                value: b.yaw,
+            });
         }
         let fp: swell_waves::body::BodyFootprint = b.clone().into();
         // Validate the footprint now, so no sea is computed for a bad request.
-        fp.probes(&format!("bodies[{i}]"))
-            .map_err(|e| ApiError::invalid_query(&e))?;
+        fp.probes(&format!("bodies[{i}]"))?;
         bodies.push(fp);
     }
-    let sea = frames
-        .surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())
-        .map_err(|e| ApiError::invalid_query(&e))?;
+    let sea = frames.surface_at(scene, t, now, QueryFields::HEIGHT, &QueryOptions::default())?;
     let mut out = Vec::with_capacity(bodies.len());
     for (i, fp) in bodies.iter().enumerate() {
-        let o = fp
-            .orientation(&sea, &format!("bodies[{i}]"))
-            .map_err(|e| ApiError::invalid_query(&e))?;
+        let o = fp.orientation(&sea, &format!("bodies[{i}]"))?;
         out.push(BodyOrientation {
             heave: o.heave,
             rotation: o.rotation.to_array(),
@@ -404,17 +382,21 @@ pub fn sample_runs_inline(frames: &FrameCache, scene: &Scene, at: At, req: &Samp
 }
 
 /// Runs query work: at once when it is cheap (`inline`), else on the blocking pool, off the
-/// reactor.
-pub async fn run_query<T: Send + 'static>(
+/// reactor. The work's error is the caller's choice (a [`QueryError`] or anything a
+/// [`QueryError`] converts into).
+///
+/// # Errors
+/// The work's error; [`QueryError::Task`] (converted) when the blocking task panicked.
+pub async fn run_query<T: Send + 'static, E: From<QueryError> + Send + 'static>(
     inline: bool,
-    f: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
-) -> Result<T, ApiError> {
+    f: impl FnOnce() -> Result<T, E> + Send + 'static,
+) -> Result<T, E> {
     if inline {
         return f();
     }
     tokio::task::spawn_blocking(f)
         .await
-        .map_err(ApiError::internal)?
+        .map_err(|e| E::from(QueryError::Task(e.to_string())))?
 }
 
 /// Probes an orientation request samples: each body's explicit probes, or the default 3×3.

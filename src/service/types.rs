@@ -11,6 +11,7 @@ use swell_waves::fft::SampleFilter;
 
 use crate::scene::SceneSpec;
 use crate::scene::clock::ClockReading;
+use crate::service::error::ClockUpdateError;
 
 /// `GET /v1/scenes` answer.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -69,8 +70,8 @@ impl ClockUpdate {
     /// ([`crate::Limits::check_time`]), `|rate| <=` [`crate::scene::clock::MAX_RATE`].
     ///
     /// # Errors
-    /// 400 naming `t` or `rate`.
-    pub fn validate(&self, limits: &crate::Limits) -> Result<(), crate::error::ApiError> {
+    /// [`ClockUpdateError`] naming `t` or `rate`.
+    pub fn validate(&self, limits: &crate::Limits) -> Result<(), ClockUpdateError> {
         if let Some(t) = self.t {
             limits.check_time(t, "t")?;
         }
@@ -78,10 +79,7 @@ impl ClockUpdate {
         if let Some(r) = self.rate
             && !(r.is_finite() && r.abs() <= max)
         {
-            return Err(crate::error::ApiError::invalid(
-                "rate",
-                format!("rate = {r} is out of range: |rate| <= {max}"),
-            ));
+            return Err(ClockUpdateError::Rate { rate: r, max });
         }
         Ok(())
     }

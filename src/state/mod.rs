@@ -16,10 +16,12 @@
 //! - [`snapshots`] — taking journal snapshots of the registry.
 //! - [`bodies`] — the body loop of a scene on one process.
 //! - [`ahead`] — FFT frames computed before the clock reaches them.
+//! - [`error`] — [`StateError`], why a lookup or change was refused or failed.
 
 pub mod ahead;
 pub mod apply;
 pub mod bodies;
+pub mod error;
 pub mod restore;
 pub mod snapshots;
 pub mod store;
@@ -34,7 +36,6 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 use crate::config::Limits;
-use crate::error::{ApiError, ErrorCode};
 use crate::frames::FrameCache;
 use crate::journal::{Journal, Op, Recovered};
 use crate::scene::clock::{BUILTIN_EPOCH, ClockReading, WallClock};
@@ -43,6 +44,7 @@ use crate::scene::{Clock, Scene, SceneEntry, SceneSpec};
 use crate::service::types::ClockUpdate;
 use crate::stream::registry::Tickers;
 use apply::Prepared;
+pub use error::StateError;
 
 /// Cheap to clone: one `Arc`.
 #[derive(Debug, Clone)]
@@ -210,23 +212,19 @@ impl AppState {
     /// A scene by id.
     ///
     /// # Errors
-    /// 404 if there is none.
-    pub fn scene(&self, id: &str) -> Result<Arc<SceneEntry>, ApiError> {
+    /// [`StateError::SceneNotFound`] if there is none.
+    pub fn scene(&self, id: &str) -> Result<Arc<SceneEntry>, StateError> {
         self.read_scenes()
             .get(id)
             .cloned()
-            .ok_or_else(|| ApiError::scene_not_found(id))
+            .ok_or_else(|| StateError::SceneNotFound { id: id.to_owned() })
     }
 
-    /// A scene just changed through the shared store: 404 if another replica's change (applied
-    /// in between, in feed order) already removed it.
-    fn applied_scene(&self, id: &str) -> Result<Arc<SceneEntry>, ApiError> {
-        self.scene(id).map_err(|_| {
-            ApiError::new(
-                ErrorCode::NotFound,
-                format!("scene {id:?} was deleted by a concurrent change through another replica"),
-            )
-        })
+    /// A scene just changed through the shared store: [`StateError::SceneGone`] if another
+    /// replica's change (applied in between, in feed order) already removed it.
+    fn applied_scene(&self, id: &str) -> Result<Arc<SceneEntry>, StateError> {
+        self.scene(id)
+            .map_err(|_| StateError::SceneGone { id: id.to_owned() })
     }
 
     /// Every scene, sorted by id.
@@ -287,18 +285,13 @@ impl AppState {
     /// counting every other scene as it is now.
     ///
     /// # Errors
-    /// 409 `too_many_scenes` at [`Limits::max_scenes`] (a new id only); 422 `fft_budget` when
-    /// the FFT frames of all scenes would exceed [`Limits::max_fft_bytes`].
-    pub fn check_room_for(&self, id: &str, scene: &Scene) -> Result<(), ApiError> {
+    /// [`StateError::TooManyScenes`] at [`Limits::max_scenes`] (a new id only);
+    /// [`StateError::FftBudget`] when the FFT frames of all scenes would exceed
+    /// [`Limits::max_fft_bytes`].
+    pub fn check_room_for(&self, id: &str, scene: &Scene) -> Result<(), StateError> {
         let map = self.read_scenes();
         if !map.contains_key(id) && map.len() >= self.limits.max_scenes {
-            return Err(ApiError::new(
-                ErrorCode::TooManyScenes,
-                format!(
-                    "the server holds {} scenes, its limit (max_scenes); delete one first",
-                    map.len()
-                ),
-            ));
+            return Err(StateError::TooManyScenes { held: map.len() });
         }
         let mine = FrameCache::scene_bytes(scene);
         if mine == 0 {
@@ -310,14 +303,11 @@ impl AppState {
             .map(|(_, e)| FrameCache::scene_bytes(&e.scene))
             .sum();
         if others + mine > self.limits.max_fft_bytes {
-            return Err(ApiError::new(ErrorCode::FftBudget, format!(
-                    "this scene's FFT layers need up to {} MiB of frames and the other scenes {} MiB: more than max_fft_bytes ({} MiB); lower a layer's resolution or delete a scene",
-                    mine >> 20,
-                    others >> 20,
-                    self.limits.max_fft_bytes >> 20
-                ),
-            )
-            .with_field("layers"));
+            return Err(StateError::FftBudget {
+                mine,
+                others,
+                max: self.limits.max_fft_bytes,
+            });
         }
         Ok(())
     }
@@ -325,19 +315,21 @@ impl AppState {
     /// Creates or replaces scene `id` from its spec JSON; a replaced scene keeps its clock.
     ///
     /// # Errors
-    /// 400 for a bad id or malformed spec, 422 for an invalid one, 500 if it cannot be persisted.
+    /// [`StateError::Scene`] for a bad id or a malformed or invalid spec; as
+    /// [`Self::check_room_for`]; [`StateError::Internal`] or [`StateError::StoreUnavailable`] if
+    /// it cannot be persisted.
     pub async fn put_scene(
         &self,
         id: &str,
         spec: Value,
-    ) -> Result<(PutOutcome, Arc<SceneEntry>), ApiError> {
+    ) -> Result<(PutOutcome, Arc<SceneEntry>), StateError> {
         crate::scene::validate_id(id)?;
         let parsed = SceneSpec::from_value(spec)?;
         let owned_id = id.to_owned();
         // Building an FFT layer evaluates its spectrum at every mode: CPU work, off the reactor.
         let scene = tokio::task::spawn_blocking(move || Scene::build(&owned_id, parsed))
             .await
-            .map_err(ApiError::internal)??;
+            .map_err(StateError::internal)??;
         let mut scene = scene;
         let _guard = self.admin_lock.lock().await;
         self.check_room_for(id, &scene)?;
@@ -354,7 +346,7 @@ impl AppState {
             };
         }
         // Journal the canonical form: what the scene is, with defaults filled in.
-        let spec = serde_json::to_value(&scene.spec).map_err(ApiError::internal)?;
+        let spec = serde_json::to_value(&scene.spec).map_err(StateError::internal)?;
         let outcome = if old.is_some() {
             PutOutcome::Replaced
         } else {
@@ -374,8 +366,9 @@ impl AppState {
     /// Deletes scene `id`.
     ///
     /// # Errors
-    /// 404 if there is none, 500 if the deletion cannot be persisted.
-    pub async fn delete_scene(&self, id: &str) -> Result<(), ApiError> {
+    /// [`StateError::SceneNotFound`] if there is none; [`StateError::Internal`] or
+    /// [`StateError::StoreUnavailable`] if the deletion cannot be persisted.
+    pub async fn delete_scene(&self, id: &str) -> Result<(), StateError> {
         let _guard = self.admin_lock.lock().await;
         self.scene(id)?;
         let op = Op::SceneDelete {
@@ -389,9 +382,14 @@ impl AppState {
     /// Applies a clock update (seek, then rate, then pause) and returns the new reading.
     ///
     /// # Errors
-    /// 404 unknown scene; 400 for a non-finite or out-of-range `t` or `rate`; 500 if it cannot
-    /// be persisted.
-    pub async fn set_clock(&self, id: &str, update: ClockUpdate) -> Result<ClockReading, ApiError> {
+    /// [`StateError::SceneNotFound`]; [`StateError::Clock`] for a non-finite or out-of-range `t`
+    /// or `rate`; [`StateError::Internal`] or [`StateError::StoreUnavailable`] if it cannot be
+    /// persisted.
+    pub async fn set_clock(
+        &self,
+        id: &str,
+        update: ClockUpdate,
+    ) -> Result<ClockReading, StateError> {
         update.validate(&self.limits)?;
         let _guard = self.admin_lock.lock().await;
         let entry = self.scene(id)?;
@@ -430,27 +428,29 @@ impl AppState {
     /// Adds an API impact to `entry`'s scene (rings living `lifetime` s), through the store.
     ///
     /// # Errors
-    /// 409 `too_many_impacts` over a limit; 500 if it cannot be journaled; 503 when a fleet's
-    /// Redis is unreachable.
+    /// [`StateError::TooManyImpacts`] over a limit, [`StateError::ImpactRejected`] for an impact
+    /// the model rejects; [`StateError::Internal`] if it cannot be journaled;
+    /// [`StateError::StoreUnavailable`] when a fleet's Redis is unreachable.
     pub async fn add_impact(
         &self,
         entry: Arc<SceneEntry>,
         impact: swell_waves::particles::Impact,
         lifetime: f64,
-    ) -> Result<(), ApiError> {
+    ) -> Result<(), StateError> {
         self.store().add_impact(self, entry, impact, lifetime).await
     }
 
     /// Spawns a body in scene `id`; its state, spawn tick and the world's anchor.
     ///
     /// # Errors
-    /// 404 unknown scene; 409 `scene_full`; 400/422 for a request the body model rejects; 500
-    /// or 503 from the store.
+    /// [`StateError::SceneNotFound`]; [`StateError::Body`] for a full scene or a request the
+    /// body model rejects; [`StateError::Internal`] or [`StateError::StoreUnavailable`] from the
+    /// store.
     pub async fn spawn_body(
         &self,
         id: &str,
         req: crate::bodies::SpawnRequest,
-    ) -> Result<crate::service::types::SpawnedBody, ApiError> {
+    ) -> Result<crate::service::types::SpawnedBody, StateError> {
         let entry = self.scene(id)?;
         self.store().spawn_body(self, entry, req).await
     }
@@ -458,8 +458,9 @@ impl AppState {
     /// Removes body `bid` of scene `id`.
     ///
     /// # Errors
-    /// 404 unknown scene or body; 500 or 503 from the store.
-    pub async fn remove_body(&self, id: &str, bid: u64) -> Result<(), ApiError> {
+    /// [`StateError::SceneNotFound`], [`StateError::Body`] for an unknown body;
+    /// [`StateError::Internal`] or [`StateError::StoreUnavailable`] from the store.
+    pub async fn remove_body(&self, id: &str, bid: u64) -> Result<(), StateError> {
         let entry = self.scene(id)?;
         self.store().remove_body(self, entry, bid).await
     }
@@ -468,13 +469,14 @@ impl AppState {
     /// it acts from.
     ///
     /// # Errors
-    /// 404 unknown scene or body; 400 for a bad input; 500 or 503 from the store.
+    /// [`StateError::SceneNotFound`], [`StateError::Body`] for an unknown body or a bad input;
+    /// [`StateError::Internal`] or [`StateError::StoreUnavailable`] from the store.
     pub async fn body_input(
         &self,
         id: &str,
         bid: u64,
         input: crate::bodies::InputRequest,
-    ) -> Result<crate::service::types::InputAccepted, ApiError> {
+    ) -> Result<crate::service::types::InputAccepted, StateError> {
         let entry = self.scene(id)?;
         self.store().body_input(self, entry, bid, input).await
     }
@@ -623,11 +625,3 @@ impl AppState {
 
 /// Largest |rate| of a clock ([`crate::scene::clock::MAX_RATE`]).
 pub use crate::scene::clock::MAX_RATE;
-
-/// The answer to an impact the scene's set has no room for, or that the model rejects.
-pub(crate) fn impact_refused(e: crate::impacts::AddError) -> ApiError {
-    match e {
-        crate::impacts::AddError::Full(why) => ApiError::new(ErrorCode::TooManyImpacts, why),
-        crate::impacts::AddError::Invalid(e) => ApiError::invalid(e.field(), e.to_string()),
-    }
-}

@@ -21,10 +21,10 @@ use serde_json::{Value, json};
 use swell_waves::particles::Impact;
 
 use super::AppState;
+use super::StateError;
 use super::apply::Prepared;
 use crate::bodies::drive::BodyCmd;
 use crate::bodies::{BodyState, InputRequest, SpawnRequest, body_not_found};
-use crate::error::ApiError;
 use crate::journal::Op;
 use crate::scene::SceneEntry;
 use crate::service::types::{InputAccepted, SpawnedBody};
@@ -37,55 +37,57 @@ pub trait Store: Send + Sync + Debug {
     /// that moves the scene's epoch (its stored clock no longer applies).
     ///
     /// # Errors
-    /// 500 if the journal cannot be written; 503 when the shared store is unreachable.
+    /// [`StateError::Internal`] if the journal cannot be written;
+    /// [`StateError::StoreUnavailable`] when the shared store is unreachable.
     fn commit<'a>(
         &'a self,
         state: &'a AppState,
         op: Op,
         prepared: Prepared,
         epoch_moved: bool,
-    ) -> BoxFuture<'a, Result<(), ApiError>>;
+    ) -> BoxFuture<'a, Result<(), StateError>>;
 
     /// Adds an API impact to `entry`'s scene, checked against the set's limits with rings
     /// living `lifetime` s; the scene's bodies feel it from their current tick.
     ///
     /// # Errors
-    /// 409 `too_many_impacts` over a limit; 500 or 503 as [`Store::commit`].
+    /// [`StateError::TooManyImpacts`] over a limit, [`StateError::ImpactRejected`] for an
+    /// impact the model rejects; otherwise as [`Store::commit`].
     fn add_impact<'a>(
         &'a self,
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         impact: Impact,
         lifetime: f64,
-    ) -> BoxFuture<'a, Result<(), ApiError>>;
+    ) -> BoxFuture<'a, Result<(), StateError>>;
 
     /// Spawns a body; its state once applied, with its spawn tick and the world's anchor.
     ///
     /// # Errors
-    /// As [`crate::bodies::drive::apply`]; 500 or 503 as [`Store::commit`].
+    /// [`StateError::Body`] as [`crate::bodies::drive::apply`]; otherwise as [`Store::commit`].
     fn spawn_body<'a>(
         &'a self,
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         req: SpawnRequest,
-    ) -> BoxFuture<'a, Result<SpawnedBody, ApiError>>;
+    ) -> BoxFuture<'a, Result<SpawnedBody, StateError>>;
 
     /// Removes body `id`.
     ///
     /// # Errors
-    /// 404 for a body the scene does not have; 500 or 503 as [`Store::commit`].
+    /// [`StateError::Body`] for a body the scene does not have; otherwise as [`Store::commit`].
     fn remove_body<'a>(
         &'a self,
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         id: u64,
-    ) -> BoxFuture<'a, Result<(), ApiError>>;
+    ) -> BoxFuture<'a, Result<(), StateError>>;
 
     /// Queues an input for body `id`; the tick it was accepted at (local: the world's tick; a
     /// fleet: the tick it applies at) and the tick it acts from.
     ///
     /// # Errors
-    /// 404 for a body the scene does not have; 400 for a bad input; 500 or 503 as
+    /// [`StateError::Body`] for a body the scene does not have or a bad input; otherwise as
     /// [`Store::commit`].
     fn body_input<'a>(
         &'a self,
@@ -93,7 +95,7 @@ pub trait Store: Send + Sync + Debug {
         entry: Arc<SceneEntry>,
         id: u64,
         input: InputRequest,
-    ) -> BoxFuture<'a, Result<InputAccepted, ApiError>>;
+    ) -> BoxFuture<'a, Result<InputAccepted, StateError>>;
 
     /// What `/readyz` says of the store.
     fn status(&self, state: &AppState) -> Value;
@@ -104,18 +106,18 @@ pub trait Store: Send + Sync + Debug {
 pub struct Local;
 
 /// Journals `op` and waits until it is durable (nothing to do without a data dir).
-async fn journal_op(state: &AppState, op: Op) -> Result<(), ApiError> {
+async fn journal_op(state: &AppState, op: Op) -> Result<(), StateError> {
     let Some(j) = state.journal() else {
         return Ok(());
     };
-    let seq = j.append(op).map_err(ApiError::internal)?;
-    j.commit(seq).await.map_err(ApiError::internal)
+    let seq = j.append(op).map_err(StateError::internal)?;
+    j.commit(seq).await.map_err(StateError::internal)
 }
 
 /// Waits until the journal holds record `seq` durably: the answer goes out only then.
-async fn commit_seq(state: &AppState, seq: u64) -> Result<(), ApiError> {
+async fn commit_seq(state: &AppState, seq: u64) -> Result<(), StateError> {
     match state.journal() {
-        Some(j) => j.commit(seq).await.map_err(ApiError::internal),
+        Some(j) => j.commit(seq).await.map_err(StateError::internal),
         None => Ok(()),
     }
 }
@@ -125,9 +127,9 @@ fn journal_events(
     state: &AppState,
     scene: &str,
     b: &mut crate::bodies::SceneBodies,
-) -> Result<u64, ApiError> {
+) -> Result<u64, StateError> {
     crate::journal::snapshot::append_body_events(state.journal(), scene, b)
-        .map_err(ApiError::internal)
+        .map_err(StateError::internal)
 }
 
 /// What a local body command did.
@@ -139,7 +141,7 @@ struct Done {
     /// The world's anchor.
     anchor: i64,
     /// The journal record to commit (the change is made even when journaling failed).
-    seq: Result<u64, ApiError>,
+    seq: Result<u64, StateError>,
 }
 
 impl Local {
@@ -150,7 +152,7 @@ impl Local {
         cell: &crate::bodies::registry::SceneBodiesCell,
         id: &str,
         cmd: &BodyCmd,
-    ) -> Result<Done, ApiError> {
+    ) -> Result<Done, StateError> {
         let mut b = cell.lock();
         let out = crate::bodies::drive::apply(&mut b, id, cmd, state.limits.max_scene_bodies)?;
         if matches!(cmd, BodyCmd::Spawn(_) | BodyCmd::Remove { .. }) {
@@ -177,7 +179,7 @@ impl Store for Local {
         op: Op,
         prepared: Prepared,
         _epoch_moved: bool,
-    ) -> BoxFuture<'a, Result<(), ApiError>> {
+    ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             journal_op(state, op.clone()).await?;
             state.apply(&op, prepared);
@@ -195,7 +197,7 @@ impl Store for Local {
         entry: Arc<SceneEntry>,
         impact: Impact,
         lifetime: f64,
-    ) -> BoxFuture<'a, Result<(), ApiError>> {
+    ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             let id = entry.scene.id.clone();
             let op = Op::Impact {
@@ -206,13 +208,9 @@ impl Store for Local {
             // overshoot the limits nor reach the journal in another order than the set.
             let mut seq = {
                 let _one = state.impact_lock();
-                entry
-                    .scene
-                    .impacts
-                    .check_room(&impact, lifetime)
-                    .map_err(super::impact_refused)?;
+                entry.scene.impacts.check_room(&impact, lifetime)?;
                 let seq = match state.journal() {
-                    Some(j) => j.append(op.clone()).map_err(ApiError::internal)?,
+                    Some(j) => j.append(op.clone()).map_err(StateError::internal)?,
                     None => 0,
                 };
                 state.apply(&op, Prepared::Nothing);
@@ -234,7 +232,7 @@ impl Store for Local {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         req: SpawnRequest,
-    ) -> BoxFuture<'a, Result<SpawnedBody, ApiError>> {
+    ) -> BoxFuture<'a, Result<SpawnedBody, StateError>> {
         Box::pin(async move {
             let id = entry.scene.id.as_str();
             let reading = state.read_clock(&entry);
@@ -251,7 +249,7 @@ impl Store for Local {
             commit_seq(state, done.seq?).await?;
             let out = done
                 .spawned
-                .ok_or_else(|| ApiError::internal("a spawn gave no body id"))?;
+                .ok_or_else(|| StateError::internal("a spawn gave no body id"))?;
             tracing::info!(scene = %id, body = out.id, "body spawned");
             Ok(SpawnedBody {
                 state: out,
@@ -266,7 +264,7 @@ impl Store for Local {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         id: u64,
-    ) -> BoxFuture<'a, Result<(), ApiError>> {
+    ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             let scene = entry.scene.id.as_str();
             let cell = state.bodies.get(scene).ok_or_else(|| body_not_found(id))?;
@@ -283,7 +281,7 @@ impl Store for Local {
         entry: Arc<SceneEntry>,
         id: u64,
         input: InputRequest,
-    ) -> BoxFuture<'a, Result<InputAccepted, ApiError>> {
+    ) -> BoxFuture<'a, Result<InputAccepted, StateError>> {
         Box::pin(async move {
             let scene = entry.scene.id.as_str();
             let cell = state.bodies.get(scene).ok_or_else(|| body_not_found(id))?;

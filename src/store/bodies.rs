@@ -55,9 +55,8 @@ use tokio::sync::watch;
 use super::fleet::EntryId;
 use super::fleet::Fleet;
 use crate::bodies::{InputRequest, SpawnRequest, WorldRecord};
-use crate::error::{ApiError, ErrorCode};
 use crate::service::types::{InputAccepted, SpawnedBody};
-use crate::state::AppState;
+use crate::state::{AppState, StateError};
 
 /// How long a lease lasts without renewal: the failover time after a `kill -9`. Under 2 s at
 /// 30 Hz keeps the gap below the 60-tick catch-up limit, so bodies step through it.
@@ -74,7 +73,7 @@ const APPLY_TIMEOUT: Duration = Duration::from_secs(4);
 pub use crate::bodies::drive::BodyCmd;
 
 /// What applying a command gave (kept for the replica that appended it).
-type Outcome = Result<SpawnedBody, ApiError>;
+type Outcome = Result<SpawnedBody, StateError>;
 
 /// A scene's followed log, as one replica holds it.
 #[derive(Debug, Default, Clone)]
@@ -197,11 +196,11 @@ end
 return 0
 ";
 
-fn unavailable(message: impl Into<String>) -> ApiError {
-    ApiError::new(ErrorCode::StoreUnavailable, message)
+fn unavailable(message: impl Into<String>) -> StateError {
+    StateError::StoreUnavailable(message.into())
 }
 
-fn redis_down(e: &redis::RedisError) -> ApiError {
+fn redis_down(e: &redis::RedisError) -> StateError {
     tracing::warn!(error = %e, "store: body write failed");
     unavailable(
         "the shared store (Redis) is unreachable, so body changes are refused until it is back; states keep being served",
@@ -245,9 +244,9 @@ impl FleetBodies {
         scene: &str,
         cmd: &BodyCmd,
         wanted: i64,
-    ) -> Result<(i64, String), ApiError> {
+    ) -> Result<(i64, String), StateError> {
         let nonce = self.0.fleet.next_nonce();
-        let json = serde_json::to_string(cmd).map_err(ApiError::internal)?;
+        let json = serde_json::to_string(cmd).map_err(StateError::internal)?;
         let mut conn = self.0.fleet.writes();
         let script = redis::Script::new(APPEND_SCRIPT);
         let mut call = script.key(key(scene, "log"));
@@ -267,7 +266,7 @@ impl FleetBodies {
     }
 
     /// Waits for the outcome of this replica's command `nonce`.
-    async fn outcome(&self, nonce: &str) -> Result<SpawnedBody, ApiError> {
+    async fn outcome(&self, nonce: &str) -> Result<SpawnedBody, StateError> {
         let mut rx = self.0.applied.subscribe();
         let found = tokio::time::timeout(APPLY_TIMEOUT, async {
             loop {
@@ -275,7 +274,7 @@ impl FleetBodies {
                     return o;
                 }
                 if rx.changed().await.is_err() {
-                    return Err(ApiError::internal("body follower stopped"));
+                    return Err(StateError::internal("body follower stopped"));
                 }
             }
         })
@@ -291,14 +290,14 @@ impl FleetBodies {
     /// `POST …/bodies` through the log: 201 state once this replica applied it.
     ///
     /// # Errors
-    /// As a local spawn (validated against an empty world first), 409 over the limit, 503 when
-    /// Redis is unreachable.
+    /// As a local spawn (validated against an empty world first), [`StateError::Body`] over the
+    /// limit, [`StateError::StoreUnavailable`] when Redis is unreachable.
     pub async fn spawn(
         &self,
         state: &AppState,
         scene: &str,
         req: SpawnRequest,
-    ) -> Result<SpawnedBody, ApiError> {
+    ) -> Result<SpawnedBody, StateError> {
         let entry = state.scene(scene)?;
         let (hz, g) = (entry.scene.spec.tick_hz, entry.scene.spec.surface.gravity);
         // Validate before logging: a command in the log is applied by every replica.
@@ -315,8 +314,9 @@ impl FleetBodies {
     /// `DELETE …/bodies/{bid}` through the log.
     ///
     /// # Errors
-    /// 404 for a body this replica does not have; 503 when Redis is unreachable.
-    pub async fn remove(&self, state: &AppState, scene: &str, id: u64) -> Result<(), ApiError> {
+    /// [`StateError::Body`] for a body this replica does not have;
+    /// [`StateError::StoreUnavailable`] when Redis is unreachable.
+    pub async fn remove(&self, state: &AppState, scene: &str, id: u64) -> Result<(), StateError> {
         let entry = state.scene(scene)?;
         let known = state
             .bodies
@@ -335,14 +335,15 @@ impl FleetBodies {
     /// it is in Redis.
     ///
     /// # Errors
-    /// 404 for a body this replica does not have; 400 for a bad input; 503 when Redis is down.
+    /// [`StateError::Body`] for a body this replica does not have or a bad input;
+    /// [`StateError::StoreUnavailable`] when Redis is down.
     pub async fn input(
         &self,
         state: &AppState,
         scene: &str,
         id: u64,
         input: InputRequest,
-    ) -> Result<InputAccepted, ApiError> {
+    ) -> Result<InputAccepted, StateError> {
         let entry = state.scene(scene)?;
         let (hz, g) = (entry.scene.spec.tick_hz, entry.scene.spec.surface.gravity);
         let now = state.read_clock(&entry).tick;
@@ -620,19 +621,18 @@ impl FleetBodies {
             let out =
                 crate::bodies::drive::apply(&mut b, scene, &cmd, state.limits.max_scene_bodies);
             let spawned = match cmd {
-                BodyCmd::Spawn(_) => Some(out.map_err(ApiError::from).and_then(|id| {
-                    match id {
-                        Some(id) => b
-                            .state(id)
-                            .map_err(ApiError::from)
-                            .map(|state| SpawnedBody {
+                BodyCmd::Spawn(_) => {
+                    Some(out.map_err(StateError::from).and_then(|id| match id {
+                        Some(id) => b.state(id).map_err(StateError::from).map(|state| {
+                            SpawnedBody {
                                 state,
                                 spawn_tick: b.tick(),
                                 anchor_tick: b.anchor(),
-                            }),
-                        None => Err(ApiError::internal("a spawn gave no body id")),
-                    }
-                })),
+                            }
+                        }),
+                        None => Err(StateError::internal("a spawn gave no body id")),
+                    }))
+                }
                 _ => None,
             };
             let _ = b.take_events();

@@ -52,12 +52,11 @@ use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 
 use super::url::StoreUrl;
-use crate::error::{ApiError, ErrorCode};
 use crate::journal::{AdminScene, AdminState, Op};
 use crate::scene::Scene;
 use crate::scene::store::ClockRecord;
-use crate::state::AppState;
 use crate::state::apply::Prepared;
+use crate::state::{AppState, StateError};
 
 /// Feed entries kept (approximately: `MAXLEN ~` trims whole radix-tree nodes, cheaply). A
 /// replica that is connected reads entries within milliseconds; one that reconnects re-reads
@@ -229,9 +228,9 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// 503 `store_unavailable` with a message for the operator.
-fn unavailable(message: impl Into<String>) -> ApiError {
-    ApiError::new(ErrorCode::StoreUnavailable, message)
+/// [`StateError::StoreUnavailable`] (503 `store_unavailable`) with a message for the operator.
+fn unavailable(message: impl Into<String>) -> StateError {
+    StateError::StoreUnavailable(message.into())
 }
 
 impl Fleet {
@@ -362,15 +361,15 @@ impl Fleet {
     /// epoch, so its stored clock no longer applies.
     ///
     /// # Errors
-    /// 503 `store_unavailable` when Redis cannot be written (nothing changed) or the change was
-    /// stored but this replica's feed is not connected to apply it (every other replica, and
-    /// this one once reconnected, will).
+    /// [`StateError::StoreUnavailable`] when Redis cannot be written (nothing changed) or the
+    /// change was stored but this replica's feed is not connected to apply it (every other
+    /// replica, and this one once reconnected, will).
     pub async fn commit(
         &self,
         op: Op,
         built: Option<Scene>,
         drop_clock: bool,
-    ) -> Result<(), ApiError> {
+    ) -> Result<(), StateError> {
         // A put or delete starts the scene's impacts afresh (as the journal's fold does).
         let (field, value, del, clears) = match &op {
             Op::ScenePut { scene, spec } => (
@@ -396,14 +395,14 @@ impl Fleet {
                 String::new(),
             ),
             Op::Body { .. } | Op::Impact { .. } => {
-                return Err(ApiError::internal(
+                return Err(StateError::internal(
                     "body changes go through the body log, impacts through Fleet::add_impact",
                 ));
             }
         };
         let list = impact_list_key(op.scene());
-        let value = value.map_err(ApiError::internal)?;
-        let op_json = serde_json::to_string(&op).map_err(ApiError::internal)?;
+        let value = value.map_err(StateError::internal)?;
+        let op_json = serde_json::to_string(&op).map_err(StateError::internal)?;
         let nonce = self.next_nonce();
         if let Some(scene) = built {
             lock(&self.0.prebuilt).insert(nonce.clone(), scene);
@@ -428,7 +427,7 @@ impl Fleet {
     /// ripples with it.
     ///
     /// # Errors
-    /// 409 `too_many_impacts` when the scene's list holds `max` impacts; otherwise as
+    /// [`StateError::TooManyImpacts`] when the scene's list holds `max` impacts; otherwise as
     /// [`Fleet::commit`].
     pub async fn add_impact(
         &self,
@@ -437,15 +436,15 @@ impl Fleet {
         max: usize,
         wanted: i64,
         lifetime: f64,
-    ) -> Result<(), ApiError> {
-        let impact_json = serde_json::to_string(&impact).map_err(ApiError::internal)?;
+    ) -> Result<(), StateError> {
+        let impact_json = serde_json::to_string(&impact).map_err(StateError::internal)?;
         let op_json = serde_json::to_string(&Op::Impact {
             scene: scene.to_owned(),
             impact,
         })
-        .map_err(ApiError::internal)?;
+        .map_err(StateError::internal)?;
         let cmd_json = serde_json::to_string(&crate::store::bodies::BodyCmd::Impact(impact))
-            .map_err(ApiError::internal)?;
+            .map_err(StateError::internal)?;
         let nonce = self.next_nonce();
         let mut call = self.0.impact_script.key(impact_list_key(scene));
         call.key(IMPACT_SCENES_KEY)
@@ -471,7 +470,7 @@ impl Fleet {
         &self,
         call: redis::ScriptInvocation<'_>,
         nonce: &str,
-    ) -> Result<(), ApiError> {
+    ) -> Result<(), StateError> {
         let write = async {
             let mut conn = self.0.writes.clone();
             match call.invoke_async::<String>(&mut conn).await {
@@ -492,13 +491,10 @@ impl Fleet {
         let written = tokio::time::timeout(WRITE_TIMEOUT, write).await;
         let id = match written {
             Ok(Ok(full)) if full.starts_with("full:") => {
-                return Err(ApiError::new(
-                    ErrorCode::TooManyImpacts,
-                    format!(
-                        "the scene holds {} impacts, the limit",
-                        full.trim_start_matches("full:")
-                    ),
-                ));
+                return Err(StateError::TooManyImpacts(format!(
+                    "the scene holds {} impacts, the limit",
+                    full.trim_start_matches("full:")
+                )));
             }
             Ok(Ok(id)) => EntryId::parse(&id),
             Ok(Err(e)) => {
@@ -518,7 +514,7 @@ impl Fleet {
         };
         let Some(id) = id else {
             lock(&self.0.prebuilt).remove(nonce);
-            return Err(ApiError::internal("XADD answered with a malformed id"));
+            return Err(StateError::internal("XADD answered with a malformed id"));
         };
         metrics::counter!("swell_store_writes_total").increment(1);
         let mut rx = self.0.applied.subscribe();

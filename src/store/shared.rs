@@ -13,14 +13,13 @@ use swell_waves::particles::Impact;
 use super::bodies::FleetBodies;
 use super::fleet::Fleet;
 use crate::bodies::{InputRequest, SpawnRequest};
-use crate::error::ApiError;
 use crate::impacts::MAX_SCENE_IMPACTS;
 use crate::journal::Op;
 use crate::scene::SceneEntry;
 use crate::service::types::{InputAccepted, SpawnedBody};
-use crate::state::AppState;
 use crate::state::apply::Prepared;
 use crate::state::store::Store;
+use crate::state::{AppState, StateError};
 
 /// Redis as the store of one replica.
 #[derive(Debug, Clone)]
@@ -38,7 +37,7 @@ impl Store for Shared {
         op: Op,
         prepared: Prepared,
         epoch_moved: bool,
-    ) -> BoxFuture<'a, Result<(), ApiError>> {
+    ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             // The feed applies it here as on every replica (a put's scene built by the caller
             // is handed over, not rebuilt); a put that moves the epoch drops the stored clock.
@@ -64,16 +63,12 @@ impl Store for Shared {
         entry: Arc<SceneEntry>,
         impact: Impact,
         lifetime: f64,
-    ) -> BoxFuture<'a, Result<(), ApiError>> {
+    ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             // Into the scene's impact list in Redis with the feed entry that makes every
             // replica (this one included, before the answer) add it. The ring-lifetime limit is
             // checked against this replica's set; the total in Redis.
-            entry
-                .scene
-                .impacts
-                .check_room(&impact, lifetime)
-                .map_err(crate::state::impact_refused)?;
+            entry.scene.impacts.check_room(&impact, lifetime)?;
             let wanted = state.read_clock(&entry).tick + 1;
             self.fleet
                 .add_impact(&entry.scene.id, impact, MAX_SCENE_IMPACTS, wanted, lifetime)
@@ -86,7 +81,7 @@ impl Store for Shared {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         req: SpawnRequest,
-    ) -> BoxFuture<'a, Result<SpawnedBody, ApiError>> {
+    ) -> BoxFuture<'a, Result<SpawnedBody, StateError>> {
         Box::pin(async move {
             let out = self.bodies.spawn(state, &entry.scene.id, req).await?;
             tracing::info!(scene = %entry.scene.id, body = out.state.id, "body spawned (fleet)");
@@ -99,7 +94,7 @@ impl Store for Shared {
         state: &'a AppState,
         entry: Arc<SceneEntry>,
         id: u64,
-    ) -> BoxFuture<'a, Result<(), ApiError>> {
+    ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move { self.bodies.remove(state, &entry.scene.id, id).await })
     }
 
@@ -109,7 +104,7 @@ impl Store for Shared {
         entry: Arc<SceneEntry>,
         id: u64,
         input: InputRequest,
-    ) -> BoxFuture<'a, Result<InputAccepted, ApiError>> {
+    ) -> BoxFuture<'a, Result<InputAccepted, StateError>> {
         Box::pin(async move { self.bodies.input(state, &entry.scene.id, id, input).await })
     }
 

@@ -338,8 +338,13 @@ pub fn decode_protobuf(bytes: &[u8]) -> Result<Incoming, DecodeError> {
         Some(client_message::Msg::Ping(p)) => Ok(Request::Ping {
             client_time: p.client_time,
         }),
-        Some(client_message::Msg::Sample(s)) => s.try_into().map(Request::Sample),
-        Some(client_message::Msg::Orientation(o)) => o.try_into().map(Request::Orientation),
+        Some(client_message::Msg::Sample(s)) => {
+            s.try_into().map(Request::Sample).map_err(ApiError::from)
+        }
+        Some(client_message::Msg::Orientation(o)) => o
+            .try_into()
+            .map(Request::Orientation)
+            .map_err(ApiError::from),
         Some(client_message::Msg::Subscribe(s)) => s
             .region
             .map(|r| Region::new([r.x0, r.z0, r.x1, r.z1]))

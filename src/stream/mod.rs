@@ -74,6 +74,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::error::{ApiError, ErrorCode};
 use crate::peers::{Budget, Charge};
+use crate::service::error::QueryError;
 use crate::service::json::DECODE_OFF_REACTOR_BYTES;
 use crate::service::query::{
     At, orientation_probes, orientation_request_bytes, resolve_time, run_orientation, run_sample,
@@ -295,7 +296,7 @@ impl Queue {
         match c.reserve(n) {
             Ok(()) => Some(c),
             Err(e) => {
-                self.error(id, e);
+                self.error(id, e.into());
                 None
             }
         }
@@ -319,7 +320,7 @@ impl Queue {
             Ok(()) => self.push_out(Out::Answer(m, charge)),
             Err(which) => {
                 drop((m, charge));
-                self.error(id, which.error());
+                self.error(id, which.into());
             }
         }
     }
@@ -844,7 +845,7 @@ fn handle(
                     },
                 });
             }
-            Err(e) => queue.error(id, e),
+            Err(e) => queue.error(id, e.into()),
         },
         Request::Subscribe {
             ticks,
@@ -859,7 +860,7 @@ fn handle(
                 *subscribed = false;
                 queue.push_out(Out::Unsubscribe);
             } else if let Err(e) = state.scene(scene_id) {
-                queue.error(id, e);
+                queue.error(id, e.into());
             } else {
                 *subscribed = true;
                 queue.push_out(Out::Subscribe(
@@ -944,7 +945,7 @@ fn query(
     permits: &Arc<Semaphore>,
     Asked { id, t, bytes }: Asked,
     inline: impl FnOnce(&AppState, &crate::scene::Scene, At) -> bool,
-    run: impl FnOnce(&AppState, &crate::scene::Scene, At) -> Result<Event, ApiError> + Send + 'static,
+    run: impl FnOnce(&AppState, &crate::scene::Scene, At) -> Result<Event, QueryError> + Send + 'static,
 ) {
     let Ok(permit) = Arc::clone(permits).try_acquire_owned() else {
         queue.error(
@@ -960,6 +961,7 @@ fn query(
     };
     let resolved = state
         .scene(scene_id)
+        .map_err(ApiError::from)
         .and_then(|entry| Ok((resolve_time(state, &entry, t)?, Arc::clone(&entry.scene))));
     let (at, scene) = match resolved {
         Ok(v) => v,
@@ -969,7 +971,7 @@ fn query(
         drop(permit);
         match run(state, &scene, at) {
             Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
-            Err(e) => queue.error(id, e),
+            Err(e) => queue.error(id, e.into()),
         }
         return;
     }
@@ -978,12 +980,12 @@ fn query(
     state.tasks.spawn(async move {
         let result = tokio::task::spawn_blocking(move || run(&st, &scene, at))
             .await
-            .map_err(ApiError::internal)
+            .map_err(|e| QueryError::Task(e.to_string()))
             .and_then(|r| r);
         drop(permit);
         match result {
             Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
-            Err(e) => queue.error(id, e),
+            Err(e) => queue.error(id, e.into()),
         }
     });
 }

@@ -7,11 +7,11 @@
 //!
 //! Enum values: `*_UNSPECIFIED` means "server default" for `InversionMethod` and `Filter`, and is
 //! rejected for `Field` (a field list must name real fields); a number outside the enum (a newer
-//! client, or garbage) is a 400 naming the field.
+//! client, or garbage) is a [`ConvertError`] naming the field, which `crate::error` maps to 400
+//! `invalid_value`.
 
 use swell_waves::InversionMethod;
 
-use crate::error::ApiError;
 use crate::service::types::{
     Accuracy, Body, BodyOrientation, BodyState, Filter, HeightResponse, OrientationRequest,
     OrientationResponse, Precision, SampleRequest, SampleResponse, Tick,
@@ -39,15 +39,52 @@ fn quat(q: [f64; 4]) -> v1::Quat {
     }
 }
 
-fn bad_enum(field: &str, value: i32, why: &str) -> ApiError {
-    ApiError::invalid(field, format!("{field} = {value} {why}"))
+/// A protobuf request that decodes but cannot be made into the API's request: an enum value
+/// it may not hold, a required field left out. The `Display` text is the whole message.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConvertError {
+    /// An enum field holding `FIELD_UNSPECIFIED` where a value is needed, or a number outside
+    /// the enum (a newer client, or garbage).
+    #[error("{field} = {value} {why}")]
+    BadEnum {
+        /// Path of the field (`fields[2]`, `accuracy.method`).
+        field: String,
+        /// The number as sent.
+        value: i32,
+        /// Why it was refused, in words.
+        why: &'static str,
+    },
+    /// A message field that must be present is absent.
+    #[error("{field} is required")]
+    Missing {
+        /// Path of the field (`bodies[0].position`).
+        field: String,
+    },
+}
+
+impl ConvertError {
+    /// The path of the offending field.
+    #[must_use]
+    pub fn field(&self) -> &str {
+        match self {
+            ConvertError::BadEnum { field, .. } | ConvertError::Missing { field } => field,
+        }
+    }
+}
+
+fn bad_enum(field: &str, value: i32, why: &'static str) -> ConvertError {
+    ConvertError::BadEnum {
+        field: field.to_owned(),
+        value,
+        why,
+    }
 }
 
 /// The wire name of a protobuf field value (as JSON spells it).
 ///
 /// # Errors
-/// 400 naming `field` for `FIELD_UNSPECIFIED` or a value outside the enum.
-fn field_name(field: &str, value: i32) -> Result<String, ApiError> {
+/// [`ConvertError::BadEnum`] naming `field` for `FIELD_UNSPECIFIED` or a value outside the enum.
+fn field_name(field: &str, value: i32) -> Result<String, ConvertError> {
     match v1::Field::try_from(value) {
         Ok(v1::Field::Height) => Ok("height".into()),
         Ok(v1::Field::Normal) => Ok("normal".into()),
@@ -64,9 +101,9 @@ fn field_name(field: &str, value: i32) -> Result<String, ApiError> {
 }
 
 impl TryFrom<v1::Accuracy> for Accuracy {
-    type Error = ApiError;
+    type Error = ConvertError;
 
-    fn try_from(a: v1::Accuracy) -> Result<Self, ApiError> {
+    fn try_from(a: v1::Accuracy) -> Result<Self, ConvertError> {
         let method = match v1::InversionMethod::try_from(a.method) {
             Ok(v1::InversionMethod::Unspecified) => None,
             Ok(v1::InversionMethod::Newton) => Some(InversionMethod::Newton),
@@ -128,10 +165,10 @@ impl TryFrom<v1::Accuracy> for Accuracy {
 }
 
 impl TryFrom<v1::SampleRequest> for SampleRequest {
-    type Error = ApiError;
+    type Error = ConvertError;
 
     /// An empty `fields` list means the default (height), as an absent JSON `fields` does.
-    fn try_from(r: v1::SampleRequest) -> Result<Self, ApiError> {
+    fn try_from(r: v1::SampleRequest) -> Result<Self, ConvertError> {
         let fields = if r.fields.is_empty() {
             None
         } else {
@@ -154,18 +191,19 @@ impl TryFrom<v1::SampleRequest> for SampleRequest {
 }
 
 impl TryFrom<v1::OrientationRequest> for OrientationRequest {
-    type Error = ApiError;
+    type Error = ConvertError;
 
     /// An empty `probes` list means the default 3×3 grid, as an absent JSON `probes` does.
-    fn try_from(r: v1::OrientationRequest) -> Result<Self, ApiError> {
+    fn try_from(r: v1::OrientationRequest) -> Result<Self, ConvertError> {
         let bodies = r
             .bodies
             .into_iter()
             .enumerate()
             .map(|(i, b)| {
                 let Some(position) = b.position.as_ref().map(xz) else {
-                    let f = format!("bodies[{i}].position");
-                    return Err(ApiError::invalid(f.clone(), format!("{f} is required")));
+                    return Err(ConvertError::Missing {
+                        field: format!("bodies[{i}].position"),
+                    });
                 };
                 Ok(Body {
                     position,
@@ -260,24 +298,6 @@ impl From<&Tick> for v1::Tick {
     }
 }
 
-impl From<&ApiError> for v1::Error {
-    fn from(e: &ApiError) -> Self {
-        v1::Error {
-            code: e.code.as_str().to_owned(),
-            message: e.message.clone(),
-            field: e.field.clone(),
-        }
-    }
-}
-
-impl From<&ApiError> for v1::ErrorResponse {
-    fn from(e: &ApiError) -> Self {
-        v1::ErrorResponse {
-            error: Some(e.into()),
-        }
-    }
-}
-
 /// The protobuf form of a frame's impacts.
 pub fn impact_events(events: &[crate::impacts::ImpactEvent]) -> Vec<v1::ImpactEvent> {
     events
@@ -296,6 +316,7 @@ pub fn impact_events(events: &[crate::impacts::ImpactEvent]) -> Vec<v1::ImpactEv
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::ApiError;
 
     #[test]
     fn unspecified_field_is_rejected_by_name() {
@@ -303,7 +324,7 @@ mod tests {
             fields: vec![v1::Field::Height as i32, 0],
             ..Default::default()
         };
-        let e = SampleRequest::try_from(r).unwrap_err();
+        let e = ApiError::from(SampleRequest::try_from(r).unwrap_err());
         assert_eq!(e.field.as_deref(), Some("fields[1]"));
         assert_eq!(e.status().as_u16(), 400);
     }
@@ -317,7 +338,7 @@ mod tests {
             }),
             ..Default::default()
         };
-        let e = SampleRequest::try_from(r).unwrap_err();
+        let e = ApiError::from(SampleRequest::try_from(r).unwrap_err());
         assert_eq!(e.field.as_deref(), Some("accuracy.filter"));
         let r = v1::SampleRequest {
             accuracy: Some(v1::Accuracy {
@@ -326,7 +347,7 @@ mod tests {
             }),
             ..Default::default()
         };
-        let e = SampleRequest::try_from(r).unwrap_err();
+        let e = ApiError::from(SampleRequest::try_from(r).unwrap_err());
         assert_eq!(e.field.as_deref(), Some("accuracy.precision"));
     }
 
@@ -336,7 +357,7 @@ mod tests {
             t: None,
             bodies: vec![v1::Body::default()],
         };
-        let e = OrientationRequest::try_from(r).unwrap_err();
+        let e = ApiError::from(OrientationRequest::try_from(r).unwrap_err());
         assert_eq!(e.field.as_deref(), Some("bodies[0].position"));
     }
 }
