@@ -1,11 +1,11 @@
 //! Sine and cosine from a fixed polynomial kernel.
 //!
-//! The argument is first reduced to [−π, π] by [`reduce_phase`], then to [−π/4, π/4] by a
-//! quadrant step, and evaluated with the classic minimax polynomials of fdlibm's `__kernel_sin`
-//! and `__kernel_cos` (error below 1 ulp on the reduced interval). Every step is plain `*` and
-//! `+`, so the bits are the same on every CPU; the platform's `sin` is not.
+//! The argument is first reduced to [−π, π] by [`reduce_phase`](super::reduce_phase), then to
+//! [−π/4, π/4] by a quadrant step, and evaluated with the classic minimax polynomials of fdlibm's
+//! `__kernel_sin` and `__kernel_cos` (error below 1 ulp on the reduced interval). Every step is
+//! plain `*` and `+`, so the bits are the same on every CPU; the platform's `sin` is not.
 
-use super::phase::{reduce_phase, round_ties_away};
+use super::phase::{RoundBySelects, Rounding, reduce_phase_with};
 
 // π/2 = PIO2_1 + PIO2_2 (+ 3.5e-27); PIO2_1 has 33 significant bits, so q·PIO2_1 is exact for
 // the quadrant numbers |q| ≤ 2 we use.
@@ -59,16 +59,29 @@ fn kernel_cos(y: f64) -> f64 {
 /// `(sin x, cos x)` for any finite `x` (radians), deterministic to the bit on every platform.
 ///
 /// Accuracy: within 2 ulp of the exact value for |x| ≤ π, and within 2 ulp of the exact value of
-/// the reduced phase up to |x| ≈ 2.7·10¹⁰ (see [`reduce_phase`]).
+/// the reduced phase up to |x| ≈ 2.7·10¹⁰ (see [`reduce_phase`](super::reduce_phase)).
 ///
-/// Branch-free, so that a loop over points or waves vectorises: the quadrant number q ∈ {−2, …, 2}
-/// (rounded by [`round_ties_away`], the same bits as `f64::round`) picks `(s, c)`, `(c, −s)`,
-/// `(−s, −c)` or `(−c, s)` for `q mod 4 = 0, 1, 2, 3` with selects and sign flips, which are exact:
-/// the result is the same to the bit as the branching version this replaced.
+/// Branch-free, so that a loop over points or waves vectorises: the quadrant number
+/// q ∈ {−2, …, 2} (rounded by [`round_ties_away`](super::round_ties_away), the same bits as
+/// `f64::round`) picks `(s, c)`, `(c, −s)`, `(−s, −c)` or `(−c, s)` for `q mod 4 = 0, 1, 2, 3`
+/// with selects and sign flips, which are exact: the result is the same to the bit as the
+/// branching version this replaced.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
-    let r = reduce_phase(x);
-    let q = round_ties_away(r * TWO_OVER_PI);
+    sin_cos_with::<RoundBySelects>(x)
+}
+
+/// [`sin_cos`] with the rounding `R` (the same bits whichever `R`).
+#[inline(always)]
+pub(crate) fn sin_cos_with<R: Rounding>(x: f64) -> (f64, f64) {
+    sin_cos_of_reduced::<R>(reduce_phase_with::<R>(x))
+}
+
+/// [`sin_cos`] after its reduction to [−π, π]: the quadrant step, the two polynomials and the
+/// quadrant's selects, for `r = reduce_phase(x)`.
+#[inline(always)]
+fn sin_cos_of_reduced<R: Rounding>(r: f64) -> (f64, f64) {
+    let q = R::round(r * TWO_OVER_PI);
     let y = (r - q * PIO2_1) - q * PIO2_2;
     let s = kernel_sin(y);
     let c = kernel_cos(y);
@@ -80,6 +93,65 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     let neg_sin = q == 2.0 || q < -0.5;
     let neg_cos = q > 0.5 || q == -2.0;
     (flip(a, neg_sin), flip(b, neg_cos))
+}
+
+/// Below this magnitude a phase already reduced to [−π, π] is left unchanged, to the bit, by a
+/// second [`reduce_phase`](super::reduce_phase): `|r|/2π` then rounds to less than ½, so `n = ±0` (the sign of r),
+/// and `r − (±0)·piece` is r for every r but −0, which no reduction outputs (`x − n·2π₁` is +0
+/// when it is zero, and later steps only subtract). 3.14 leaves a margin of 1.6·10⁻³ below π;
+/// reduced phases at or above it (about one in 2,000) take the second reduction.
+const SURELY_REDUCED: f64 = 3.14;
+
+/// `sin_cos(reduce_phase(θ))` for a group of `G` waves × `B` points, element by element: the
+/// bits of the scalar composition in every element, for any rounding `R`.
+///
+/// What makes it faster than calling [`sin_cos`] per element:
+/// - each step runs over all `G·B` elements before the next, so `G` independent dependency
+///   chains sit side by side in the instruction stream and the CPU overlaps their latencies
+///   (one chain per point-block left it waiting on each multiply-add);
+/// - `sin_cos` reduces its argument again; on an already reduced phase that is the identity
+///   except within 1.6·10⁻³ of ±π ([`SURELY_REDUCED`]), so the group repeats the reduction only
+///   when one of its elements lies there, and then for all of them (exact for the others too);
+/// - the caller picks `R`: [`RoundByTrunc`](super::phase::RoundByTrunc) where the CPU truncates in one instruction.
+///
+/// Only plain `*`, `+`, `−`, compares, selects and sign-bit flips, in the scalar order, so the
+/// width the compiler chooses changes nothing.
+///
+/// Loop shape: lanes outer, waves inner. The inner loops over `G` are unrolled first, and the
+/// vectoriser then widens the lane loop, so that each scalar operation becomes one vector
+/// operation over lanes (waves inner and lanes outer also keeps it from packing across waves,
+/// which costs shuffles).
+// Indexing several lane arrays by one counter is the shape the vectoriser wants.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+pub(crate) fn sin_cos_phases<R: Rounding, const G: usize, const B: usize>(
+    theta: &[[f64; B]; G],
+) -> ([[f64; B]; G], [[f64; B]; G]) {
+    let mut r = [[0.0f64; B]; G];
+    // `!(|r| < …)` so that NaN takes the full path too.
+    let mut again = false;
+    for l in 0..B {
+        for g in 0..G {
+            let v = reduce_phase_with::<R>(theta[g][l]);
+            r[g][l] = v;
+            again |= !(v.abs() < SURELY_REDUCED);
+        }
+    }
+    if again {
+        for l in 0..B {
+            for g in 0..G {
+                r[g][l] = reduce_phase_with::<R>(r[g][l]);
+            }
+        }
+    }
+    let mut s = [[0.0f64; B]; G];
+    let mut c = [[0.0f64; B]; G];
+    for l in 0..B {
+        for g in 0..G {
+            (s[g][l], c[g][l]) = sin_cos_of_reduced::<R>(r[g][l]);
+        }
+    }
+    (s, c)
 }
 
 /// `-v` if `neg`, else `v`, as a sign-bit flip (exactly what negation does) without a branch.
@@ -151,6 +223,7 @@ pub fn cos(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::reduce_phase;
 
     /// The kernel against the platform's correctly-reduced sin/cos on a dense sweep.
     #[test]
