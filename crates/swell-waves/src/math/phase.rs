@@ -35,6 +35,18 @@ pub(crate) fn reduce_phase_with<R: Rounding>(x: f64) -> f64 {
     ((x - n * TAU_1) - n * TAU_2) - n * TAU_3 - n * TAU_4
 }
 
+/// [`reduce_phase_with`] on `G` values at once, step by step: each step of the reduction runs on
+/// all of them before the next, so their independent chains sit side by side in the
+/// instruction stream. Element `g` gets the bits of `reduce_phase_with::<R>(x[g])`.
+#[inline(always)]
+pub(crate) fn reduce_phases_with<R: Rounding, const G: usize>(x: &[f64; G]) -> [f64; G] {
+    let n: [f64; G] = std::array::from_fn(|g| R::round(x[g] * INV_TAU));
+    let v: [f64; G] = std::array::from_fn(|g| x[g] - n[g] * TAU_1);
+    let v: [f64; G] = std::array::from_fn(|g| v[g] - n[g] * TAU_2);
+    let v: [f64; G] = std::array::from_fn(|g| v[g] - n[g] * TAU_3);
+    std::array::from_fn(|g| v[g] - n[g] * TAU_4)
+}
+
 /// A way to compute `x.round()` (nearest integer, ties away from zero) to the bit, for every
 /// non-NaN `x`. The implementations differ only in speed, which depends on the instructions a
 /// kernel is compiled for; a test pins each to `f64::round`.
