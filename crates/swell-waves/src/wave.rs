@@ -546,7 +546,7 @@ impl WaveSoA {
     /// lanes inner (branch-free, so the lane loop vectorises). The waves go [`WAVE_GROUP`] at a
     /// time through [`crate::math::sin_cos_phases`], which interleaves their independent
     /// sin/cos chains; their terms are then added one wave after another, as the scalar path
-    /// adds them. The waves left over after the last full group go one at a time.
+    /// adds them.
     #[inline(always)]
     fn kernel<const B: usize, const D: bool, const V: bool, R: Rounding>(
         &self,
@@ -565,8 +565,19 @@ impl WaveSoA {
         for w0 in (0..full).step_by(WAVE_GROUP) {
             self.group::<B, WAVE_GROUP, D, V, R>(w0, x, z, t, &mut acc, &mut vel);
         }
-        for w0 in full..n {
-            self.group::<B, 1, D, V, R>(w0, x, z, t, &mut acc, &mut vel);
+        // The waves after the last full group go as one shorter group (`lake`'s 17 waves
+        // end in a group of one, a 23-wave layer in a group of three).
+        match n - full {
+            0 => {}
+            1 => self.group::<B, 1, D, V, R>(full, x, z, t, &mut acc, &mut vel),
+            2 => self.group::<B, 2, D, V, R>(full, x, z, t, &mut acc, &mut vel),
+            3 => self.group::<B, 3, D, V, R>(full, x, z, t, &mut acc, &mut vel),
+            // Only reachable if WAVE_GROUP grows past 4.
+            _ => {
+                for w0 in full..n {
+                    self.group::<B, 1, D, V, R>(w0, x, z, t, &mut acc, &mut vel);
+                }
+            }
         }
         *out = acc;
         *velocity = vel;

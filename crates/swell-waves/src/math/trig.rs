@@ -135,33 +135,40 @@ fn sin_cos_of_reduced_each<R: Rounding, const G: usize>(r: &[f64; G]) -> ([f64; 
 }
 
 /// Below this magnitude a phase already reduced to [−π, π] is left unchanged, to the bit, by a
-/// second [`reduce_phase`](super::reduce_phase): `|r|/2π` then rounds to less than ½, so `n = ±0` (the sign of r),
-/// and `r − (±0)·piece` is r for every r but −0, which no reduction outputs (`x − n·2π₁` is +0
-/// when it is zero, and later steps only subtract). 3.14 leaves a margin of 1.6·10⁻³ below π;
-/// reduced phases at or above it (about one in 2,000) take the second reduction.
+/// second [`reduce_phase`](super::reduce_phase): `|r|/2π` then rounds to less than ½, so
+/// `n = ±0` (the sign of r), and `r − (±0)·piece` is r for every r but −0, which no reduction
+/// outputs (`x − n·2π₁` is +0 when it is zero, and later steps only subtract). Deliberately just
+/// below π: a margin of 1.6·10⁻³, so about one reduced phase in 2,000 takes the second
+/// reduction (and with it the group of 32 it is in, about one group in 60). A smaller value
+/// sends more groups through it; a value at or above π would be wrong.
+#[allow(clippy::approx_constant)]
 const SURELY_REDUCED: f64 = 3.14;
 
 /// `sin_cos(reduce_phase(θ))` for a group of `G` waves × `B` points, element by element: the
 /// bits of the scalar composition in every element, for any rounding `R`.
 ///
 /// What makes it faster than calling [`sin_cos`] per element:
-/// - each step runs over all `G·B` elements before the next, so `G` independent dependency
-///   chains sit side by side in the instruction stream and the CPU overlaps their latencies
-///   (one chain per point-block left it waiting on each multiply-add);
+/// - each step (a reduction step, a Horner step, a select) runs on all `G` waves of a lane
+///   before the next step ([`reduce_phases_with`], [`sin_cos_of_reduced_each`]), so `G`
+///   independent dependency chains sit side by side in the instruction stream and the CPU
+///   overlaps their latencies; chains written one after another were left that way by the
+///   compiler, and the core's scheduler could not look far enough ahead to overlap them;
 /// - `sin_cos` reduces its argument again; on an already reduced phase that is the identity
 ///   except within 1.6·10⁻³ of ±π ([`SURELY_REDUCED`]), so the group repeats the reduction only
 ///   when one of its elements lies there, and then for all of them (exact for the others too);
-/// - the caller picks `R`: [`RoundByTrunc`](super::phase::RoundByTrunc) where the CPU truncates in one instruction.
+/// - the caller picks `R`: [`RoundByTrunc`](super::phase::RoundByTrunc) where the CPU
+///   truncates in one instruction.
 ///
 /// Only plain `*`, `+`, `−`, compares, selects and sign-bit flips, in the scalar order, so the
 /// width the compiler chooses changes nothing.
 ///
-/// Loop shape: lanes outer, waves inner. The inner loops over `G` are unrolled first, and the
+/// Loop shape: lanes outer, waves inner. The inner steps over `G` are unrolled first, and the
 /// vectoriser then widens the lane loop, so that each scalar operation becomes one vector
-/// operation over lanes (waves inner and lanes outer also keeps it from packing across waves,
-/// which costs shuffles).
-// Indexing several lane arrays by one counter is the shape the vectoriser wants.
-#[allow(clippy::needless_range_loop)]
+/// operation over lanes (lanes outer also keeps it from packing across waves, which costs
+/// shuffles).
+// Indexing several lane arrays by one counter is the shape the vectoriser wants; the negated
+// comparison sends NaN down the full reduction.
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 pub(crate) fn sin_cos_phases<R: Rounding, const G: usize, const B: usize>(
     theta: &[[f64; B]; G],
@@ -372,7 +379,8 @@ mod tests {
         const G: usize = 4;
         const B: usize = 8;
         let mut rng = crate::math::SwellRng::new(29, 2);
-        let mut xs: Vec<f64> = vec![0.0, -0.0, 1e-300, -1e-300, 3.14, -3.14, 3.15, -3.15];
+        let t = SURELY_REDUCED;
+        let mut xs: Vec<f64> = vec![0.0, -0.0, 1e-300, -1e-300, t, -t, t + 0.01, -t - 0.01];
         let mut moved = 0;
         for k in -40..=40 {
             let base = f64::from(2 * k + 1) * std::f64::consts::PI;
