@@ -3,9 +3,11 @@
 use glam::DVec2;
 
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
+#[cfg(target_arch = "x86_64")]
+use crate::math::RoundByTrunc;
 use crate::math::{
-    RoundBySelects, RoundByTrunc, Rounding, TAU, reduce_phase, reduce_turns, sin_cos,
-    sin_cos_phases, sin_cos_turns_f32,
+    RoundBySelects, Rounding, TAU, reduce_phase, reduce_turns, sin_cos, sin_cos_phases,
+    sin_cos_turns_f32,
 };
 use crate::spectrum::Dispersion;
 

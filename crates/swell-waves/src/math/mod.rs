@@ -9,7 +9,9 @@ mod phase;
 mod rng;
 mod trig;
 
-pub(crate) use phase::{RoundBySelects, RoundByTrunc, Rounding};
+#[cfg(target_arch = "x86_64")]
+pub(crate) use phase::RoundByTrunc;
+pub(crate) use phase::{RoundBySelects, Rounding};
 pub use phase::{TAU, reduce_phase, reduce_turns, round_ties_away};
 pub use rng::{SwellRng, mode_key, splitmix64};
 pub(crate) use trig::sin_cos_phases;

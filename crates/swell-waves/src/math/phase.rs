@@ -68,7 +68,8 @@ impl Rounding for RoundBySelects {
 
 /// [`round_ties_away_by_trunc`]: four instructions where the CPU truncates in one (SSE4.1's
 /// `roundpd`, AVX-512's `vrndscalepd`), but a C library call per value on baseline x86-64. Only
-/// kernels compiled for AVX2 or AVX-512 use it.
+/// kernels compiled for AVX2 or AVX-512 use it (so elsewhere only the tests do).
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(crate) struct RoundByTrunc;
 
 impl Rounding for RoundByTrunc {
@@ -91,6 +92,7 @@ const BELOW_HALF: f64 = 0.499_999_999_999_999_94;
 /// below an integer that is not representable rounds to that integer, never past it); where
 /// |x| ≥ 2⁵² the constant is below half an ulp and the sum is x. Truncation then drops the
 /// fraction and keeps the sign, so −0.3 gives −0.0 as `round` does.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 #[inline(always)]
 pub(crate) fn round_ties_away_by_trunc(x: f64) -> f64 {
     (x + BELOW_HALF.copysign(x)).trunc()
