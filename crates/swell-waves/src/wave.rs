@@ -3,7 +3,12 @@
 use glam::DVec2;
 
 use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
-use crate::math::{TAU, reduce_phase, reduce_turns, sin_cos, sin_cos_turns_f32};
+#[cfg(target_arch = "x86_64")]
+use crate::math::RoundByTrunc;
+use crate::math::{
+    RoundBySelects, Rounding, TAU, reduce_phase, reduce_turns, sin_cos, sin_cos_phases,
+    sin_cos_turns_f32,
+};
 use crate::spectrum::Dispersion;
 
 /// A built, validated wave: everything needed to evaluate it, and everything a client needs to
@@ -196,6 +201,12 @@ pub fn accumulate_all(
 /// register) per quantity; with 9 accumulators per lane that still fits the register file.
 /// The block size never changes a result, only speed (every lane is computed on its own).
 pub const BLOCK: usize = 8;
+
+/// Waves per group of the f64 block kernel: the kernel computes the sines and cosines of this
+/// many waves side by side before adding their terms in wave order. Four independent chains
+/// (four AVX-512 registers per step) hide most of each step's latency and still leave room in
+/// the register file for the nine accumulators; a group never changes a result, only speed.
+const WAVE_GROUP: usize = 4;
 
 /// A set of waves stored as a structure of arrays, for evaluating many points at once.
 ///
@@ -464,17 +475,82 @@ impl WaveSoA {
         out: &mut Lanes<B>,
         velocity: &mut [[f64; B]; 3],
     ) {
+        #[cfg(target_arch = "x86_64")]
+        match crate::simd::simd_level() {
+            crate::simd::SimdLevel::Avx512 => {
+                // SAFETY: `simd_level` is Avx512 only where the CPU has AVX-512 F (detected at
+                // run time).
+                unsafe { self.kernel_avx512::<B, V>(x, z, t, derivatives, out, velocity) };
+                return;
+            }
+            crate::simd::SimdLevel::Avx2 => {
+                // SAFETY: `simd_level` is Avx2 only where the CPU has AVX2 (detected at run time).
+                unsafe { self.kernel_avx2::<B, V>(x, z, t, derivatives, out, velocity) };
+                return;
+            }
+            _ => {}
+        }
+        self.kernel_for::<B, V, RoundBySelects>(x, z, t, derivatives, out, velocity);
+    }
+
+    /// The block kernel compiled for AVX-512 F, whatever its caller was compiled for: 8 f64
+    /// lanes per register, rounding by truncation (`vrndscalepd`). Never FMA: Rust does not
+    /// contract `a * b + c`, and [`RoundByTrunc`] gives [`RoundBySelects`]' bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn kernel_avx512<const B: usize, const V: bool>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
+    ) {
+        self.kernel_for::<B, V, RoundByTrunc>(x, z, t, derivatives, out, velocity);
+    }
+
+    /// The block kernel compiled for AVX2 (4 lanes, `vroundpd`); see
+    /// [`WaveSoA::kernel_avx512`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn kernel_avx2<const B: usize, const V: bool>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
+    ) {
+        self.kernel_for::<B, V, RoundByTrunc>(x, z, t, derivatives, out, velocity);
+    }
+
+    /// The kernel instance for `derivatives`.
+    #[inline(always)]
+    fn kernel_for<const B: usize, const V: bool, R: Rounding>(
+        &self,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        derivatives: bool,
+        out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
+    ) {
         if derivatives {
-            self.kernel::<B, true, V>(x, z, t, out, velocity);
+            self.kernel::<B, true, V, R>(x, z, t, out, velocity);
         } else {
-            self.kernel::<B, false, V>(x, z, t, out, velocity);
+            self.kernel::<B, false, V, R>(x, z, t, out, velocity);
         }
     }
 
     /// The block kernel: waves outer (so each lane sums in wave order, like the scalar path),
-    /// lanes inner (branch-free, so the lane loop vectorises).
+    /// lanes inner (branch-free, so the lane loop vectorises). The waves go [`WAVE_GROUP`] at a
+    /// time through [`crate::math::sin_cos_phases`], which interleaves their independent
+    /// sin/cos chains; their terms are then added one wave after another, as the scalar path
+    /// adds them.
     #[inline(always)]
-    fn kernel<const B: usize, const D: bool, const V: bool>(
+    fn kernel<const B: usize, const D: bool, const V: bool, R: Rounding>(
         &self,
         x: &[f64; B],
         z: &[f64; B],
@@ -482,28 +558,81 @@ impl WaveSoA {
         out: &mut Lanes<B>,
         velocity: &mut [[f64; B]; 3],
     ) {
+        // Local copies, so that the sums stay in registers rather than going back to `out`
+        // after every wave.
+        let mut acc = *out;
+        let mut vel = *velocity;
         let n = self.k.len();
-        let (k, om, ph) = (&self.k[..n], &self.omega[..n], &self.phase[..n]);
-        let (dxs, dzs, a) = (&self.dx[..n], &self.dz[..n], &self.a[..n]);
-        let (qadx, qadz, ak, qak) = (
-            &self.qadx[..n],
-            &self.qadz[..n],
-            &self.ak[..n],
-            &self.qak[..n],
+        let full = n - n % WAVE_GROUP;
+        for w0 in (0..full).step_by(WAVE_GROUP) {
+            self.group::<B, WAVE_GROUP, D, V, R>(w0, x, z, t, &mut acc, &mut vel);
+        }
+        // The waves after the last full group go as one shorter group (`lake`'s 17 waves
+        // end in a group of one, a 23-wave layer in a group of three).
+        match n - full {
+            0 => {}
+            1 => self.group::<B, 1, D, V, R>(full, x, z, t, &mut acc, &mut vel),
+            2 => self.group::<B, 2, D, V, R>(full, x, z, t, &mut acc, &mut vel),
+            3 => self.group::<B, 3, D, V, R>(full, x, z, t, &mut acc, &mut vel),
+            // Only reachable if WAVE_GROUP grows past 4.
+            _ => {
+                for w0 in full..n {
+                    self.group::<B, 1, D, V, R>(w0, x, z, t, &mut acc, &mut vel);
+                }
+            }
+        }
+        *out = acc;
+        *velocity = vel;
+    }
+
+    /// Waves `w0..w0 + G` of the block kernel: their `G·B` sines and cosines, then their terms,
+    /// wave by wave, each lane exactly as [`Wave::accumulate`] adds it.
+    // Indexing several lane arrays by one counter is the shape the vectoriser wants.
+    #[allow(clippy::needless_range_loop, clippy::too_many_arguments)]
+    #[inline(always)]
+    fn group<const B: usize, const G: usize, const D: bool, const V: bool, R: Rounding>(
+        &self,
+        w0: usize,
+        x: &[f64; B],
+        z: &[f64; B],
+        t: f64,
+        out: &mut Lanes<B>,
+        velocity: &mut [[f64; B]; 3],
+    ) {
+        let ws = w0..w0 + G;
+        let (k, om, ph) = (
+            &self.k[ws.clone()],
+            &self.omega[ws.clone()],
+            &self.phase[ws.clone()],
         );
-        let (aw, qaw) = (&self.aw[..n], &self.qaw[..n]);
-        for w in 0..n {
-            let (kw, wt, phw) = (k[w], om[w] * t, ph[w]);
-            let (dx, dz) = (dxs[w], dzs[w]);
-            for l in 0..B {
-                let along = dx * x[l] + dz * z[l];
-                let (s, c) = sin_cos(reduce_phase(kw * along - wt + phw));
-                out.disp[0][l] += qadx[w] * c;
-                out.disp[1][l] += a[w] * s;
-                out.disp[2][l] += qadz[w] * c;
+        let (dxs, dzs, a) = (
+            &self.dx[ws.clone()],
+            &self.dz[ws.clone()],
+            &self.a[ws.clone()],
+        );
+        let (qadx, qadz) = (&self.qadx[ws.clone()], &self.qadz[ws.clone()]);
+        let (ak, qak) = (&self.ak[ws.clone()], &self.qak[ws.clone()]);
+        let (aw, qaw) = (&self.aw[ws.clone()], &self.qaw[ws]);
+        // Lanes outer and waves inner, as in `sin_cos_phases` (the loops over G unroll, the lane
+        // loops vectorise); each accumulator still takes its terms in wave order.
+        let mut theta = [[0.0f64; B]; G];
+        for l in 0..B {
+            for g in 0..G {
+                let along = dxs[g] * x[l] + dzs[g] * z[l];
+                theta[g][l] = k[g] * along - om[g] * t + ph[g];
+            }
+        }
+        let (sin, cos) = sin_cos_phases::<R, G, B>(&theta);
+        for l in 0..B {
+            for g in 0..G {
+                let (dx, dz) = (dxs[g], dzs[g]);
+                let (s, c) = (sin[g][l], cos[g][l]);
+                out.disp[0][l] += qadx[g] * c;
+                out.disp[1][l] += a[g] * s;
+                out.disp[2][l] += qadz[g] * c;
                 if D {
-                    let ak_c = ak[w] * c;
-                    let qak_s = qak[w] * s;
+                    let ak_c = ak[g] * c;
+                    let qak_s = qak[g] * s;
                     out.d_dx[0][l] -= qak_s * dx * dx;
                     out.d_dx[1][l] += ak_c * dx;
                     out.d_dx[2][l] -= qak_s * dx * dz;
@@ -512,9 +641,9 @@ impl WaveSoA {
                     out.d_dz[2][l] -= qak_s * dz * dz;
                 }
                 if V {
-                    let qaw_s = qaw[w] * s;
+                    let qaw_s = qaw[g] * s;
                     velocity[0][l] += qaw_s * dx;
-                    velocity[1][l] -= aw[w] * c;
+                    velocity[1][l] -= aw[g] * c;
                     velocity[2][l] += qaw_s * dz;
                 }
             }

@@ -2,7 +2,9 @@
 //! examples: one copy of each spec. Each bench uses some of them.
 #![allow(dead_code)]
 
+use glam::DVec2;
 use serde_json::json;
+use swell_waves::wave::Wave;
 use swell_waves::{Surface, SurfaceSpec};
 
 fn surface(v: serde_json::Value) -> Surface {
@@ -30,4 +32,50 @@ pub fn lake() -> Surface {
          "waves": [{"amplitude": 0.25, "wavelength": 22, "direction": [1, 0.4], "steepness": 0.5}],
          "cascade": {"wavelength": 8, "amplitude": 0.08, "steepness": 0.5, "direction": [1, 0.4]}}
     ]}))
+}
+
+/// The `targets/gerstner16_*` surface: 16 Gerstner waves, wavelengths 4 to 94 m, each with
+/// k·A = 0.1 and Q = fold/1.6, so that the fold number Σ Q·k·A is `fold`.
+pub fn gerstner16(fold: f64) -> Surface {
+    let waves: Vec<_> = (0..16)
+        .map(|i| {
+            let l = 4.0 + 6.0 * i as f64;
+            let ka = 0.1;
+            let a = (i as f64 * 2.399).sin_cos();
+            json!({"amplitude": ka * l / std::f64::consts::TAU, "wavelength": l,
+                   "direction": [a.1, a.0], "phase": i as f64, "steepness": fold / (16.0 * ka)})
+        })
+        .collect();
+    surface(json!({"layers": [{"kind": "gerstner", "waves": waves}]}))
+}
+
+/// The naive way with normals: per point, per wave, std sin/cos on the unreduced phase, the
+/// displacement and its six derivatives summed, then the normal. The same work as
+/// `sample_batch(.., true)` + `SurfaceSample::normal`.
+pub fn naive_gerstner_normal(waves: &[Wave], pts: &[DVec2], t: f64, out: &mut [[f64; 6]]) {
+    for (p, o) in pts.iter().zip(out.iter_mut()) {
+        let mut d = [0.0; 3];
+        let (mut ddx, mut ddz) = ([0.0; 3], [0.0; 3]);
+        for w in waves {
+            let th = w.wavenumber * w.direction.dot(*p) - w.omega * t + w.phase;
+            let (s, c) = th.sin_cos();
+            let (dx, dz) = (w.direction.x, w.direction.y);
+            let qa = w.steepness * w.amplitude;
+            d[0] += qa * dx * c;
+            d[1] += w.amplitude * s;
+            d[2] += qa * dz * c;
+            let akc = w.amplitude * w.wavenumber * c;
+            let qaks = qa * w.wavenumber * s;
+            ddx[0] -= qaks * dx * dx;
+            ddx[1] += akc * dx;
+            ddx[2] -= qaks * dx * dz;
+            ddz[0] -= qaks * dx * dz;
+            ddz[1] += akc * dz;
+            ddz[2] -= qaks * dz * dz;
+        }
+        let tx = glam::DVec3::new(1.0 + ddx[0], ddx[1], ddx[2]);
+        let tz = glam::DVec3::new(ddz[0], ddz[1], 1.0 + ddz[2]);
+        let n = tz.cross(tx).normalize();
+        *o = [d[0], d[1], d[2], n.x, n.y, n.z];
+    }
 }

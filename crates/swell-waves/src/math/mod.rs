@@ -9,8 +9,12 @@ mod phase;
 mod rng;
 mod trig;
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) use phase::RoundByTrunc;
+pub(crate) use phase::{RoundBySelects, Rounding};
 pub use phase::{TAU, reduce_phase, reduce_turns, round_ties_away};
 pub use rng::{SwellRng, mode_key, splitmix64};
+pub(crate) use trig::sin_cos_phases;
 pub use trig::{COSPI_F32, SINPI_F32, cos, sin, sin_cos, sin_cos_turns_f32};
 
 /// `e^x`, from the pure-Rust `libm` crate (bit-identical on every platform).

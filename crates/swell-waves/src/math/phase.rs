@@ -24,8 +24,78 @@ const TAU_4: f64 = 1.165_092_822_437_342_4e-19;
 /// |x| < 2.7·10¹⁰ rad. Non-finite input gives NaN (callers validate their inputs first).
 #[inline]
 pub fn reduce_phase(x: f64) -> f64 {
-    let n = round_ties_away(x * INV_TAU);
+    reduce_phase_with::<RoundBySelects>(x)
+}
+
+/// [`reduce_phase`] with the rounding `R`: the same bits whichever `R` (each gives
+/// `f64::round`'s), so a kernel picks the one its SIMD level runs fastest.
+#[inline(always)]
+pub(crate) fn reduce_phase_with<R: Rounding>(x: f64) -> f64 {
+    let n = R::round(x * INV_TAU);
     ((x - n * TAU_1) - n * TAU_2) - n * TAU_3 - n * TAU_4
+}
+
+/// [`reduce_phase_with`] on `G` values at once, step by step: each step of the reduction runs on
+/// all of them before the next, so their independent chains sit side by side in the
+/// instruction stream. Element `g` gets the bits of `reduce_phase_with::<R>(x[g])`.
+#[inline(always)]
+pub(crate) fn reduce_phases_with<R: Rounding, const G: usize>(x: &[f64; G]) -> [f64; G] {
+    let n: [f64; G] = std::array::from_fn(|g| R::round(x[g] * INV_TAU));
+    let v: [f64; G] = std::array::from_fn(|g| x[g] - n[g] * TAU_1);
+    let v: [f64; G] = std::array::from_fn(|g| v[g] - n[g] * TAU_2);
+    let v: [f64; G] = std::array::from_fn(|g| v[g] - n[g] * TAU_3);
+    std::array::from_fn(|g| v[g] - n[g] * TAU_4)
+}
+
+/// A way to compute `x.round()` (nearest integer, ties away from zero) to the bit, for every
+/// non-NaN `x`. The implementations differ only in speed, which depends on the instructions a
+/// kernel is compiled for; a test pins each to `f64::round`.
+pub(crate) trait Rounding {
+    /// `x.round()`, to the bit.
+    fn round(x: f64) -> f64;
+}
+
+/// [`round_ties_away`]: adds, compares and selects, vectorises at every x86-64 level. The
+/// reference rounding, and the one baseline (SSE2) code uses.
+pub(crate) struct RoundBySelects;
+
+impl Rounding for RoundBySelects {
+    #[inline(always)]
+    fn round(x: f64) -> f64 {
+        round_ties_away(x)
+    }
+}
+
+/// [`round_ties_away_by_trunc`]: four instructions where the CPU truncates in one (SSE4.1's
+/// `roundpd`, AVX-512's `vrndscalepd`), but a C library call per value on baseline x86-64. Only
+/// kernels compiled for AVX2 or AVX-512 use it (so elsewhere only the tests do).
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) struct RoundByTrunc;
+
+impl Rounding for RoundByTrunc {
+    #[inline(always)]
+    fn round(x: f64) -> f64 {
+        round_ties_away_by_trunc(x)
+    }
+}
+
+/// ½ − 2⁻⁵⁴, the largest double below ½.
+const BELOW_HALF: f64 = 0.499_999_999_999_999_94;
+
+/// `x.round()` as `trunc(x + copysign(½ − 2⁻⁵⁴, x))`: the same bits as `f64::round` (and
+/// [`round_ties_away`]) for every non-NaN input, pinned by tests.
+///
+/// Why it is exact: x and the added constant have the same sign, so the sum only moves away
+/// from zero. Where |x| has a fraction below ½ the sum stays below the next integer (adding
+/// ½ − 2⁻⁵⁴ rather than ½ keeps x = ½ − 2⁻⁵⁴ from rounding up to 1); where the fraction is ½ or
+/// more the sum reaches the next integer, either exactly or by rounding up to it (a sum just
+/// below an integer that is not representable rounds to that integer, never past it); where
+/// |x| ≥ 2⁵² the constant is below half an ulp and the sum is x. Truncation then drops the
+/// fraction and keeps the sign, so −0.3 gives −0.0 as `round` does.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+#[inline(always)]
+pub(crate) fn round_ties_away_by_trunc(x: f64) -> f64 {
+    (x + BELOW_HALF.copysign(x)).trunc()
 }
 
 /// 1.5·2⁵²: adding and subtracting it rounds any |p| < 2⁵¹ to the nearest integer (ties to
@@ -150,6 +220,11 @@ mod tests {
                 round_ties_away(x).to_bits(),
                 x.round().to_bits(),
                 "round({x:e})"
+            );
+            assert_eq!(
+                round_ties_away_by_trunc(x).to_bits(),
+                x.round().to_bits(),
+                "trunc form of round({x:e})"
             );
         }
     }

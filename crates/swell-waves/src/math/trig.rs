@@ -1,11 +1,11 @@
 //! Sine and cosine from a fixed polynomial kernel.
 //!
-//! The argument is first reduced to [−π, π] by [`reduce_phase`], then to [−π/4, π/4] by a
-//! quadrant step, and evaluated with the classic minimax polynomials of fdlibm's `__kernel_sin`
-//! and `__kernel_cos` (error below 1 ulp on the reduced interval). Every step is plain `*` and
-//! `+`, so the bits are the same on every CPU; the platform's `sin` is not.
+//! The argument is first reduced to [−π, π] by [`reduce_phase`](super::reduce_phase), then to
+//! [−π/4, π/4] by a quadrant step, and evaluated with the classic minimax polynomials of fdlibm's
+//! `__kernel_sin` and `__kernel_cos` (error below 1 ulp on the reduced interval). Every step is
+//! plain `*` and `+`, so the bits are the same on every CPU; the platform's `sin` is not.
 
-use super::phase::{reduce_phase, round_ties_away};
+use super::phase::{RoundBySelects, Rounding, reduce_phase_with, reduce_phases_with};
 
 // π/2 = PIO2_1 + PIO2_2 (+ 3.5e-27); PIO2_1 has 33 significant bits, so q·PIO2_1 is exact for
 // the quadrant numbers |q| ≤ 2 we use.
@@ -59,16 +59,29 @@ fn kernel_cos(y: f64) -> f64 {
 /// `(sin x, cos x)` for any finite `x` (radians), deterministic to the bit on every platform.
 ///
 /// Accuracy: within 2 ulp of the exact value for |x| ≤ π, and within 2 ulp of the exact value of
-/// the reduced phase up to |x| ≈ 2.7·10¹⁰ (see [`reduce_phase`]).
+/// the reduced phase up to |x| ≈ 2.7·10¹⁰ (see [`reduce_phase`](super::reduce_phase)).
 ///
-/// Branch-free, so that a loop over points or waves vectorises: the quadrant number q ∈ {−2, …, 2}
-/// (rounded by [`round_ties_away`], the same bits as `f64::round`) picks `(s, c)`, `(c, −s)`,
-/// `(−s, −c)` or `(−c, s)` for `q mod 4 = 0, 1, 2, 3` with selects and sign flips, which are exact:
-/// the result is the same to the bit as the branching version this replaced.
+/// Branch-free, so that a loop over points or waves vectorises: the quadrant number
+/// q ∈ {−2, …, 2} (rounded by [`round_ties_away`](super::round_ties_away), the same bits as
+/// `f64::round`) picks `(s, c)`, `(c, −s)`, `(−s, −c)` or `(−c, s)` for `q mod 4 = 0, 1, 2, 3`
+/// with selects and sign flips, which are exact: the result is the same to the bit as the
+/// branching version this replaced.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
-    let r = reduce_phase(x);
-    let q = round_ties_away(r * TWO_OVER_PI);
+    sin_cos_with::<RoundBySelects>(x)
+}
+
+/// [`sin_cos`] with the rounding `R` (the same bits whichever `R`).
+#[inline(always)]
+pub(crate) fn sin_cos_with<R: Rounding>(x: f64) -> (f64, f64) {
+    sin_cos_of_reduced::<R>(reduce_phase_with::<R>(x))
+}
+
+/// [`sin_cos`] after its reduction to [−π, π]: the quadrant step, the two polynomials and the
+/// quadrant's selects, for `r = reduce_phase(x)`.
+#[inline(always)]
+fn sin_cos_of_reduced<R: Rounding>(r: f64) -> (f64, f64) {
+    let q = R::round(r * TWO_OVER_PI);
     let y = (r - q * PIO2_1) - q * PIO2_2;
     let s = kernel_sin(y);
     let c = kernel_cos(y);
@@ -80,6 +93,113 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     let neg_sin = q == 2.0 || q < -0.5;
     let neg_cos = q > 0.5 || q == -2.0;
     (flip(a, neg_sin), flip(b, neg_cos))
+}
+
+/// [`sin_cos_of_reduced`] on `G` values at once, step by step (each Horner step of each
+/// polynomial runs on all of them before the next), so that `G` independent chains sit side
+/// by side in the instruction stream. Element `g` gets the bits of
+/// `sin_cos_of_reduced::<R>(r[g])`: the same operations on the same operands in the same order.
+#[inline(always)]
+fn sin_cos_of_reduced_each<R: Rounding, const G: usize>(r: &[f64; G]) -> ([f64; G], [f64; G]) {
+    use std::array::from_fn as each;
+    let q: [f64; G] = each(|g| R::round(r[g] * TWO_OVER_PI));
+    let y: [f64; G] = each(|g| (r[g] - q[g] * PIO2_1) - q[g] * PIO2_2);
+    let z: [f64; G] = each(|g| y[g] * y[g]);
+    // kernel_sin: y + y·z·(S1 + z·(S2 + z·(S3 + z·(S4 + z·(S5 + z·S6))))).
+    let p: [f64; G] = each(|g| S5 + z[g] * S6);
+    let p: [f64; G] = each(|g| S4 + z[g] * p[g]);
+    let p: [f64; G] = each(|g| S3 + z[g] * p[g]);
+    let p: [f64; G] = each(|g| S2 + z[g] * p[g]);
+    let s: [f64; G] = each(|g| y[g] + y[g] * z[g] * (S1 + z[g] * p[g]));
+    // kernel_cos: w + (((1 − w) − hz) + z·r), r = z·(C1 + z·(… + z·C6)), hz = z/2, w = 1 − hz.
+    let p: [f64; G] = each(|g| C5 + z[g] * C6);
+    let p: [f64; G] = each(|g| C4 + z[g] * p[g]);
+    let p: [f64; G] = each(|g| C3 + z[g] * p[g]);
+    let p: [f64; G] = each(|g| C2 + z[g] * p[g]);
+    let p: [f64; G] = each(|g| z[g] * (C1 + z[g] * p[g]));
+    let hz: [f64; G] = each(|g| 0.5 * z[g]);
+    let w: [f64; G] = each(|g| 1.0 - hz[g]);
+    let c: [f64; G] = each(|g| w[g] + (((1.0 - w[g]) - hz[g]) + z[g] * p[g]));
+    let mut sin = [0.0; G];
+    let mut cos = [0.0; G];
+    for g in 0..G {
+        let q = q[g];
+        let odd = q.abs() == 1.0;
+        let a = if odd { c[g] } else { s[g] };
+        let b = if odd { s[g] } else { c[g] };
+        let neg_sin = q == 2.0 || q < -0.5;
+        let neg_cos = q > 0.5 || q == -2.0;
+        (sin[g], cos[g]) = (flip(a, neg_sin), flip(b, neg_cos));
+    }
+    (sin, cos)
+}
+
+/// Below this magnitude a phase already reduced to [−π, π] is left unchanged, to the bit, by a
+/// second [`reduce_phase`](super::reduce_phase): `|r|/2π` then rounds to less than ½, so
+/// `n = ±0` (the sign of r), and `r − (±0)·piece` is r for every r but −0, which no reduction
+/// outputs (`x − n·2π₁` is +0 when it is zero, and later steps only subtract). Deliberately just
+/// below π: a margin of 1.6·10⁻³, so about one reduced phase in 2,000 takes the second
+/// reduction (and with it the group of 32 it is in, about one group in 60). A smaller value
+/// sends more groups through it; a value at or above π would be wrong.
+#[allow(clippy::approx_constant)]
+const SURELY_REDUCED: f64 = 3.14;
+
+/// `sin_cos(reduce_phase(θ))` for a group of `G` waves × `B` points, element by element: the
+/// bits of the scalar composition in every element, for any rounding `R`.
+///
+/// What makes it faster than calling [`sin_cos`] per element:
+/// - each step (a reduction step, a Horner step, a select) runs on all `G` waves of a lane
+///   before the next step ([`reduce_phases_with`], [`sin_cos_of_reduced_each`]), so `G`
+///   independent dependency chains sit side by side in the instruction stream and the CPU
+///   overlaps their latencies; chains written one after another were left that way by the
+///   compiler, and the core's scheduler could not look far enough ahead to overlap them;
+/// - `sin_cos` reduces its argument again; on an already reduced phase that is the identity
+///   except within 1.6·10⁻³ of ±π ([`SURELY_REDUCED`]), so the group repeats the reduction only
+///   when one of its elements lies there, and then for all of them (exact for the others too);
+/// - the caller picks `R`: [`RoundByTrunc`](super::phase::RoundByTrunc) where the CPU
+///   truncates in one instruction.
+///
+/// Only plain `*`, `+`, `−`, compares, selects and sign-bit flips, in the scalar order, so the
+/// width the compiler chooses changes nothing.
+///
+/// Loop shape: lanes outer, waves inner. The inner steps over `G` are unrolled first, and the
+/// vectoriser then widens the lane loop, so that each scalar operation becomes one vector
+/// operation over lanes (lanes outer also keeps it from packing across waves, which costs
+/// shuffles).
+// Indexing several lane arrays by one counter is the shape the vectoriser wants; the negated
+// comparison sends NaN down the full reduction.
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+pub(crate) fn sin_cos_phases<R: Rounding, const G: usize, const B: usize>(
+    theta: &[[f64; B]; G],
+) -> ([[f64; B]; G], [[f64; B]; G]) {
+    let mut r = [[0.0f64; B]; G];
+    // `!(|r| < …)` so that NaN takes the full path too.
+    let mut again = false;
+    for l in 0..B {
+        let v = reduce_phases_with::<R, G>(&std::array::from_fn(|g| theta[g][l]));
+        for g in 0..G {
+            r[g][l] = v[g];
+            again |= !(v[g].abs() < SURELY_REDUCED);
+        }
+    }
+    if again {
+        for l in 0..B {
+            let v = reduce_phases_with::<R, G>(&std::array::from_fn(|g| r[g][l]));
+            for g in 0..G {
+                r[g][l] = v[g];
+            }
+        }
+    }
+    let mut s = [[0.0f64; B]; G];
+    let mut c = [[0.0f64; B]; G];
+    for l in 0..B {
+        let (sl, cl) = sin_cos_of_reduced_each::<R, G>(&std::array::from_fn(|g| r[g][l]));
+        for g in 0..G {
+            (s[g][l], c[g][l]) = (sl[g], cl[g]);
+        }
+    }
+    (s, c)
 }
 
 /// `-v` if `neg`, else `v`, as a sign-bit flip (exactly what negation does) without a branch.
@@ -151,6 +271,7 @@ pub fn cos(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::reduce_phase;
 
     /// The kernel against the platform's correctly-reduced sin/cos on a dense sweep.
     #[test]
@@ -244,6 +365,66 @@ mod tests {
         for u in [3.0f32, -70.0, 100.0] {
             let (s, c) = sin_cos_turns_f32(u);
             assert!(s.is_finite() && c.is_finite(), "{u}");
+        }
+    }
+
+    /// `sin_cos_phases` (the batch kernels' fast path) against the scalar composition
+    /// `sin_cos(reduce_phase(θ))` it stands for, bit for bit, with both roundings: seeded random
+    /// phases over 14 orders of magnitude, and phases at and around odd multiples of π, whose
+    /// first reduction lands next to ±π, where `sin_cos`'s own reduction moves them again (the
+    /// test checks that some do, so the rare branch is exercised).
+    #[test]
+    fn grouped_phases_match_scalar_sin_cos_bit_for_bit() {
+        use crate::math::phase::{RoundByTrunc, reduce_phase};
+        const G: usize = 4;
+        const B: usize = 8;
+        let mut rng = crate::math::SwellRng::new(29, 2);
+        let t = SURELY_REDUCED;
+        let mut xs: Vec<f64> = vec![0.0, -0.0, 1e-300, -1e-300, t, -t, t + 0.01, -t - 0.01];
+        let mut moved = 0;
+        for k in -40..=40 {
+            let base = f64::from(2 * k + 1) * std::f64::consts::PI;
+            for d in [-1e-3, -1e-9, -1e-14, 0.0, 1e-14, 1e-9, 1e-3] {
+                let x = base + d;
+                for v in [
+                    x,
+                    f64::from_bits(x.to_bits() + 1),
+                    f64::from_bits(x.to_bits() - 1),
+                ] {
+                    let r = reduce_phase(v);
+                    if reduce_phase(r).to_bits() != r.to_bits() {
+                        moved += 1;
+                    }
+                    xs.push(v);
+                }
+            }
+        }
+        assert!(moved > 0, "no phase took the second reduction");
+        for _ in 0..50_000 {
+            let scale = 10f64.powi((rng.uniform() * 14.0) as i32 - 3);
+            xs.push((2.0 * rng.uniform() - 1.0) * scale);
+        }
+        // Shuffle the near-π phases among the others, so that groups mix both kinds.
+        for i in (1..xs.len()).rev() {
+            let j = (rng.uniform() * (i + 1) as f64) as usize;
+            xs.swap(i, j.min(i));
+        }
+        for chunk in xs.chunks(G * B) {
+            let theta: [[f64; B]; G] =
+                std::array::from_fn(|g| std::array::from_fn(|l| chunk[(g * B + l) % chunk.len()]));
+            let by_selects = sin_cos_phases::<RoundBySelects, G, B>(&theta);
+            let by_trunc = sin_cos_phases::<RoundByTrunc, G, B>(&theta);
+            for g in 0..G {
+                for l in 0..B {
+                    let x = theta[g][l];
+                    let (s, c) = sin_cos(reduce_phase(x));
+                    let want = (s.to_bits(), c.to_bits());
+                    for (name, (gs, gc)) in [("selects", by_selects), ("trunc", by_trunc)] {
+                        let got = (gs[g][l].to_bits(), gc[g][l].to_bits());
+                        assert_eq!(got, want, "{name}: sin_cos(reduce_phase({x:e}))");
+                    }
+                }
+            }
         }
     }
 
