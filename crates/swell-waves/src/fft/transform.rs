@@ -36,7 +36,7 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
 use super::FftBackend;
-use super::lanes::{C, LaneFft};
+use super::lanes::{C, Lane, LaneFft, Lanes};
 use crate::simd::{SimdLevel, simd_level};
 
 /// Plans and scratch sizes for inverse real 2-D transforms of one size, and a pool of working
@@ -243,7 +243,10 @@ impl InverseRealFft2 {
         out: &mut [f64],
     ) {
         match simd_level() {
-            SimdLevel::Scalar => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+            SimdLevel::Scalar => {
+                // SAFETY: `[f64; 1]` lanes run on every CPU.
+                unsafe { lanes_2d::<Lanes<1>, 1, F>(fft, scatter, columns, s, out) }
+            }
             #[cfg(target_arch = "x86_64")]
             SimdLevel::Sse2 => {
                 // SAFETY: every x86-64 CPU has SSE2.
@@ -260,7 +263,8 @@ impl InverseRealFft2 {
                 unsafe { lanes_2d_avx512(fft, scatter, columns, s, out) }
             }
             #[cfg(not(target_arch = "x86_64"))]
-            _ => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+            // SAFETY: `[f64; 1]` lanes run on every CPU.
+            _ => unsafe { lanes_2d::<Lanes<1>, 1, F>(fft, scatter, columns, s, out) },
         }
     }
 
@@ -343,8 +347,12 @@ impl LaneBuf<8> for Scratch {
 /// transformed, and stored into G's planes (`Scratch::planes`). Row pass: row pairs
 /// `p0 … p0 + W − 1` are packed (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar packing's
 /// operations, W lanes per vector operation) into lanes, transformed, and unpacked into `out`.
+///
+/// # Safety
+/// V must have W lanes and the CPU its instructions (see [`LaneFft::run_simd`]); W = 8 and 4
+/// also need AVX-512 F and AVX2 for the block transposes (see [`transpose_rows`]).
 #[inline(always)]
-fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
+unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
     fft: &LaneFft,
     scatter: &[u32],
     columns: Columns<'_, F>,
@@ -411,7 +419,8 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
                 }
             }
         }
-        fft.run(&mut data);
+        // SAFETY: V's instructions are available (this function's contract).
+        unsafe { fft.run_simd::<V, W>(&mut data) };
         let hh = h * h;
         let (re_e, rest) = s.planes.split_at_mut(hh);
         let (im_e, rest) = rest.split_at_mut(hh);
@@ -471,7 +480,8 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
                 im: std::array::from_fn(|q| gb_re[q] - ga_im[q]),
             };
         }
-        fft.run(&mut data);
+        // SAFETY: V's instructions are available (this function's contract).
+        unsafe { fft.run_simd::<V, W>(&mut data) };
         // Unpacked W outputs at a time: a W × W transpose per part, written W values per row.
         let block = &mut out[a0 * n..(a0 + 2 * W) * n];
         assert_eq!(block.len(), 2 * W * n);
@@ -640,7 +650,9 @@ fn lanes_2d_sse2<F: FnMut(usize, &mut [Complex<f64>])>(
     s: &mut Scratch,
     out: &mut [f64],
 ) {
-    lanes_2d::<2, F>(fft, scatter, columns, s, out);
+    // SAFETY: this function is compiled for SSE2, which its callers checked; `__m128d`
+    // holds 2 f64.
+    unsafe { lanes_2d::<std::arch::x86_64::__m128d, 2, F>(fft, scatter, columns, s, out) }
 }
 
 /// [`lanes_2d`] with four lanes, compiled for AVX2 (never FMA).
@@ -653,7 +665,9 @@ fn lanes_2d_avx2<F: FnMut(usize, &mut [Complex<f64>])>(
     s: &mut Scratch,
     out: &mut [f64],
 ) {
-    lanes_2d::<4, F>(fft, scatter, columns, s, out);
+    // SAFETY: this function is compiled for AVX2, which its callers checked; `__m256d`
+    // holds 4 f64.
+    unsafe { lanes_2d::<std::arch::x86_64::__m256d, 4, F>(fft, scatter, columns, s, out) }
 }
 
 /// [`lanes_2d`] with eight lanes, compiled for AVX-512 F (never FMA).
@@ -666,7 +680,9 @@ fn lanes_2d_avx512<F: FnMut(usize, &mut [Complex<f64>])>(
     s: &mut Scratch,
     out: &mut [f64],
 ) {
-    lanes_2d::<8, F>(fft, scatter, columns, s, out);
+    // SAFETY: this function is compiled for AVX-512 F, which its callers checked; `__m512d`
+    // holds 8 f64.
+    unsafe { lanes_2d::<std::arch::x86_64::__m512d, 8, F>(fft, scatter, columns, s, out) }
 }
 
 /// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
