@@ -85,7 +85,10 @@ pub(crate) struct Scratch {
     cols: Vec<Complex<f64>>,
     /// Portable backend: G after the column pass as four N/2 × N/2 planes (N² values), laid
     /// out for the row pass: plane `2·(j mod 2) + c` (c = 0 real, 1 imaginary part) holds
-    /// G[m, j] at `[m·N/2 + j/2]`, so a block of row pairs reads W consecutive values.
+    /// G[m, j] at `[t·N/2 + m·T + (p − t)]` with p = j/2, T = [`PLANE_TILE`] and t = p rounded
+    /// down to a multiple of T. The row pass reads W row pairs at a time front to back through
+    /// one tile, and the column pass writes rows of W contiguous values, W ≤ T apart, so both
+    /// passes stream instead of striding N/2 values between neighbours.
     planes: Vec<f64>,
     /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
     column: Vec<Complex<f64>>,
@@ -426,7 +429,7 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
         let (im_e, rest) = rest.split_at_mut(hh);
         let (re_o, im_o) = rest.split_at_mut(hh);
         // W × W block transposes: W consecutive even (odd) outputs of the W columns become W
-        // consecutive plane entries of each column.
+        // consecutive plane entries of each column, the W columns side by side in the tile.
         assert!(m0 + W <= h && re_e.len() == hh && im_e.len() == hh && re_o.len() == hh);
         assert!(im_o.len() == hh);
         let planes = [
@@ -442,9 +445,10 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
                     let c = &block[2 * r + odd];
                     if im { c.im.as_ptr() } else { c.re.as_ptr() }
                 });
-                // SAFETY: (m0 + l)·h + jp0 + W ≤ h·h for l < W (m0 + W ≤ h, jp0 + W ≤ h).
+                // SAFETY: tile(jp0) + (m0 + l)·T + jp0 % T + W ≤ (h − T)·h + h·T = h·h for
+                // l < W (m0 + W ≤ h; jp0 + W ≤ h and W divides T, which divides h).
                 let to: [*mut f64; W] =
-                    std::array::from_fn(|l| unsafe { plane.add((m0 + l) * h + jp0) });
+                    std::array::from_fn(|l| unsafe { plane.add(tiled(jp0, m0 + l, h)) });
                 // SAFETY: W rows of W f64 read from `data`, W disjoint rows of W f64 written in
                 // one plane (a separate buffer).
                 unsafe { transpose_rows::<W>(from, to) };
@@ -462,12 +466,12 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
         let (d0, dh) = (scatter[0] as usize, scatter[h] as usize);
         // m = 0: (G_a[0].re, G_b[0].re); m = N/2: the empty Nyquist entry.
         data[d0] = C {
-            re: lanes_at(re_e, p0),
-            im: lanes_at(re_o, p0),
+            re: lanes_at(re_e, tiled(p0, 0, h)),
+            im: lanes_at(re_o, tiled(p0, 0, h)),
         };
         data[dh] = C::ZERO;
         for m in 1..h {
-            let at = m * h + p0;
+            let at = tiled(p0, m, h);
             let (ga_re, ga_im) = (lanes_at(re_e, at), lanes_at(im_e, at));
             let (gb_re, gb_im) = (lanes_at(re_o, at), lanes_at(im_o, at));
             let (pm, pn) = (scatter[m] as usize, scatter[n - m] as usize);
@@ -683,6 +687,16 @@ fn lanes_2d_avx512<F: FnMut(usize, &mut [Complex<f64>])>(
     // SAFETY: this function is compiled for AVX-512 F, which its callers checked; `__m512d`
     // holds 8 f64.
     unsafe { lanes_2d::<std::arch::x86_64::__m512d, 8, F>(fft, scatter, columns, s, out) }
+}
+
+/// Width of a tile of the portable backend's planes (`Scratch::planes`), in row pairs: 8 f64
+/// are one 64-byte cache line, and every lane width (1, 2, 4, 8) divides it.
+const PLANE_TILE: usize = 8;
+
+/// Where G's row pair p, column m, lies in a plane (`Scratch::planes`) with h = N/2 columns.
+#[inline(always)]
+fn tiled(p: usize, m: usize, h: usize) -> usize {
+    (p / PLANE_TILE) * PLANE_TILE * h + m * PLANE_TILE + p % PLANE_TILE
 }
 
 /// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
