@@ -744,6 +744,74 @@ mod tests {
         }
     }
 
+    /// Every lane width this CPU has gives the scalar grid's bits, for a stored spectrum and
+    /// for one made column by column, whatever `simd_level` says.
+    #[test]
+    fn every_width_gives_the_scalar_bits() {
+        type Made<'a> = Box<dyn FnMut(usize, &mut [Complex<f64>]) + 'a>;
+        type Run<'r> = &'r dyn Fn(Columns<'_, Made<'_>>, &mut Scratch, &mut [f64]);
+        for n in [16, 64, 256] {
+            let mut rng = SwellRng::new(n as u64, 4);
+            let half: Vec<Complex<f64>> = (0..n / 2 * n)
+                .map(|_| {
+                    let (a, b) = rng.gaussian_pair();
+                    Complex::new(a, b)
+                })
+                .collect();
+            let t = InverseRealFft2::new(n, FftBackend::Portable);
+            let Engine::Lanes { fft, scatter } = &t.engine else {
+                unreachable!("a portable plan");
+            };
+            for made in [false, true] {
+                let grid = |run: Run<'_>| -> Vec<u64> {
+                    let columns: Columns<'_, Made<'_>> = if made {
+                        Columns::Made(Box::new(|m, col: &mut [Complex<f64>]| {
+                            for (c, v) in col.iter_mut().zip(&half[m * n..(m + 1) * n]) {
+                                *c = *v * 2.0;
+                            }
+                        }))
+                    } else {
+                        Columns::Half(&half)
+                    };
+                    let (mut s, mut out) = (t.scratch(), vec![f64::NAN; n * n]);
+                    run(columns, &mut s, &mut out);
+                    out.iter().map(|v| v.to_bits()).collect()
+                };
+                // SAFETY: `[f64; 1]` lanes run on every CPU.
+                let want =
+                    grid(&|c, s, o| unsafe { lanes_2d::<Lanes<1>, 1, _>(fft, scatter, c, s, o) });
+                let check = |name: &str, got: Vec<u64>| {
+                    assert!(
+                        got == want,
+                        "n = {n}, made = {made}: {name} differs from scalar"
+                    );
+                };
+                #[cfg(target_arch = "x86_64")]
+                {
+                    use std::arch::is_x86_feature_detected as has;
+                    // SAFETY (each call): the CPU has the path's features, checked just before
+                    // (every x86-64 CPU has SSE2).
+                    check(
+                        "sse2",
+                        grid(&|c, s, o| unsafe { lanes_2d_sse2(fft, scatter, c, s, o) }),
+                    );
+                    if has!("avx2") {
+                        check(
+                            "avx2",
+                            grid(&|c, s, o| unsafe { lanes_2d_avx2(fft, scatter, c, s, o) }),
+                        );
+                    }
+                    if has!("avx512f") {
+                        check(
+                            "avx512",
+                            grid(&|c, s, o| unsafe { lanes_2d_avx512(fft, scatter, c, s, o) }),
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// Random Hermitian spectrum with an empty Nyquist column, against a direct 2-D sum.
     #[test]
     fn matches_direct_inverse_dft() {
