@@ -22,7 +22,8 @@
 //! `FftPlannerScalar` gave, and run W at a time, one transform per SIMD lane: W columns
 //! (`m0 … m0 + W − 1`), then W row pairs. W is 1, 2, 4 or 8 by [`crate::simd::simd_level`];
 //! every width gives the same bits. Inputs are gathered straight into the plan's bit-reversed
-//! order, so no transform needs a copy of its own.
+//! order, so no transform needs a copy of its own: the columns from the spectrum, and the row
+//! pairs from the column pass, which packs them as it finishes each block of columns.
 //!
 //! **Native backend.** RustFFT's run-time dispatched planner, one transform at a time; rows are
 //! packed, transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
