@@ -16,31 +16,24 @@
 //! (1, 2, 4 or 8) cannot change a bit, and the scalar instance (W = 1) is the reference every
 //! wider one is tested against. A test compares every supported length with RustFFT's scalar
 //! planner bit for bit, and one compares with a direct DFT.
+//!
+//! # Registers
+//! The butterflies work on values of a [`Lane`] type: `[f64; W]` arrays (portable, what
+//! [`LaneFft::run`] uses) or, on x86-64, the SSE2 / AVX / AVX-512 vector of W f64
+//! ([`LaneFft::run_simd`], from functions compiled for that level). A chunk (16 or 32 values,
+//! the base butterfly) or a radix-4 butterfly (4 values) is loaded once, computed in registers
+//! and stored once. Written over `[f64; W]` alone, LLVM kept whole chunks on the stack and
+//! spent about half the transform's time moving them (vector types are what it keeps in
+//! registers); the operations, and so the bits, are the same.
 
-/// W f64 lanes: each operation is the scalar one applied to every lane. Arrays of a fixed W
-/// compile to vector instructions inside functions built for a SIMD level (see
-/// `transform::InverseRealFft2`); the arithmetic is the same at any width.
+/// W f64 lanes: each operation is the scalar one applied to every lane; the memory layout of a
+/// lane vector, and the portable [`Lane`] type.
 pub(crate) type Lanes<const W: usize> = [f64; W];
 
-#[inline(always)]
-fn add<const W: usize>(a: Lanes<W>, b: Lanes<W>) -> Lanes<W> {
-    std::array::from_fn(|l| a[l] + b[l])
-}
-#[inline(always)]
-fn sub<const W: usize>(a: Lanes<W>, b: Lanes<W>) -> Lanes<W> {
-    std::array::from_fn(|l| a[l] - b[l])
-}
-#[inline(always)]
-fn mul<const W: usize>(a: Lanes<W>, b: Lanes<W>) -> Lanes<W> {
-    std::array::from_fn(|l| a[l] * b[l])
-}
-#[inline(always)]
-fn neg<const W: usize>(a: Lanes<W>) -> Lanes<W> {
-    std::array::from_fn(|l| -a[l])
-}
-
-/// W complex values, real parts then imaginary parts.
+/// W complex values in memory, real parts then imaginary parts (a transform's working array
+/// holds one per position).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(crate) struct C<const W: usize> {
     pub(crate) re: Lanes<W>,
     pub(crate) im: Lanes<W>,
@@ -51,43 +44,245 @@ impl<const W: usize> C<W> {
         re: [0.0; W],
         im: [0.0; W],
     };
+}
+
+/// A vector of f64 lanes the butterflies compute on: every operation is the scalar IEEE one on
+/// each lane, rounded once (no FMA, no reassociation).
+///
+/// # Safety
+/// An implementation for a vector type may only be used where the CPU has its instructions:
+/// [`LaneFft::run_simd`] states that contract for its callers.
+pub(crate) unsafe trait Lane: Copy {
+    /// Loads the lanes from `p` (no alignment needed).
+    ///
+    /// # Safety
+    /// `p` must be valid for reading the lanes' f64.
+    unsafe fn load(p: *const f64) -> Self;
+    /// Stores the lanes at `p` (no alignment needed).
+    ///
+    /// # Safety
+    /// `p` must be valid for writing the lanes' f64.
+    unsafe fn store(self, p: *mut f64);
+    /// `a + b` per lane.
+    fn add(self, o: Self) -> Self;
+    /// `a − b` per lane.
+    fn sub(self, o: Self) -> Self;
+    /// `a · b` per lane.
+    fn mul(self, o: Self) -> Self;
+    /// `−a` per lane: the sign bit flipped, as Rust's scalar `-x` (so `−0.0` and NaNs too).
+    fn neg(self) -> Self;
+    /// `x` in every lane.
+    fn splat(x: f64) -> Self;
+}
+
+// SAFETY: plain Rust arithmetic, valid on every CPU.
+unsafe impl<const W: usize> Lane for Lanes<W> {
+    #[inline(always)]
+    unsafe fn load(p: *const f64) -> Self {
+        // SAFETY: the caller's contract (W f64 readable at p).
+        unsafe { p.cast::<Self>().read_unaligned() }
+    }
+    #[inline(always)]
+    unsafe fn store(self, p: *mut f64) {
+        // SAFETY: the caller's contract (W f64 writable at p).
+        unsafe { p.cast::<Self>().write_unaligned(self) }
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        std::array::from_fn(|l| self[l] + o[l])
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        std::array::from_fn(|l| self[l] - o[l])
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        std::array::from_fn(|l| self[l] * o[l])
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        std::array::from_fn(|l| -self[l])
+    }
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        [x; W]
+    }
+}
+
+/// The x86-64 vector [`Lane`]s: `__m128d` (SSE2, W = 2), `__m256d` (AVX, W = 4) and `__m512d`
+/// (AVX-512 F, W = 8). Each method is one instruction (`neg` an xor with the sign bit, as the
+/// compiler emits for scalar `-x`).
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::Lane;
+    use std::arch::x86_64::*;
+
+    macro_rules! lane {
+        ($t:ty, $load:ident, $store:ident, $add:ident, $sub:ident, $mul:ident, $xor:ident,
+         $set1:ident) => {
+            // SAFETY: the trait's contract puts the CPU check on the users of these types
+            // (`LaneFft::run_simd`); each method is the lane-wise IEEE operation.
+            unsafe impl Lane for $t {
+                #[inline(always)]
+                unsafe fn load(p: *const f64) -> Self {
+                    // SAFETY: the caller's contract; unaligned load.
+                    unsafe { $load(p) }
+                }
+                #[inline(always)]
+                unsafe fn store(self, p: *mut f64) {
+                    // SAFETY: the caller's contract; unaligned store.
+                    unsafe { $store(p, self) }
+                }
+                #[inline(always)]
+                fn add(self, o: Self) -> Self {
+                    // SAFETY: the CPU has the instruction (the trait's contract).
+                    unsafe { $add(self, o) }
+                }
+                #[inline(always)]
+                fn sub(self, o: Self) -> Self {
+                    // SAFETY: as `add`.
+                    unsafe { $sub(self, o) }
+                }
+                #[inline(always)]
+                fn mul(self, o: Self) -> Self {
+                    // SAFETY: as `add`.
+                    unsafe { $mul(self, o) }
+                }
+                #[inline(always)]
+                fn neg(self) -> Self {
+                    // SAFETY: as `add`.
+                    unsafe { $xor(self, $set1(-0.0)) }
+                }
+                #[inline(always)]
+                fn splat(x: f64) -> Self {
+                    // SAFETY: as `add`.
+                    unsafe { $set1(x) }
+                }
+            }
+        };
+    }
+    lane!(
+        __m128d,
+        _mm_loadu_pd,
+        _mm_storeu_pd,
+        _mm_add_pd,
+        _mm_sub_pd,
+        _mm_mul_pd,
+        _mm_xor_pd,
+        _mm_set1_pd
+    );
+    lane!(
+        __m256d,
+        _mm256_loadu_pd,
+        _mm256_storeu_pd,
+        _mm256_add_pd,
+        _mm256_sub_pd,
+        _mm256_mul_pd,
+        _mm256_xor_pd,
+        _mm256_set1_pd
+    );
+    lane!(
+        __m512d,
+        _mm512_loadu_pd,
+        _mm512_storeu_pd,
+        _mm512_add_pd,
+        _mm512_sub_pd,
+        _mm512_mul_pd,
+        xor512,
+        _mm512_set1_pd
+    );
+
+    /// `_mm512_xor_pd` needs AVX-512 DQ; the integer xor needs only F (the level's feature).
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F.
+    #[inline(always)]
+    unsafe fn xor512(a: __m512d, b: __m512d) -> __m512d {
+        // SAFETY: the caller's contract; casts are free.
+        unsafe {
+            _mm512_castsi512_pd(_mm512_xor_si512(
+                _mm512_castpd_si512(a),
+                _mm512_castpd_si512(b),
+            ))
+        }
+    }
+}
+
+/// W complex values in registers: one [`Lane`] of real parts, one of imaginary parts.
+#[derive(Clone, Copy)]
+struct Cv<V> {
+    re: V,
+    im: V,
+}
+
+impl<V: Lane> Cv<V> {
+    #[inline(always)]
+    fn zero() -> Self {
+        Self {
+            re: V::splat(0.0),
+            im: V::splat(0.0),
+        }
+    }
+    /// # Safety
+    /// `p` valid for reading; V has W lanes.
+    #[inline(always)]
+    unsafe fn load<const W: usize>(p: *const C<W>) -> Self {
+        // SAFETY: the caller's contract; `re` and `im` are W f64 each.
+        unsafe {
+            Self {
+                re: V::load(std::ptr::addr_of!((*p).re).cast()),
+                im: V::load(std::ptr::addr_of!((*p).im).cast()),
+            }
+        }
+    }
+    /// # Safety
+    /// `p` valid for writing; V has W lanes.
+    #[inline(always)]
+    unsafe fn store<const W: usize>(self, p: *mut C<W>) {
+        // SAFETY: the caller's contract; `re` and `im` are W f64 each.
+        unsafe {
+            self.re.store(std::ptr::addr_of_mut!((*p).re).cast());
+            self.im.store(std::ptr::addr_of_mut!((*p).im).cast());
+        }
+    }
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         Self {
-            re: add(self.re, o.re),
-            im: add(self.im, o.im),
+            re: self.re.add(o.re),
+            im: self.im.add(o.im),
         }
     }
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
         Self {
-            re: sub(self.re, o.re),
-            im: sub(self.im, o.im),
+            re: self.re.sub(o.re),
+            im: self.im.sub(o.im),
         }
     }
     /// `self · (re, im)` for one complex constant shared by all lanes, as num_complex computes
     /// it: `(a·c − b·d, a·d + b·c)` with `self = a + bi`.
     #[inline(always)]
     fn mul_c(self, (re, im): (f64, f64)) -> Self {
-        let (c, d) = ([re; W], [im; W]);
+        let (c, d) = (V::splat(re), V::splat(im));
         Self {
-            re: sub(mul(self.re, c), mul(self.im, d)),
-            im: add(mul(self.re, d), mul(self.im, c)),
+            re: self.re.mul(c).sub(self.im.mul(d)),
+            im: self.re.mul(d).add(self.im.mul(c)),
         }
     }
     /// `self · s` for a real s shared by all lanes.
     #[inline(always)]
     fn scale(self, s: f64) -> Self {
+        let s = V::splat(s);
         Self {
-            re: mul(self.re, [s; W]),
-            im: mul(self.im, [s; W]),
+            re: self.re.mul(s),
+            im: self.im.mul(s),
         }
     }
     /// `self · i` (RustFFT's `rotate_90` in the inverse direction): `(−im, re)`.
     #[inline(always)]
     fn rot(self) -> Self {
         Self {
-            re: neg(self.im),
+            re: self.im.neg(),
             im: self.re,
         }
     }
@@ -100,7 +295,7 @@ fn conj((re, im): (f64, f64)) -> (f64, f64) {
 
 /// RustFFT's `Butterfly2::perform_fft_strided`.
 #[inline(always)]
-fn bf2<const W: usize>(a: &mut C<W>, b: &mut C<W>) {
+fn bf2<V: Lane>(a: &mut Cv<V>, b: &mut Cv<V>) {
     let t = a.add(*b);
     *b = a.sub(*b);
     *a = t;
@@ -108,7 +303,7 @@ fn bf2<const W: usize>(a: &mut C<W>, b: &mut C<W>) {
 
 /// RustFFT's `Butterfly4::perform_fft_contiguous` (inverse).
 #[inline(always)]
-fn bf4<const W: usize>(v: &mut [C<W>; 4]) {
+fn bf4<V: Lane>(v: &mut [Cv<V>; 4]) {
     let [mut v0, mut v1, mut v2, mut v3] = *v;
     bf2(&mut v0, &mut v2);
     bf2(&mut v1, &mut v3);
@@ -126,7 +321,7 @@ fn root2() -> f64 {
 
 /// RustFFT's `Butterfly8::perform_fft_contiguous` (inverse).
 #[inline(always)]
-fn bf8<const W: usize>(b: &mut [C<W>; 8]) {
+fn bf8<V: Lane>(b: &mut [Cv<V>; 8]) {
     let mut s0 = [b[0], b[2], b[4], b[6]];
     let mut s1 = [b[1], b[3], b[5], b[7]];
     bf4(&mut s0);
@@ -158,16 +353,15 @@ impl SplitTwiddles {
 }
 
 /// RustFFT's split-radix step shared by `Butterfly16` and `Butterfly32`: `evens` (already
-/// transformed, length 2H) and the two odd quarter transforms (length H), twiddled by `tw`
-/// (H − 1 entries), combined into `out` (4H).
+/// transformed, length E = 2H) and the two odd quarter transforms (length H), twiddled by `tw`
+/// (H − 1 entries), combined into the four quarters of the output.
 #[inline(always)]
-fn split_combine<const W: usize, const H: usize>(
-    evens: &[C<W>],
-    n1: &mut [C<W>; H],
-    n3: &mut [C<W>; H],
+fn split_combine<V: Lane, const H: usize, const E: usize>(
+    evens: [Cv<V>; E],
+    mut n1: [Cv<V>; H],
+    mut n3: [Cv<V>; H],
     tw: &[(f64, f64)],
-    out: &mut [C<W>],
-) {
+) -> [[Cv<V>; H]; 4] {
     for k in 1..H {
         n1[k] = n1[k].mul_c(tw[k - 1]);
         n3[k] = n3[k].mul_c(conj(tw[k - 1]));
@@ -179,36 +373,56 @@ fn split_combine<const W: usize, const H: usize>(
     for v in n3.iter_mut() {
         *v = v.rot();
     }
+    let mut out = [[Cv::zero(); H]; 4];
     for k in 0..H {
-        out[k] = evens[k].add(n1[k]);
-        out[k + H] = evens[k + H].add(n3[k]);
-        out[k + 2 * H] = evens[k].sub(n1[k]);
-        out[k + 3 * H] = evens[k + H].sub(n3[k]);
+        out[0][k] = evens[k].add(n1[k]);
+        out[1][k] = evens[k + H].add(n3[k]);
+        out[2][k] = evens[k].sub(n1[k]);
+        out[3][k] = evens[k + H].sub(n3[k]);
     }
+    out
 }
 
-/// RustFFT's `Butterfly16::perform_fft_contiguous` (inverse), in place on 16 values.
+/// RustFFT's `Butterfly16::perform_fft_contiguous` (inverse) of 16 values.
 #[inline(always)]
-fn bf16<const W: usize>(b: &mut [C<W>], tw: &SplitTwiddles) {
-    let mut evens: [C<W>; 8] = std::array::from_fn(|k| b[2 * k]);
-    let mut n1: [C<W>; 4] = std::array::from_fn(|k| b[4 * k + 1]);
-    let mut n3: [C<W>; 4] = std::array::from_fn(|k| b[(4 * k + 15) % 16]);
+fn bf16<V: Lane>(b: &mut [Cv<V>; 16], tw: &SplitTwiddles) {
+    let mut evens = [Cv::zero(); 8];
+    let (mut n1, mut n3) = ([Cv::zero(); 4], [Cv::zero(); 4]);
+    for k in 0..8 {
+        evens[k] = b[2 * k];
+    }
+    for k in 0..4 {
+        n1[k] = b[4 * k + 1];
+        n3[k] = b[(4 * k + 15) % 16];
+    }
     bf8(&mut evens);
     bf4(&mut n1);
     bf4(&mut n3);
-    split_combine(&evens, &mut n1, &mut n3, &tw.tw16, b);
+    let q = split_combine::<V, 4, 8>(evens, n1, n3, &tw.tw16);
+    for k in 0..16 {
+        b[k] = q[k / 4][k % 4];
+    }
 }
 
-/// RustFFT's `Butterfly32::perform_fft_contiguous` (inverse), in place on 32 values.
+/// RustFFT's `Butterfly32::perform_fft_contiguous` (inverse) of 32 values.
 #[inline(always)]
-fn bf32<const W: usize>(b: &mut [C<W>], tw: &SplitTwiddles) {
-    let mut evens: [C<W>; 16] = std::array::from_fn(|k| b[2 * k]);
-    let mut n1: [C<W>; 8] = std::array::from_fn(|k| b[4 * k + 1]);
-    let mut n3: [C<W>; 8] = std::array::from_fn(|k| b[(4 * k + 31) % 32]);
+fn bf32<V: Lane>(b: &mut [Cv<V>; 32], tw: &SplitTwiddles) {
+    let mut evens = [Cv::zero(); 16];
+    let (mut n1, mut n3) = ([Cv::zero(); 8], [Cv::zero(); 8]);
+    for k in 0..16 {
+        evens[k] = b[2 * k];
+    }
+    for k in 0..8 {
+        n1[k] = b[4 * k + 1];
+        n3[k] = b[(4 * k + 31) % 32];
+    }
     bf16(&mut evens, tw);
     bf8(&mut n1);
     bf8(&mut n3);
-    split_combine(&evens, &mut n1, &mut n3, &tw.tw32, b);
+    let q = split_combine::<V, 8, 16>(evens, n1, n3, &tw.tw32);
+    for k in 0..32 {
+        b[k] = q[k / 8][k % 8];
+    }
 }
 
 /// A plan: the length's base butterfly, the gather order and the radix-4 twiddles.
@@ -308,27 +522,64 @@ impl LaneFft {
         &self.gather
     }
 
-    /// Transforms W sequences in place; `data` (N values) must hold the input in gather order.
-    /// On return `data[j]` is output j.
-    #[inline(always)]
+    /// Transforms W sequences in place on `[f64; W]` lanes (the portable form, and the
+    /// reference of [`LaneFft::run_simd`]); `data` (N values) must hold the input in gather
+    /// order. On return `data[j]` is output j.
+    ///
+    /// # Panics
+    /// If `data.len()` is not N.
+    #[cfg(test)]
     pub(crate) fn run<const W: usize>(&self, data: &mut [C<W>]) {
-        debug_assert_eq!(data.len(), self.n);
+        // SAFETY: `[f64; W]` lanes run on every CPU.
+        unsafe { self.run_simd::<Lanes<W>, W>(data) }
+    }
+
+    /// [`LaneFft::run`] on lanes of type V (W f64 each): the same operations, so the same bits.
+    ///
+    /// # Safety
+    /// V must have exactly W lanes, and the CPU the instructions of V (call it from a function
+    /// compiled for V's level, after checking the CPU, so that its methods inline).
+    ///
+    /// # Panics
+    /// If `data.len()` is not N.
+    #[inline(always)]
+    pub(crate) unsafe fn run_simd<V: Lane, const W: usize>(&self, data: &mut [C<W>]) {
+        assert_eq!(data.len(), self.n, "LaneFft::run: data length");
+        debug_assert_eq!(std::mem::size_of::<V>(), W * std::mem::size_of::<f64>());
         let split = &*self.split;
+        let base = data.as_mut_ptr();
+        // Base butterflies: each chunk loaded once, transformed in registers, stored once.
+        // SAFETY (all loads and stores below): positions < N = data.len(); V has W lanes (the
+        // caller's contract), the width of each `re` and `im` array.
         match self.base {
             8 => {
-                for c in data.chunks_exact_mut(8) {
-                    let c: &mut [C<W>; 8] = c.try_into().expect("chunk of 8");
-                    bf8(c);
+                for c in 0..self.n / 8 {
+                    unsafe {
+                        let b = base.add(8 * c);
+                        let mut v = load_chunk::<V, W, 8>(b);
+                        bf8(&mut v);
+                        store_chunk(v, b);
+                    }
                 }
             }
             16 => {
-                for c in data.chunks_exact_mut(16) {
-                    bf16(c, split);
+                for c in 0..self.n / 16 {
+                    unsafe {
+                        let b = base.add(16 * c);
+                        let mut v = load_chunk::<V, W, 16>(b);
+                        bf16(&mut v, split);
+                        store_chunk(v, b);
+                    }
                 }
             }
             _ => {
-                for c in data.chunks_exact_mut(32) {
-                    bf32(c, split);
+                for c in 0..self.n / 32 {
+                    unsafe {
+                        let b = base.add(32 * c);
+                        let mut v = load_chunk::<V, W, 32>(b);
+                        bf32(&mut v, split);
+                        store_chunk(v, b);
+                    }
                 }
             }
         }
@@ -337,33 +588,71 @@ impl LaneFft {
         while cross < self.n {
             let columns = cross;
             cross *= 4;
-            for chunk in data.chunks_exact_mut(cross) {
-                radix4_layer(chunk, &tw[..3 * columns], columns);
+            let (layer, rest) = tw.split_at(3 * columns);
+            for chunk in 0..self.n / cross {
+                // SAFETY: the chunk's 4·columns = cross values lie inside `data`.
+                unsafe { radix4_layer::<V, W>(base.add(chunk * cross), layer, columns) };
             }
-            tw = &tw[3 * columns..];
+            tw = rest;
         }
     }
 }
 
-/// RustFFT's `butterfly_4` over one chunk of `4·columns` values.
+/// K consecutive values from `p` into registers. Plain loops, not `std::array::from_fn`: a
+/// closure passed to a library function compiled without the level's features cannot inline
+/// the intrinsics, which then become calls.
+///
+/// # Safety
+/// `p` valid for reading K values; V has W lanes and its instructions are available.
 #[inline(always)]
-fn radix4_layer<const W: usize>(chunk: &mut [C<W>], tw: &[(f64, f64)], columns: usize) {
-    let (q0, rest) = chunk.split_at_mut(columns);
-    let (q1, rest) = rest.split_at_mut(columns);
-    let (q2, q3) = rest.split_at_mut(columns);
-    for ((((a, b), c), d), t) in q0
-        .iter_mut()
-        .zip(q1.iter_mut())
-        .zip(q2.iter_mut())
-        .zip(q3.iter_mut())
-        .zip(tw.chunks_exact(3))
-    {
-        let mut s = [*a, b.mul_c(t[0]), c.mul_c(t[1]), d.mul_c(t[2])];
-        bf4(&mut s);
-        *a = s[0];
-        *b = s[1];
-        *c = s[2];
-        *d = s[3];
+unsafe fn load_chunk<V: Lane, const W: usize, const K: usize>(p: *const C<W>) -> [Cv<V>; K] {
+    let mut v = [Cv::zero(); K];
+    for (k, x) in v.iter_mut().enumerate() {
+        // SAFETY: k < K (the caller's contract).
+        *x = unsafe { Cv::load(p.add(k)) };
+    }
+    v
+}
+
+/// K values from registers to `p`.
+///
+/// # Safety
+/// `p` valid for writing K values; V has W lanes and its instructions are available.
+#[inline(always)]
+unsafe fn store_chunk<V: Lane, const W: usize, const K: usize>(v: [Cv<V>; K], p: *mut C<W>) {
+    for (k, x) in v.iter().enumerate() {
+        // SAFETY: k < K (the caller's contract).
+        unsafe { x.store(p.add(k)) };
+    }
+}
+
+/// RustFFT's `butterfly_4` over one chunk of `4·columns` values at `chunk`, with the layer's
+/// twiddles (three per column).
+///
+/// # Safety
+/// `chunk` valid for reading and writing 4·columns values; V has W lanes and its instructions
+/// are available (as [`LaneFft::run_simd`]).
+#[inline(always)]
+unsafe fn radix4_layer<V: Lane, const W: usize>(
+    chunk: *mut C<W>,
+    tw: &[(f64, f64)],
+    columns: usize,
+) {
+    for (i, t) in tw.chunks_exact(3).take(columns).enumerate() {
+        // SAFETY: i + 3·columns < 4·columns, inside the chunk (the caller's contract).
+        unsafe {
+            let p = chunk.add(i);
+            let mut s = [
+                Cv::<V>::load(p),
+                Cv::<V>::load(p.add(columns)).mul_c(t[0]),
+                Cv::<V>::load(p.add(2 * columns)).mul_c(t[1]),
+                Cv::<V>::load(p.add(3 * columns)).mul_c(t[2]),
+            ];
+            bf4(&mut s);
+            for (k, v) in s.iter().enumerate() {
+                v.store(p.add(k * columns));
+            }
+        }
     }
 }
 
@@ -440,6 +729,48 @@ mod tests {
             }
             let got = lanes::<1>(&fft, &inputs[5..6]);
             assert_eq!(bits_of(&got[0]), bits_of(&expected[5]), "n = {n}, w 1");
+        }
+    }
+
+    /// The vector lanes the SIMD levels use give `[f64; W]`'s bits (the portable form, pinned
+    /// to RustFFT above) at every length, for each vector type this CPU has, on the same seeded
+    /// inputs with special values.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn vector_lanes_equal_array_lanes() {
+        use std::arch::x86_64::{__m128d, __m256d, __m512d};
+        fn check<V: Lane, const W: usize>(fft: &LaneFft, seed: u64) {
+            let n = fft.len();
+            let mut rng = SwellRng::new(seed, 9);
+            let mut data: Vec<C<W>> = (0..n)
+                .map(|_| C {
+                    re: std::array::from_fn(|_| rng.gaussian_pair().0),
+                    im: std::array::from_fn(|_| rng.gaussian_pair().1),
+                })
+                .collect();
+            data[1].re[0] = -0.0;
+            data[2].im[W - 1] = 1e300;
+            data[3].re[W / 2] = f64::MIN_POSITIVE / 4.0;
+            let mut want = data.clone();
+            fft.run(&mut want);
+            // SAFETY: the caller checked that the CPU has V's instructions; V holds W f64.
+            unsafe { fft.run_simd::<V, W>(&mut data) };
+            let bits = |v: &[C<W>]| -> Vec<u64> {
+                v.iter()
+                    .flat_map(|c| c.re.iter().chain(&c.im).map(|x| x.to_bits()))
+                    .collect()
+            };
+            assert_eq!(bits(&data), bits(&want), "n = {n}, W = {W}");
+        }
+        for bits in 4..=10 {
+            let fft = LaneFft::new(1 << bits);
+            check::<__m128d, 2>(&fft, bits);
+            if std::arch::is_x86_feature_detected!("avx2") {
+                check::<__m256d, 4>(&fft, bits);
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                check::<__m512d, 8>(&fft, bits);
+            }
         }
     }
 

@@ -22,7 +22,8 @@
 //! `FftPlannerScalar` gave, and run W at a time, one transform per SIMD lane: W columns
 //! (`m0 … m0 + W − 1`), then W row pairs. W is 1, 2, 4 or 8 by [`crate::simd::simd_level`];
 //! every width gives the same bits. Inputs are gathered straight into the plan's bit-reversed
-//! order, so no transform needs a copy of its own.
+//! order, so no transform needs a copy of its own: the columns from the spectrum, and the row
+//! pairs from the column pass, which packs them as it finishes each block of columns.
 //!
 //! **Native backend.** RustFFT's run-time dispatched planner, one transform at a time; rows are
 //! packed, transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
@@ -36,7 +37,7 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
 use super::FftBackend;
-use super::lanes::{C, LaneFft};
+use super::lanes::{C, Lane, LaneFft, Lanes};
 use crate::simd::{SimdLevel, simd_level};
 
 /// Plans and scratch sizes for inverse real 2-D transforms of one size, and a pool of working
@@ -83,10 +84,6 @@ impl std::fmt::Debug for InverseRealFft2 {
 pub(crate) struct Scratch {
     /// Native backend: G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
     cols: Vec<Complex<f64>>,
-    /// Portable backend: G after the column pass as four N/2 × N/2 planes (N² values), laid
-    /// out for the row pass: plane `2·(j mod 2) + c` (c = 0 real, 1 imaginary part) holds
-    /// G[m, j] at `[m·N/2 + j/2]`, so a block of row pairs reads W consecutive values.
-    planes: Vec<f64>,
     /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
     column: Vec<Complex<f64>>,
     /// Native backend: one block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart)
@@ -99,6 +96,14 @@ pub(crate) struct Scratch {
     lanes2: Vec<C<2>>,
     lanes4: Vec<C<4>>,
     lanes8: Vec<C<8>>,
+    /// Portable backend: the row pass's packed input Z (N/2 row pairs × N entries, N/2·N/W
+    /// values of W lanes), made by the column pass and transformed in place by the row pass.
+    /// Block b (row pairs bW … bW + W − 1, one per lane) is `[b·N .. (b+1)·N]`, entry m at
+    /// the plan's position `scatter[m]`: each block is contiguous and already in gather order.
+    rows1: Vec<C<1>>,
+    rows2: Vec<C<2>>,
+    rows4: Vec<C<4>>,
+    rows8: Vec<C<8>>,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
     pub(crate) htilde: Vec<Complex<f64>>,
     /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
@@ -139,19 +144,17 @@ impl InverseRealFft2 {
     pub(crate) fn scratch(&self) -> Scratch {
         let zero = Complex::new(0.0, 0.0);
         let half = self.n / 2 * self.n;
-        let (rows, fft_len, cols, planes) = match &self.engine {
+        let (rows, fft_len, cols) = match &self.engine {
             Engine::Rust(fft) => (
                 ROW_PAIRS.min(self.n / 2),
                 fft.get_outofplace_scratch_len()
                     .max(fft.get_immutable_scratch_len()),
                 half,
-                0,
             ),
-            Engine::Lanes { .. } => (0, 0, 0, self.n * self.n),
+            Engine::Lanes { .. } => (0, 0, 0),
         };
         Scratch {
             cols: vec![zero; cols],
-            planes: vec![0.0; planes],
             column: Vec::new(),
             rows_in: vec![zero; rows * (self.n + ROW_STRIDE_PAD)],
             rows_out: vec![zero; rows * self.n],
@@ -160,6 +163,10 @@ impl InverseRealFft2 {
             lanes2: Vec::new(),
             lanes4: Vec::new(),
             lanes8: Vec::new(),
+            rows1: Vec::new(),
+            rows2: Vec::new(),
+            rows4: Vec::new(),
+            rows8: Vec::new(),
             htilde: vec![zero; half],
             phases: Vec::new(),
         }
@@ -243,7 +250,10 @@ impl InverseRealFft2 {
         out: &mut [f64],
     ) {
         match simd_level() {
-            SimdLevel::Scalar => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+            SimdLevel::Scalar => {
+                // SAFETY: `[f64; 1]` lanes run on every CPU.
+                unsafe { lanes_2d::<Lanes<1>, 1, F>(fft, scatter, columns, s, out) }
+            }
             #[cfg(target_arch = "x86_64")]
             SimdLevel::Sse2 => {
                 // SAFETY: every x86-64 CPU has SSE2.
@@ -260,7 +270,8 @@ impl InverseRealFft2 {
                 unsafe { lanes_2d_avx512(fft, scatter, columns, s, out) }
             }
             #[cfg(not(target_arch = "x86_64"))]
-            _ => lanes_2d::<1, F>(fft, scatter, columns, s, out),
+            // SAFETY: `[f64; 1]` lanes run on every CPU.
+            _ => unsafe { lanes_2d::<Lanes<1>, 1, F>(fft, scatter, columns, s, out) },
         }
     }
 
@@ -312,39 +323,57 @@ impl InverseRealFft2 {
     }
 }
 
-/// The lane buffer of width W in a scratch.
+/// The lane buffers of width W in a scratch: one transform's values, and the row pass's input.
 trait LaneBuf<const W: usize> {
     fn lanes(&mut self) -> &mut Vec<C<W>>;
+    fn rows(&mut self) -> &mut Vec<C<W>>;
 }
 impl LaneBuf<1> for Scratch {
     fn lanes(&mut self) -> &mut Vec<C<1>> {
         &mut self.lanes1
+    }
+    fn rows(&mut self) -> &mut Vec<C<1>> {
+        &mut self.rows1
     }
 }
 impl LaneBuf<2> for Scratch {
     fn lanes(&mut self) -> &mut Vec<C<2>> {
         &mut self.lanes2
     }
+    fn rows(&mut self) -> &mut Vec<C<2>> {
+        &mut self.rows2
+    }
 }
 impl LaneBuf<4> for Scratch {
     fn lanes(&mut self) -> &mut Vec<C<4>> {
         &mut self.lanes4
+    }
+    fn rows(&mut self) -> &mut Vec<C<4>> {
+        &mut self.rows4
     }
 }
 impl LaneBuf<8> for Scratch {
     fn lanes(&mut self) -> &mut Vec<C<8>> {
         &mut self.lanes8
     }
+    fn rows(&mut self) -> &mut Vec<C<8>> {
+        &mut self.rows8
+    }
 }
 
 /// The portable 2-D inverse real transform with W 1-D transforms per step (module docs).
 ///
-/// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order,
-/// transformed, and stored into G's planes (`Scratch::planes`). Row pass: row pairs
-/// `p0 … p0 + W − 1` are packed (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar packing's
-/// operations, W lanes per vector operation) into lanes, transformed, and unpacked into `out`.
+/// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order and
+/// transformed; the row pairs' packed input (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar
+/// packing's operations, W lanes per vector operation) is made from them at once and stored,
+/// transposed to lanes of row pairs, in the plan's order (`Scratch::rows*`). Row pass: each
+/// block of W row pairs is transformed in place and unpacked into `out`.
+///
+/// # Safety
+/// V must have W lanes and the CPU its instructions (see [`LaneFft::run_simd`]); W = 8 and 4
+/// also need AVX-512 F and AVX2 for the block transposes (see [`transpose_rows`]).
 #[inline(always)]
-fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
+unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
     fft: &LaneFft,
     scatter: &[u32],
     columns: Columns<'_, F>,
@@ -359,6 +388,8 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
     let zero = Complex::new(0.0, 0.0);
     let mut data = std::mem::take(LaneBuf::<W>::lanes(s));
     data.resize(n, C::ZERO);
+    let mut zs = std::mem::take(LaneBuf::<W>::rows(s));
+    zs.resize(h * n / W, C::ZERO);
     let gather = fft.gather_order();
     let mut columns = columns;
     if matches!(columns, Columns::Made(_)) {
@@ -411,72 +442,80 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
                 }
             }
         }
-        fft.run(&mut data);
-        let hh = h * h;
-        let (re_e, rest) = s.planes.split_at_mut(hh);
-        let (im_e, rest) = rest.split_at_mut(hh);
-        let (re_o, im_o) = rest.split_at_mut(hh);
-        // W × W block transposes: W consecutive even (odd) outputs of the W columns become W
-        // consecutive plane entries of each column.
-        assert!(m0 + W <= h && re_e.len() == hh && im_e.len() == hh && re_o.len() == hh);
-        assert!(im_o.len() == hh);
-        let planes = [
-            re_e.as_mut_ptr(),
-            im_e.as_mut_ptr(),
-            re_o.as_mut_ptr(),
-            im_o.as_mut_ptr(),
-        ];
-        for (jp0, block) in (0..h).step_by(W).zip(data.chunks_exact(2 * W)) {
-            for (part, &plane) in planes.iter().enumerate() {
-                let (odd, im) = (part / 2, part % 2 == 1);
-                let from: [*const f64; W] = std::array::from_fn(|r| {
-                    let c = &block[2 * r + odd];
-                    if im { c.im.as_ptr() } else { c.re.as_ptr() }
-                });
-                // SAFETY: (m0 + l)·h + jp0 + W ≤ h·h for l < W (m0 + W ≤ h, jp0 + W ≤ h).
-                let to: [*mut f64; W] =
-                    std::array::from_fn(|l| unsafe { plane.add((m0 + l) * h + jp0) });
-                // SAFETY: W rows of W f64 read from `data`, W disjoint rows of W f64 written in
-                // one plane (a separate buffer).
-                unsafe { transpose_rows::<W>(from, to) };
+        // SAFETY: V's instructions are available (this function's contract).
+        unsafe { fft.run_simd::<V, W>(&mut data) };
+        // The row pass's input, made here while G's columns are in lanes: for each row pair p
+        // (rows a = 2p, b = 2p + 1), Z[m] = G_a[m] + i·G_b[m] and Z[N − m] = conj(G_a[m]) +
+        // i·conj(G_b[m]) in the scalar packing's operations, then W × W transposes turn lanes
+        // of columns into lanes of row pairs, stored at the entries' places in the plan's order.
+        for (jb, block) in data.chunks_exact(2 * W).enumerate() {
+            let mut zp = [C::<W>::ZERO; W];
+            let mut zn = [C::<W>::ZERO; W];
+            for r in 0..W {
+                let (ga, gb) = (&block[2 * r], &block[2 * r + 1]);
+                zp[r] = C {
+                    re: std::array::from_fn(|l| ga.re[l] - gb.im[l]),
+                    im: std::array::from_fn(|l| ga.im[l] + gb.re[l]),
+                };
+                zn[r] = C {
+                    re: std::array::from_fn(|l| ga.re[l] + gb.im[l]),
+                    im: std::array::from_fn(|l| gb.re[l] - ga.im[l]),
+                };
+                if m0 == 0 {
+                    // m = 0 (lane 0): Z[0] = (G_a[0].re, G_b[0].re), real up to rounding.
+                    zp[r].re[0] = ga.re[0];
+                    zp[r].im[0] = gb.re[0];
+                }
+            }
+            let zblock = &mut zs[jb * n..(jb + 1) * n];
+            let base = zblock.as_mut_ptr();
+            // m = 0 has no Z[N − 0]: its row goes to a sink.
+            let mut sink = C::<W>::ZERO;
+            for (z, neg) in [(&zp, false), (&zn, true)] {
+                for im in [false, true] {
+                    let from: [*const f64; W] = std::array::from_fn(|r| {
+                        if im {
+                            z[r].im.as_ptr()
+                        } else {
+                            z[r].re.as_ptr()
+                        }
+                    });
+                    let to: [*mut f64; W] = std::array::from_fn(|l| {
+                        let m = m0 + l;
+                        let d: *mut C<W> = match (neg, m) {
+                            (true, 0) => &mut sink,
+                            // SAFETY: scatter[k] < n = zblock.len() for k < n (m < h).
+                            (true, _) => unsafe { base.add(scatter[n - m] as usize) },
+                            (false, _) => unsafe { base.add(scatter[m] as usize) },
+                        };
+                        // SAFETY: `d` points to a live C<W> (of `zblock` or `sink`).
+                        unsafe {
+                            if im {
+                                std::ptr::addr_of_mut!((*d).im).cast::<f64>()
+                            } else {
+                                std::ptr::addr_of_mut!((*d).re).cast::<f64>()
+                            }
+                        }
+                    });
+                    // SAFETY: W rows of W f64 read from `zp`/`zn`, written to the re or im
+                    // array of W distinct entries (scatter is a permutation, and m, N − m and
+                    // the sink never coincide).
+                    unsafe { transpose_rows::<W>(from, to) };
+                }
             }
         }
     }
-    let hh = h * h;
-    let (re_e, rest) = s.planes.split_at(hh);
-    let (im_e, rest) = rest.split_at(hh);
-    let (re_o, im_o) = rest.split_at(hh);
-    let lanes_at =
-        |plane: &[f64], at: usize| -> [f64; W] { plane[at..at + W].try_into().expect("W values") };
-    for p0 in (0..h).step_by(W) {
-        let a0 = 2 * p0;
-        let (d0, dh) = (scatter[0] as usize, scatter[h] as usize);
-        // m = 0: (G_a[0].re, G_b[0].re); m = N/2: the empty Nyquist entry.
-        data[d0] = C {
-            re: lanes_at(re_e, p0),
-            im: lanes_at(re_o, p0),
-        };
-        data[dh] = C::ZERO;
-        for m in 1..h {
-            let at = m * h + p0;
-            let (ga_re, ga_im) = (lanes_at(re_e, at), lanes_at(im_e, at));
-            let (gb_re, gb_im) = (lanes_at(re_o, at), lanes_at(im_o, at));
-            let (pm, pn) = (scatter[m] as usize, scatter[n - m] as usize);
-            data[pm] = C {
-                re: std::array::from_fn(|q| ga_re[q] - gb_im[q]),
-                im: std::array::from_fn(|q| ga_im[q] + gb_re[q]),
-            };
-            data[pn] = C {
-                re: std::array::from_fn(|q| ga_re[q] + gb_im[q]),
-                im: std::array::from_fn(|q| gb_re[q] - ga_im[q]),
-            };
-        }
-        fft.run(&mut data);
+    for (jb, zblock) in zs.chunks_exact_mut(n).enumerate() {
+        let a0 = 2 * W * jb;
+        // m = N/2: the empty Nyquist entry.
+        zblock[scatter[h] as usize] = C::ZERO;
+        // SAFETY: V's instructions are available (this function's contract).
+        unsafe { fft.run_simd::<V, W>(zblock) };
         // Unpacked W outputs at a time: a W × W transpose per part, written W values per row.
         let block = &mut out[a0 * n..(a0 + 2 * W) * n];
         assert_eq!(block.len(), 2 * W * n);
         let out_base = block.as_mut_ptr();
-        for (i0, d) in (0..n).step_by(W).zip(data.chunks_exact(W)) {
+        for (i0, d) in (0..n).step_by(W).zip(zblock.chunks_exact(W)) {
             for im in [false, true] {
                 let from: [*const f64; W] = std::array::from_fn(|k| {
                     if im {
@@ -489,12 +528,13 @@ fn lanes_2d<const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
                 let to: [*mut f64; W] = std::array::from_fn(|q| unsafe {
                     out_base.add((2 * q + usize::from(im)) * n + i0)
                 });
-                // SAFETY: W rows of W f64 read from `data`, W disjoint rows written in `out`.
+                // SAFETY: W rows of W f64 read from `zblock`, W disjoint rows written in `out`.
                 unsafe { transpose_rows::<W>(from, to) };
             }
         }
     }
     *LaneBuf::<W>::lanes(s) = data;
+    *LaneBuf::<W>::rows(s) = zs;
 }
 
 /// Transposes a W × W block given by row pointers, `dst[c][r] = src[r][c]`, through registers
@@ -640,7 +680,9 @@ fn lanes_2d_sse2<F: FnMut(usize, &mut [Complex<f64>])>(
     s: &mut Scratch,
     out: &mut [f64],
 ) {
-    lanes_2d::<2, F>(fft, scatter, columns, s, out);
+    // SAFETY: this function is compiled for SSE2, which its callers checked; `__m128d`
+    // holds 2 f64.
+    unsafe { lanes_2d::<std::arch::x86_64::__m128d, 2, F>(fft, scatter, columns, s, out) }
 }
 
 /// [`lanes_2d`] with four lanes, compiled for AVX2 (never FMA).
@@ -653,7 +695,9 @@ fn lanes_2d_avx2<F: FnMut(usize, &mut [Complex<f64>])>(
     s: &mut Scratch,
     out: &mut [f64],
 ) {
-    lanes_2d::<4, F>(fft, scatter, columns, s, out);
+    // SAFETY: this function is compiled for AVX2, which its callers checked; `__m256d`
+    // holds 4 f64.
+    unsafe { lanes_2d::<std::arch::x86_64::__m256d, 4, F>(fft, scatter, columns, s, out) }
 }
 
 /// [`lanes_2d`] with eight lanes, compiled for AVX-512 F (never FMA).
@@ -666,7 +710,9 @@ fn lanes_2d_avx512<F: FnMut(usize, &mut [Complex<f64>])>(
     s: &mut Scratch,
     out: &mut [f64],
 ) {
-    lanes_2d::<8, F>(fft, scatter, columns, s, out);
+    // SAFETY: this function is compiled for AVX-512 F, which its callers checked; `__m512d`
+    // holds 8 f64.
+    unsafe { lanes_2d::<std::arch::x86_64::__m512d, 8, F>(fft, scatter, columns, s, out) }
 }
 
 /// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
@@ -710,6 +756,74 @@ mod tests {
             }
             if std::arch::is_x86_feature_detected!("avx512f") {
                 check::<8>();
+            }
+        }
+    }
+
+    /// Every lane width this CPU has gives the scalar grid's bits, for a stored spectrum and
+    /// for one made column by column, whatever `simd_level` says.
+    #[test]
+    fn every_width_gives_the_scalar_bits() {
+        type Made<'a> = Box<dyn FnMut(usize, &mut [Complex<f64>]) + 'a>;
+        type Run<'r> = &'r dyn Fn(Columns<'_, Made<'_>>, &mut Scratch, &mut [f64]);
+        for n in [16, 64, 256] {
+            let mut rng = SwellRng::new(n as u64, 4);
+            let half: Vec<Complex<f64>> = (0..n / 2 * n)
+                .map(|_| {
+                    let (a, b) = rng.gaussian_pair();
+                    Complex::new(a, b)
+                })
+                .collect();
+            let t = InverseRealFft2::new(n, FftBackend::Portable);
+            let Engine::Lanes { fft, scatter } = &t.engine else {
+                unreachable!("a portable plan");
+            };
+            for made in [false, true] {
+                let grid = |run: Run<'_>| -> Vec<u64> {
+                    let columns: Columns<'_, Made<'_>> = if made {
+                        Columns::Made(Box::new(|m, col: &mut [Complex<f64>]| {
+                            for (c, v) in col.iter_mut().zip(&half[m * n..(m + 1) * n]) {
+                                *c = *v * 2.0;
+                            }
+                        }))
+                    } else {
+                        Columns::Half(&half)
+                    };
+                    let (mut s, mut out) = (t.scratch(), vec![f64::NAN; n * n]);
+                    run(columns, &mut s, &mut out);
+                    out.iter().map(|v| v.to_bits()).collect()
+                };
+                // SAFETY: `[f64; 1]` lanes run on every CPU.
+                let want =
+                    grid(&|c, s, o| unsafe { lanes_2d::<Lanes<1>, 1, _>(fft, scatter, c, s, o) });
+                let check = |name: &str, got: Vec<u64>| {
+                    assert!(
+                        got == want,
+                        "n = {n}, made = {made}: {name} differs from scalar"
+                    );
+                };
+                #[cfg(target_arch = "x86_64")]
+                {
+                    use std::arch::is_x86_feature_detected as has;
+                    // SAFETY (each call): the CPU has the path's features, checked just before
+                    // (every x86-64 CPU has SSE2).
+                    check(
+                        "sse2",
+                        grid(&|c, s, o| unsafe { lanes_2d_sse2(fft, scatter, c, s, o) }),
+                    );
+                    if has!("avx2") {
+                        check(
+                            "avx2",
+                            grid(&|c, s, o| unsafe { lanes_2d_avx2(fft, scatter, c, s, o) }),
+                        );
+                    }
+                    if has!("avx512f") {
+                        check(
+                            "avx512",
+                            grid(&|c, s, o| unsafe { lanes_2d_avx512(fft, scatter, c, s, o) }),
+                        );
+                    }
+                }
             }
         }
     }
