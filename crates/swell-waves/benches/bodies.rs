@@ -5,6 +5,8 @@
 //!
 //! Run: `cargo bench -p swell-waves --bench bodies` (add `-- --quick` for a fast pass).
 
+mod common;
+
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -14,15 +16,7 @@ use swell_waves::body::{BodySpec, BodyState, World, WorldSettings};
 use swell_waves::{QueryOptions, Surface, SurfaceSpec};
 
 fn sea(fft: bool) -> Surface {
-    let waves: Vec<_> = (0..8)
-        .map(|i| {
-            let l = 15.0 + 12.0 * i as f64;
-            let ka = 0.08;
-            let a = (i as f64 * 2.399).sin_cos();
-            json!({"amplitude": ka * l / std::f64::consts::TAU, "wavelength": l,
-                   "direction": [a.1, a.0], "phase": i as f64, "steepness": 0.5 / (8.0 * ka)})
-        })
-        .collect();
+    let waves = common::gerstner_waves(8, 15.0, 12.0, 0.08, 0.5);
     let mut layers = vec![json!({"kind": "gerstner", "waves": waves})];
     if fft {
         layers.push(json!({"kind": "fft", "resolution": 64, "tile_size": 128.0,

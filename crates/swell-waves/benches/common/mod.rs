@@ -34,18 +34,30 @@ pub fn lake() -> Surface {
     ]}))
 }
 
+/// `n` Gerstner waves (JSON specs) with wavelengths `first`, `first + step`, …, m, directions
+/// spread by the golden angle, phase `i`, each with steepness k·A = `ka` and the same Q, chosen
+/// so that the fold number Σ Q·k·A is `fold`.
+pub fn gerstner_waves(
+    n: usize,
+    first: f64,
+    step: f64,
+    ka: f64,
+    fold: f64,
+) -> Vec<serde_json::Value> {
+    (0..n)
+        .map(|i| {
+            let l = first + step * i as f64;
+            let a = (i as f64 * 2.399).sin_cos();
+            json!({"amplitude": ka * l / std::f64::consts::TAU, "wavelength": l,
+                   "direction": [a.1, a.0], "phase": i as f64, "steepness": fold / (n as f64 * ka)})
+        })
+        .collect()
+}
+
 /// The `targets/gerstner16_*` surface: 16 Gerstner waves, wavelengths 4 to 94 m, each with
 /// k·A = 0.1 and Q = fold/1.6, so that the fold number Σ Q·k·A is `fold`.
 pub fn gerstner16(fold: f64) -> Surface {
-    let waves: Vec<_> = (0..16)
-        .map(|i| {
-            let l = 4.0 + 6.0 * i as f64;
-            let ka = 0.1;
-            let a = (i as f64 * 2.399).sin_cos();
-            json!({"amplitude": ka * l / std::f64::consts::TAU, "wavelength": l,
-                   "direction": [a.1, a.0], "phase": i as f64, "steepness": fold / (16.0 * ka)})
-        })
-        .collect();
+    let waves = gerstner_waves(16, 4.0, 6.0, 0.1, fold);
     surface(json!({"layers": [{"kind": "gerstner", "waves": waves}]}))
 }
 
