@@ -1022,6 +1022,19 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
+    // The answer publishes the tick the log sequenced it at, which every replica feels it from
+    // (what a native client feels it at).
+    let sequenced = rec.entries().iter().find_map(|e| match e.command() {
+        Some((tick, BodyCmd::Impact(_))) => Some(tick),
+        _ => None,
+    });
+    assert_eq!(v["body_tick"].as_i64(), sequenced, "{v}");
+    for r in &rs {
+        until(&c, r, "/v1/scenes/bay/bodies", Instant::now(), |st, b| {
+            st == 200 && b["felt_impacts"][0]["body_tick"] == v["body_tick"]
+        })
+        .await;
+    }
 
     // Tick frames from all three replicas: the same states for the same tick.
     let mut socks = Vec::new();

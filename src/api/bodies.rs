@@ -10,7 +10,7 @@ use crate::api::json::RawBody;
 use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
 use crate::error::ApiError;
 use crate::service::json::from_slice;
-use crate::service::types::{BodyDescription, CarriedBody, HullExtent, InputSpan};
+use crate::service::types::{BodyDescription, CarriedBody, FeltImpact, HullExtent, InputSpan};
 use crate::state::AppState;
 
 /// `GET /v1/scenes/{id}/bodies` answer.
@@ -26,6 +26,12 @@ pub struct BodiesResponse {
     pub anchor_tick: Option<i64>,
     /// Bodies in id order: state, mass, hull, spawn tick.
     pub bodies: Vec<BodyDescription>,
+    /// The API impacts the body world feels (in canonical order: time, then x, z, strength,
+    /// radius), each with the scene tick it reached the world at (`body_tick`, also in the
+    /// impact's POST answer): a client that replays the bodies feels each at that tick.
+    /// Impacts go an hour behind the bodies' time. Absent when there are none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub felt_impacts: Vec<FeltImpact>,
 }
 
 /// `GET /v1/scenes/{id}/bodies/{bid}` answer: the body with the ticks of its state and world.
@@ -89,6 +95,21 @@ fn carried(id: u64, anchor: i64, c: &crate::bodies::Carried) -> CarriedBody {
     }
 }
 
+/// The API impacts `b` feels, with their ticks.
+fn felt(b: &SceneBodies) -> Vec<FeltImpact> {
+    b.felt_impacts()
+        .iter()
+        .zip(b.felt_impact_ticks())
+        .map(|(i, tick)| FeltImpact {
+            body_tick: *tick,
+            t: i.t,
+            position: i.position,
+            strength: i.strength,
+            radius: i.radius,
+        })
+        .collect()
+}
+
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
     raw.parse::<u64>().map_err(|_| {
         ApiError::invalid(
@@ -123,6 +144,7 @@ pub async fn list(
                 t: b.t(),
                 anchor_tick: Some(b.anchor()),
                 bodies: describe(&b, None),
+                felt_impacts: felt(&b),
             }
         }
         None => {
@@ -132,6 +154,7 @@ pub async fn list(
                 t: r.t,
                 anchor_tick: None,
                 bodies: Vec::new(),
+                felt_impacts: Vec::new(),
             }
         }
     }))

@@ -37,10 +37,16 @@ pub struct ImpactAccepted {
     pub tick: i64,
     /// Scene time of the impact, s.
     pub t: f64,
+    /// Scene tick the scene's body world feels it from (it reached the world at that tick:
+    /// on one process the tick the bodies were at, in a fleet the tick the body log sequenced
+    /// it at, which every replica applies it at). A client replaying the bodies feels it at
+    /// this tick (`swell_world_feel_impact`). Absent when the scene has no body world.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_tick: Option<i64>,
 }
 
 /// `POST /v1/scenes/{id}/impacts` (admin): validates, adds to the scene's set, journals (durable
-/// before the answer), 202 `{"tick","t"}`. In a fleet the impact is stored in Redis instead and
+/// before the answer), 202 `{"tick","t","body_tick"?}`. In a fleet the impact is stored in Redis instead and
 /// applied by every replica from the change feed (this one before it answers).
 ///
 /// # Errors
@@ -87,13 +93,14 @@ pub async fn create(
         )
         .with_field("t"));
     }
-    state.add_impact(entry.clone(), impact, lifetime).await?;
+    let body_tick = state.add_impact(entry.clone(), impact, lifetime).await?;
     metrics::counter!("swell_impacts_total").increment(1);
     Ok((
         StatusCode::ACCEPTED,
         axum::Json(ImpactAccepted {
             tick: apply_tick(t, hz),
             t,
+            body_tick,
         }),
     )
         .into_response())

@@ -94,7 +94,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "get",
         "/v1/scenes/{id}/bodies",
-        "Floating bodies: tick, t, anchor_tick (the body world's world tick 0; absent before the first spawn) and every body's state, mass, hull (kind, length, beam, height, center), spawn_tick and, after a re-anchor, carried {state, inputs}",
+        "Floating bodies: tick, t, anchor_tick (the body world's world tick 0; absent before the first spawn) and every body's state, mass, hull (kind, length, beam, height, center), spawn_tick and, after a re-anchor, carried {state, inputs}; felt_impacts [{body_tick, t, position, strength, radius}] (the API impacts the body world feels)",
     ),
     (
         "post",
@@ -119,7 +119,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "post",
         "/v1/scenes/{id}/impacts",
-        "Add an impact that ripples on the scene's particle layer (game; shared by every replica of a fleet): {position, t?, strength, radius} → 202 {tick, t}",
+        "Add an impact that ripples on the scene's particle layer (game; shared by every replica of a fleet): {position, t?, strength, radius} → 202 {tick, t, body_tick?} (body_tick: the scene tick the body world feels it from)",
     ),
     (
         "get",

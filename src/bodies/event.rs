@@ -107,6 +107,11 @@ pub struct WorldRecord {
     /// The API impacts the bodies feel ([`SceneBodies::felt_impacts`]).
     #[serde(default)]
     pub felt: Vec<swell_waves::particles::Impact>,
+    /// The scene tick each of `felt` reached the world at, index for index
+    /// ([`SceneBodies::felt_impact_ticks`]; absent in records written before they were kept:
+    /// those ticks are not published).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub felt_ticks: Vec<Option<i64>>,
     /// Per body, where its next tick starts the hull cells' height inversions
     /// ([`swell_waves::body::Body::warm_start`]; absent in records written before they carried
     /// over between ticks: those bodies start cold once).
@@ -146,9 +151,10 @@ impl SceneBodies {
                 .bodies()
                 .map(|(id, b)| (id, *b.status()))
                 .collect(),
-            impacts: self.derived.clone(),
-            wake: self.wake.clone(),
-            felt: self.felt.clone(),
+            impacts: self.impacts.derived().to_vec(),
+            wake: self.impacts.wake().clone(),
+            felt: self.impacts.felt().to_vec(),
+            felt_ticks: self.impacts.felt_ticks().to_vec(),
             warm: self
                 .world
                 .bodies()
@@ -183,35 +189,17 @@ impl SceneBodies {
             tick_hz: rec.tick_hz,
             gravity: rec.gravity,
             events: Vec::new(),
-            derived: Vec::new(),
-            fresh: Vec::new(),
-            impacts_version: 0,
-            wake: BTreeMap::new(),
-            felt: Vec::new(),
-            ripples: None,
+            // Kept only where it validates: a damaged record cannot put an impact the model
+            // rejects into a scene.
+            impacts: swell_waves::body::WorldImpacts::restore(
+                &rec.felt,
+                &rec.felt_ticks,
+                &rec.impacts,
+                &rec.wake,
+                |id| rec.bodies.iter().any(|r| r.id == id),
+            ),
             origins: BTreeMap::new(),
         };
-        for i in &rec.felt {
-            b.feel_quietly(*i);
-        }
-        // Keep only what validates, in the order derived (a damaged record cannot put an
-        // impact the model rejects into a scene).
-        b.derived = rec
-            .impacts
-            .iter()
-            .filter(|i| i.validate("").is_ok())
-            .copied()
-            .collect();
-        b.derived.sort_by(|a, c| a.canonical_cmp(c));
-        let excess = b.derived.len().saturating_sub(super::MAX_BODY_IMPACTS);
-        b.derived.drain(..excess);
-        b.impacts_version = u64::from(!b.derived.is_empty());
-        b.wake = rec
-            .wake
-            .iter()
-            .filter(|(id, d)| rec.bodies.iter().any(|r| r.id == **id) && d.is_finite())
-            .map(|(id, d)| (*id, *d))
-            .collect();
         for r in &rec.bodies {
             let status = rec.statuses.get(&r.id).copied().unwrap_or_default();
             match b
@@ -314,7 +302,7 @@ impl SceneBodies {
             },
             BodyEvent::Removed { id, .. } => {
                 self.specs.remove(id);
-                self.wake.remove(id);
+                self.impacts.forget(*id);
                 self.origins.remove(id);
                 self.world.remove(*id);
             }
@@ -323,8 +311,8 @@ impl SceneBodies {
                     tracing::error!(body = input.body, error = %e, "replay: skipping an input");
                 }
             }
-            BodyEvent::Impact { impact, .. } => {
-                if !self.feel_quietly(*impact) {
+            BodyEvent::Impact { at, impact } => {
+                if !self.feel_quietly(*impact, *at) {
                     tracing::error!("replay: skipping an impact the model rejects");
                 }
             }

@@ -18,7 +18,7 @@ pub mod registry;
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
-use swell_waves::body::{BodyInput, BodySpec, World, WorldSettings};
+use swell_waves::body::{BodyInput, BodySpec, World, WorldImpacts, WorldSettings};
 use swell_waves::particles::{Impact, Impacts};
 use swell_waves::{QueryOptions, Surface, SurfaceAt};
 
@@ -30,17 +30,11 @@ pub use event::{BodyEvent, WorldRecord};
 /// is re-anchored instead. Two seconds at 30 Hz: catching up more would stall the loop further.
 pub const MAX_CATCH_UP_TICKS: i64 = 60;
 
-/// Most body impacts (splashes, wakes) a scene's bodies may make within one ring lifetime before
-/// the newest: beyond it a new one is dropped. Half of the API's [`crate::impacts::MAX_NEAR_IMPACTS`],
-/// so API impacts keep room, and together far below the model's 4,096 live rings. The count
-/// covers body impacts only, so what is dropped depends on the bodies alone (deterministic).
-pub const MAX_BODY_NEAR_IMPACTS: usize = 512;
-/// Most body impacts kept (the oldest go first): bounds memory and snapshots.
-pub const MAX_BODY_IMPACTS: usize = 16_384;
-/// How long body impacts are kept behind the bodies' time, s: the longest ring lifetime a
-/// particle layer allows (an hour), so queries of the past hour see the ripples they saw live
-/// (within [`MAX_BODY_IMPACTS`]).
-pub const BODY_IMPACT_HISTORY: f64 = 3600.0;
+/// The limits and history of body impacts (splashes, wakes) and felt API impacts: the model's,
+/// since a native client's world must apply the same ones ([`swell_waves::body::WorldImpacts`]).
+/// [`MAX_BODY_NEAR_IMPACTS`] is half of the API's [`crate::impacts::MAX_NEAR_IMPACTS`], so API
+/// impacts keep room.
+pub use swell_waves::body::{BODY_IMPACT_HISTORY, MAX_BODY_IMPACTS, MAX_BODY_NEAR_IMPACTS};
 
 /// Inversion settings for body probes: a 1 mm residual moves a cell's height by at most the
 /// slope times 1 mm, far below what a hull cell (metres across) resolves, and a looser tolerance
@@ -183,24 +177,12 @@ pub struct SceneBodies {
     /// Changes made since the owner last took them ([`SceneBodies::take_events`]), in order:
     /// what the journal records so a restart replays the same world.
     events: Vec<BodyEvent>,
-    /// Impacts the bodies made (the particle layer's `body_impacts`), in canonical order (time
-    /// first), pruned to [`BODY_IMPACT_HISTORY`] behind the bodies' time: derived state,
-    /// like the states, so it is in [`WorldRecord`]s too.
-    derived: Vec<swell_waves::particles::Impact>,
-    /// Derived since the owner last took them ([`SceneBodies::take_fresh_impacts`]).
-    fresh: Vec<swell_waves::particles::Impact>,
-    /// Bumped whenever `derived` changes.
-    impacts_version: u64,
-    /// Per body, horizontal distance travelled since its last wake impact, m.
-    wake: BTreeMap<u64, f64>,
-    /// API impacts the bodies feel, in canonical order: each one sequenced into the body
-    /// world's own history (a [`BodyEvent::Impact`] in the journal, an `impact` command in a
-    /// fleet's body log) at the tick it reached the world, so a replay feels it from the same
-    /// tick. Pruned like `derived`.
-    felt: Vec<Impact>,
-    /// `felt` and `derived` as one set, what the bodies step on; `None` when either changed
-    /// since it was built.
-    ripples: Option<std::sync::Arc<Impacts>>,
+    /// The API impacts the bodies feel (each sequenced into the body world's own history at the
+    /// tick it reached the world: a [`BodyEvent::Impact`] in the journal, an `impact` command in
+    /// a fleet's body log, so a replay feels it from the same tick) and the impacts the bodies
+    /// made (the particle layer's `body_impacts`): derived state, like the states, so it is in
+    /// [`WorldRecord`]s too. The model's type, so a native client's world steps on the same.
+    impacts: WorldImpacts,
     /// Per body, where its trajectory in the current world starts ([`Origin`]): published, so
     /// a client can rebuild the world from `anchor` on.
     origins: BTreeMap<u64, Origin>,
@@ -237,6 +219,8 @@ pub struct Carried {
 /// Most API impacts a body world feels at once (the scene's own limit on API impacts): a
 /// replay of an old journal cannot hold more.
 pub const MAX_FELT_IMPACTS: usize = crate::impacts::MAX_SCENE_IMPACTS;
+// The model's world applies this limit itself: the two must agree.
+const _: () = assert!(MAX_FELT_IMPACTS == swell_waves::body::MAX_FELT_IMPACTS);
 
 /// One body as persisted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -276,12 +260,7 @@ impl SceneBodies {
                 tick_hz,
                 gravity,
             }],
-            derived: Vec::new(),
-            fresh: Vec::new(),
-            impacts_version: 0,
-            wake: BTreeMap::new(),
-            felt: Vec::new(),
-            ripples: None,
+            impacts: WorldImpacts::new(),
             origins: BTreeMap::new(),
         })
     }
@@ -373,7 +352,7 @@ impl SceneBodies {
     /// Removes a body; whether it existed.
     pub fn remove(&mut self, id: u64) -> bool {
         self.specs.remove(&id);
-        self.wake.remove(&id);
+        self.impacts.forget(id);
         self.origins.remove(&id);
         let existed = self.world.remove(id);
         if existed {
@@ -512,138 +491,41 @@ impl SceneBodies {
         self.anchor = tick;
         self.tick_hz = tick_hz;
         self.gravity = gravity;
-        self.prune_impacts();
+        self.impacts.prune(self.world.time());
     }
 
     /// One fixed step of every body, then the impacts the step made when `sea`'s particle
-    /// layer has `body_impacts` (see [`swell_waves::particles::body_impacts`]). Every path that
-    /// steps bodies (the live loop, a fleet's follower, a journal replay) comes through here, so
-    /// all of them derive the same impacts at the same ticks. Returns false if stepping failed.
+    /// layer has `body_impacts` ([`WorldImpacts::step`]). Every path that steps bodies (the live
+    /// loop, a fleet's follower, a journal replay) comes through here, so all of them derive
+    /// the same impacts at the same ticks. Returns false if stepping failed.
     fn step_once(&mut self, sea: Sea<'_>, options: &QueryOptions) -> bool {
-        let rules = sea
-            .surface()
-            .impact_layer()
-            .and_then(|l| l.body_impacts().map(|r| (*r, l.ripples().lifetime)));
-        // Only scenes that make body impacts pay for this copy.
-        let before: Vec<(u64, swell_waves::body::BodyState, f64)> = match rules {
-            Some(_) => self
-                .world
-                .bodies()
-                .map(|(id, b)| (id, *b.state(), b.status().submerged))
-                .collect(),
-            None => Vec::new(),
-        };
-        let ripples = self.ripples();
-        if sea
-            .step(&mut self.world, options, ripples.as_deref())
-            .is_err()
-        {
-            return false;
-        }
-        if let Some((rules, lifetime)) = rules {
-            self.derive_impacts(&rules, lifetime, &before);
-        }
-        true
-    }
-
-    /// Applies the body-impact rules to the step just taken, in body id order (splash before
-    /// wake), within the limits ([`MAX_BODY_NEAR_IMPACTS`], [`MAX_BODY_IMPACTS`]).
-    fn derive_impacts(
-        &mut self,
-        rules: &swell_waves::particles::BodyImpactSpec,
-        lifetime: f64,
-        before: &[(u64, swell_waves::body::BodyState, f64)],
-    ) {
-        let t = self.world.time();
-        let dt = 1.0 / self.tick_hz;
-        let mut made = Vec::new();
-        for (id, state, submerged) in before {
-            let Some(body) = self.world.body(*id) else {
-                continue;
-            };
-            let step = swell_waves::particles::BodyStep {
-                before: *state,
-                submerged_before: *submerged,
-                after: *body.state(),
-                submerged_after: body.status().submerged,
-            };
-            if let Some(i) = rules.splash(&step, t) {
-                made.push(i);
+        let stepped = self
+            .impacts
+            .step(&mut self.world, sea.surface(), |world, ripples| {
+                sea.step(world, options, ripples)
+            });
+        match stepped {
+            Ok(derived) => {
+                if derived.dropped > 0 {
+                    metrics::counter!("swell_body_impacts_dropped_total")
+                        .increment(u64::from(derived.dropped));
+                }
+                if derived.made > 0 {
+                    metrics::counter!("swell_body_impacts_total")
+                        .increment(u64::from(derived.made));
+                }
+                true
             }
-            let travel = self.wake.entry(*id).or_insert(0.0);
-            if let Some(i) = rules.wake(&step, dt, travel, t) {
-                made.push(i);
-            }
-        }
-        let mut changed = false;
-        self.prune_impacts();
-        for i in made {
-            // Off the model's map (|x| > 1e9 m): not an impact it can ripple; dropped.
-            if i.validate("").is_err() {
-                continue;
-            }
-            let near = self.derived.len() - self.derived.partition_point(|e| e.t < i.t - lifetime);
-            if near >= MAX_BODY_NEAR_IMPACTS {
-                metrics::counter!("swell_body_impacts_dropped_total").increment(1);
-                continue;
-            }
-            let at = self
-                .derived
-                .partition_point(|e| e.canonical_cmp(&i).is_le());
-            self.derived.insert(at, i);
-            if self.fresh.len() >= MAX_BODY_NEAR_IMPACTS {
-                self.fresh.remove(0);
-            }
-            self.fresh.push(i);
-            changed = true;
-            metrics::counter!("swell_body_impacts_total").increment(1);
-        }
-        if self.derived.len() > MAX_BODY_IMPACTS {
-            let excess = self.derived.len() - MAX_BODY_IMPACTS;
-            self.derived.drain(..excess);
-            changed = true;
-        }
-        if changed {
-            self.impacts_version += 1;
-            self.ripples = None;
-        }
-    }
-
-    /// Drops body impacts more than [`BODY_IMPACT_HISTORY`] behind the bodies' time, and those
-    /// after it (left in the future by a re-anchor back in time); and felt API impacts more than
-    /// [`BODY_IMPACT_HISTORY`] behind (an API impact may lie in the future: it stays).
-    fn prune_impacts(&mut self) {
-        if !self.felt.is_empty() {
-            let old = self
-                .felt
-                .partition_point(|e| e.t < self.world.time() - BODY_IMPACT_HISTORY);
-            if old > 0 {
-                self.felt.drain(..old);
-                self.ripples = None;
-            }
-        }
-        if self.derived.is_empty() {
-            return;
-        }
-        let now = self.world.time();
-        let n = self.derived.len();
-        let future = self.derived.partition_point(|e| e.t <= now);
-        self.derived.truncate(future);
-        let old = self
-            .derived
-            .partition_point(|e| e.t < now - BODY_IMPACT_HISTORY);
-        self.derived.drain(..old);
-        if self.derived.len() != n {
-            self.impacts_version += 1;
-            self.ripples = None;
+            Err(_) => false,
         }
     }
 
     /// Makes the bodies feel an API impact from their current tick on (recorded as a
-    /// [`BodyEvent::Impact`]). An impact the model rejects is ignored (every path ignores it
-    /// alike); beyond [`MAX_FELT_IMPACTS`] the oldest felt one goes.
+    /// [`BodyEvent::Impact`]); the tick is kept with it ([`SceneBodies::felt_impact_ticks`]).
+    /// An impact the model rejects is ignored (every path ignores it alike); beyond
+    /// [`MAX_FELT_IMPACTS`] the canonically first felt one goes.
     pub fn feel(&mut self, impact: Impact) {
-        if self.feel_quietly(impact) {
+        if self.feel_quietly(impact, self.tick()) {
             self.events.push(BodyEvent::Impact {
                 at: self.tick(),
                 impact,
@@ -651,59 +533,40 @@ impl SceneBodies {
         }
     }
 
-    /// [`SceneBodies::feel`] without recording it (a replay). Returns whether it was added.
-    fn feel_quietly(&mut self, impact: Impact) -> bool {
-        if impact.validate("").is_err() {
-            return false;
-        }
-        let at = self
-            .felt
-            .partition_point(|e| e.canonical_cmp(&impact).is_le());
-        self.felt.insert(at, impact);
-        if self.felt.len() > MAX_FELT_IMPACTS {
-            self.felt.remove(0);
-        }
-        self.ripples = None;
-        true
+    /// [`SceneBodies::feel`] without recording it (a replay), felt at scene tick `at`. Returns
+    /// whether it was added.
+    fn feel_quietly(&mut self, impact: Impact, at: i64) -> bool {
+        self.impacts.feel(impact, Some(at)).is_ok()
     }
 
     /// The API impacts the bodies feel, in canonical order.
     pub fn felt_impacts(&self) -> &[Impact] {
-        &self.felt
+        self.impacts.felt()
     }
 
-    /// What the bodies step on besides the surface: the felt API impacts and their own, as one
-    /// set (`None` when there are none, so scenes without impacts pay nothing). Cached until
-    /// either part changes.
-    fn ripples(&mut self) -> Option<std::sync::Arc<Impacts>> {
-        if self.felt.is_empty() && self.derived.is_empty() {
-            return None;
-        }
-        if self.ripples.is_none() {
-            let mut all = Vec::with_capacity(self.felt.len() + self.derived.len());
-            all.extend_from_slice(&self.felt);
-            all.extend_from_slice(&self.derived);
-            // Both parts are validated and bounded far below the model's set limit.
-            self.ripples = Impacts::from_events(all).ok().map(std::sync::Arc::new);
-        }
-        self.ripples.clone()
+    /// The scene tick each felt impact reached the body world at ([`SceneBodies::felt_impacts`]'s
+    /// order; `None` for one restored from a record written before the ticks were kept): what a
+    /// client's world must feel it at to follow these bodies.
+    pub fn felt_impact_ticks(&self) -> &[Option<i64>] {
+        self.impacts.felt_ticks()
     }
 
     /// Bumped whenever the derived body impacts change (cheap change detection for
     /// [`crate::impacts::SceneImpacts::sync_bodies`]).
     pub fn impacts_version(&self) -> u64 {
-        self.impacts_version
+        self.impacts.version()
     }
 
     /// The body impacts held, as a set.
     pub fn derived_impacts(&self) -> swell_waves::particles::Impacts {
         // Each was validated when derived and there are at most MAX_BODY_IMPACTS.
-        swell_waves::particles::Impacts::from_events(self.derived.clone()).unwrap_or_default()
+        swell_waves::particles::Impacts::from_events(self.impacts.derived().to_vec())
+            .unwrap_or_default()
     }
 
     /// The body impacts derived since the last call, oldest first.
     pub fn take_fresh_impacts(&mut self) -> Vec<swell_waves::particles::Impact> {
-        std::mem::take(&mut self.fresh)
+        self.impacts.take_fresh()
     }
 
     /// Mirrors the impacts these bodies derived into the scene's set `impacts` (call under the

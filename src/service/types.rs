@@ -449,6 +449,24 @@ pub struct InputSpan {
     pub ticks: u64,
 }
 
+/// An API impact a scene's body world feels, with the scene tick it reached the world at: what
+/// a client replaying the bodies feels it at (`swell_world_feel_impact`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct FeltImpact {
+    /// Scene tick the body world feels it from; absent for one restored from a record written
+    /// before the ticks were kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_tick: Option<i64>,
+    /// Scene time of the impact, s.
+    pub t: f64,
+    /// World `[x, z]`, m.
+    pub position: [f64; 2],
+    /// Splash height at the impact point, m.
+    pub strength: f64,
+    /// Particle radius of the ring, m.
+    pub radius: f64,
+}
+
 /// `POST /v1/scenes/{id}/bodies` answer (201): the new body's state and the ticks a client
 /// needs to mirror it in its own world.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -425,7 +425,8 @@ impl AppState {
         Ok(self.read_clock(&entry))
     }
 
-    /// Adds an API impact to `entry`'s scene (rings living `lifetime` s), through the store.
+    /// Adds an API impact to `entry`'s scene (rings living `lifetime` s), through the store;
+    /// the scene tick its bodies feel it from (see the store's `add_impact`).
     ///
     /// # Errors
     /// [`StateError::TooManyImpacts`] over a limit, [`StateError::ImpactRejected`] for an impact
@@ -436,7 +437,7 @@ impl AppState {
         entry: Arc<SceneEntry>,
         impact: swell_waves::particles::Impact,
         lifetime: f64,
-    ) -> Result<(), StateError> {
+    ) -> Result<Option<i64>, StateError> {
         self.store().add_impact(self, entry, impact, lifetime).await
     }
 

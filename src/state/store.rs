@@ -48,7 +48,10 @@ pub trait Store: Send + Sync + Debug {
     ) -> BoxFuture<'a, Result<(), StateError>>;
 
     /// Adds an API impact to `entry`'s scene, checked against the set's limits with rings
-    /// living `lifetime` s; the scene's bodies feel it from their current tick.
+    /// living `lifetime` s; the scene's bodies feel it from their current tick (one process) or
+    /// the tick the body log sequences it at (a fleet). Returns that tick, the one every
+    /// world that replays the scene's bodies feels it from; `None` when the scene has no body
+    /// world (nothing feels it).
     ///
     /// # Errors
     /// [`StateError::TooManyImpacts`] over a limit, [`StateError::ImpactRejected`] for an
@@ -59,7 +62,7 @@ pub trait Store: Send + Sync + Debug {
         entry: Arc<SceneEntry>,
         impact: Impact,
         lifetime: f64,
-    ) -> BoxFuture<'a, Result<(), StateError>>;
+    ) -> BoxFuture<'a, Result<Option<i64>, StateError>>;
 
     /// Spawns a body; its state once applied, with its spawn tick and the world's anchor.
     ///
@@ -197,7 +200,7 @@ impl Store for Local {
         entry: Arc<SceneEntry>,
         impact: Impact,
         lifetime: f64,
-    ) -> BoxFuture<'a, Result<(), StateError>> {
+    ) -> BoxFuture<'a, Result<Option<i64>, StateError>> {
         Box::pin(async move {
             let id = entry.scene.id.clone();
             let op = Op::Impact {
@@ -219,11 +222,15 @@ impl Store for Local {
             // The scene's bodies feel it from their current tick: recorded in their history
             // under their lock, so a replay feels it from the same tick
             // (crate::bodies::SceneBodies::feel).
+            let mut felt = None;
             if let Some(cell) = state.bodies.get(&id) {
                 let done = Local::body_cmd(state, &cell, &id, &BodyCmd::Impact(impact))?;
                 seq = seq.max(done.seq?);
+                // The world's tick when it felt it (`BodyEvent::Impact::at`).
+                felt = Some(done.tick);
             }
-            commit_seq(state, seq).await
+            commit_seq(state, seq).await?;
+            Ok(felt)
         })
     }
 

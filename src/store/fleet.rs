@@ -107,7 +107,8 @@ return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], '
 /// KEYS: the scene's impact list, the impact index set, feed, the scene's body log, its
 /// watermark. ARGV: impact JSON, op JSON, nonce, scene id, most impacts, max feed length, body
 /// command JSON, wanted tick, the impact's t minus the ring lifetime. Returns the new feed
-/// entry's id, or `full:<n>`.
+/// entry's id, followed by a space and the tick the `impact` command was sequenced at when the
+/// scene has a body log (the tick every replica's bodies feel it from), or `full:<n>`.
 const IMPACT_SCRIPT: &str = r"
 local oldest = tonumber(ARGV[9])
 while true do
@@ -119,13 +120,15 @@ local n = redis.call('LLEN', KEYS[1])
 if n >= tonumber(ARGV[5]) then return 'full:' .. n end
 redis.call('RPUSH', KEYS[1], ARGV[1])
 redis.call('SADD', KEYS[2], ARGV[4])
+local felt = ''
 if redis.call('EXISTS', KEYS[4]) == 1 then
   local t = tonumber(ARGV[8])
   local wm = redis.call('GET', KEYS[5])
   if wm and t <= tonumber(wm) then t = tonumber(wm) + 1 end
   redis.call('XADD', KEYS[4], '*', 'cmd', ARGV[7], 'nonce', ARGV[3], 'tick', t)
+  felt = ' ' .. string.format('%d', t)
 end
-return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3])
+return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3]) .. felt
 ";
 
 /// Reads everything a replica catches up from, in one atomic step: the admin hash (flat
@@ -418,13 +421,14 @@ impl Fleet {
             .arg(&del)
             .arg(FEED_MAXLEN)
             .arg(&clears);
-        self.write_and_apply(call, &nonce).await
+        self.write_and_apply(call, &nonce).await.map(|_| ())
     }
 
     /// Stores an API impact of `scene` (its list and the feed entry that announces it, and the
     /// command that makes the scene's bodies feel it from scene tick `wanted` or the first one
     /// not yet sequenced) and waits until this replica has applied it, so the answer's replica
-    /// ripples with it.
+    /// ripples with it. Returns the tick the bodies feel it from (as sequenced in the body log,
+    /// which every replica applies it at), or `None` if the scene has no body log.
     ///
     /// # Errors
     /// [`StateError::TooManyImpacts`] when the scene's list holds `max` impacts; otherwise as
@@ -436,7 +440,7 @@ impl Fleet {
         max: usize,
         wanted: i64,
         lifetime: f64,
-    ) -> Result<(), StateError> {
+    ) -> Result<Option<i64>, StateError> {
         let impact_json = serde_json::to_string(&impact).map_err(StateError::internal)?;
         let op_json = serde_json::to_string(&Op::Impact {
             scene: scene.to_owned(),
@@ -461,16 +465,23 @@ impl Fleet {
             .arg(wanted)
             // Printed in full (Rust's shortest round-trip form), so Lua reads the same double.
             .arg(format!("{:?}", impact.t - lifetime));
-        self.write_and_apply(call, &nonce).await
+        let felt = self.write_and_apply(call, &nonce).await?;
+        felt.map(|t| {
+            t.parse::<i64>().map_err(|_| {
+                StateError::internal(format!("the impact script answered a malformed tick {t:?}"))
+            })
+        })
+        .transpose()
     }
 
     /// Runs a write script (one retry on a dead connection), then waits until this replica's
-    /// feed has applied the entry it appended.
+    /// feed has applied the entry it appended. The script answers the entry's id, optionally
+    /// followed by a space and more (returned).
     async fn write_and_apply(
         &self,
         call: redis::ScriptInvocation<'_>,
         nonce: &str,
-    ) -> Result<(), StateError> {
+    ) -> Result<Option<String>, StateError> {
         let write = async {
             let mut conn = self.0.writes.clone();
             match call.invoke_async::<String>(&mut conn).await {
@@ -489,6 +500,7 @@ impl Fleet {
             }
         };
         let written = tokio::time::timeout(WRITE_TIMEOUT, write).await;
+        let extra;
         let id = match written {
             Ok(Ok(full)) if full.starts_with("full:") => {
                 return Err(StateError::TooManyImpacts(format!(
@@ -496,7 +508,14 @@ impl Fleet {
                     full.trim_start_matches("full:")
                 )));
             }
-            Ok(Ok(id)) => EntryId::parse(&id),
+            Ok(Ok(answer)) => {
+                let (id, more) = match answer.split_once(' ') {
+                    Some((id, more)) => (id, Some(more.to_owned())),
+                    None => (answer.as_str(), None),
+                };
+                extra = more;
+                EntryId::parse(id)
+            }
             Ok(Err(e)) => {
                 lock(&self.0.prebuilt).remove(nonce);
                 tracing::warn!(store = %self.0.url, error = %e, "store: admin write failed");
@@ -521,7 +540,7 @@ impl Fleet {
         let applied = tokio::time::timeout(APPLY_TIMEOUT, rx.wait_for(|a| *a >= id)).await;
         lock(&self.0.prebuilt).remove(nonce);
         match applied {
-            Ok(Ok(_)) => Ok(()),
+            Ok(Ok(_)) => Ok(extra),
             _ => Err(unavailable(format!(
                 "the change was stored (feed entry {id}) but this replica has not applied it yet: its change feed is reconnecting to the shared store; every replica applies it once connected"
             ))),

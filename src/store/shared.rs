@@ -63,7 +63,7 @@ impl Store for Shared {
         entry: Arc<SceneEntry>,
         impact: Impact,
         lifetime: f64,
-    ) -> BoxFuture<'a, Result<(), StateError>> {
+    ) -> BoxFuture<'a, Result<Option<i64>, StateError>> {
         Box::pin(async move {
             // Into the scene's impact list in Redis with the feed entry that makes every
             // replica (this one included, before the answer) add it. The ring-lifetime limit is

@@ -71,7 +71,8 @@ typedef struct SwellSceneInfo {
   int32_t has_epoch;
   // 1 if any layer is an FFT layer (queries at a new grid time compute frames).
   int32_t has_fft;
-  // 1 if the bodies make impacts of their own (then [`crate::swell_world_new`] refuses).
+  // 1 if the bodies make impacts of their own (splashes and wakes: a body world then needs
+  // every body of the server's to follow it).
   int32_t has_body_impacts;
   // Number of layers.
   uint32_t layers;
@@ -201,8 +202,9 @@ typedef struct SwellBodyState {
 // No body with that id in the world (or one already has the id asked for).
 #define SWELL_ERR_NOT_FOUND 5
 
-// Something this ABI cannot reproduce to the server's bits (a particle layer with
-// `body_impacts`: the server's bodies step on their own splashes and wakes).
+// Something this ABI cannot reproduce to the server's bits. No function returns it at present
+// (body worlds of scenes with `body_impacts` were refused with it before they derived
+// splashes and wakes); kept so the codes stay what they were.
 #define SWELL_ERR_UNSUPPORTED 6
 
 // A bug in the library: a panic was caught at the boundary. The handle involved may be left
@@ -229,7 +231,7 @@ SwellStatus swell_last_error_code(void);
 // (`n` = 0 clears it): pass the scene's impacts as `GET /v1/scenes/{id}/impacts` lists them
 // (and add those tick frames announce), and queries give the server's bits for the same set.
 // Safe to call while other threads query: each query uses the set in force when it starts.
-// Body worlds do not feel impacts (see `swell_world_new`).
+// Body worlds feel API impacts through `swell_world_feel_impact`.
 //
 // # Errors
 // [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] naming `impacts[i]` for an
@@ -360,10 +362,14 @@ SwellStatus swell_surface_displacement_normal_f32(const struct SwellSurface *sur
 // anchored at (the scene tick of the scene's first spawn, or of its last re-anchor), which the
 // server publishes as `anchor_tick` (spawn answer, `GET …/bodies`, tick frames).
 //
+// When the scene's particle layer has `body_impacts`, every step derives the bodies' splashes
+// and wakes as the server's do, and later steps feel them: then each body moves the others, so
+// the world must hold every body of the server's (spawned at its `spawn_tick`, with its
+// inputs) to follow it. API impacts are fed with [`swell_world_feel_impact`].
+//
 // # Errors
-// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_UNSUPPORTED`] for a scene whose bodies make
-// impacts (`body_impacts` on its particle layer); [`crate::SWELL_ERR_INVALID_SPEC`] if the
-// scene's tick rate or gravity is out of the body model's range.
+// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] if the scene's tick rate or
+// gravity is out of the body model's range.
 //
 // # Safety
 // `surface` a live handle (or null); `out` writable (or null).
@@ -378,7 +384,7 @@ SwellStatus swell_world_new(const struct SwellSurface *surface,
 void swell_world_free(struct SwellWorld *world);
 
 // A copy of `world` with everything that decides its later ticks (bodies, their warm starts,
-// the input log): stepping the copy and the original alike gives the same bits. Keep one at
+// the input log, the impacts felt, pending and made): stepping the copy and the original alike gives the same bits. Keep one at
 // the last tick the server confirmed, to rewind to when its inputs turn out to differ.
 //
 // # Errors
@@ -386,7 +392,8 @@ void swell_world_free(struct SwellWorld *world);
 //
 // # Safety
 // `world` a live handle (or null); `out` writable (or null).
-SwellStatus swell_world_clone(const struct SwellWorld *world, struct SwellWorld **out);
+SwellStatus swell_world_clone(const struct SwellWorld *world,
+                              struct SwellWorld **out);
 
 // Makes `dst` a copy of `src` (as [`swell_world_clone`], into an existing handle): rewinds a
 // prediction to a confirmed world.
@@ -449,7 +456,7 @@ SwellStatus swell_world_spawn_as(struct SwellWorld *world,
                                  const char *json,
                                  size_t len);
 
-// Removes body `id` and its inputs.
+// Removes body `id`, its inputs and its wake distance.
 //
 // # Errors
 // [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_NOT_FOUND`].
@@ -532,6 +539,43 @@ SwellStatus swell_world_len(const struct SwellWorld *world, size_t *out);
 SwellStatus swell_world_set_state(struct SwellWorld *world,
                                   uint64_t id,
                                   const struct SwellBodyState *state);
+
+// Makes the world's bodies feel an API impact (`POST /v1/scenes/{id}/impacts`) from scene
+// tick `at_tick` on, as the server's do: pass the `body_tick` the server published for it (the
+// impact answer's `body_tick`, or `felt_impacts[i].tick` in `GET …/bodies`), the tick it
+// reached the server's body world at; [`SWELL_FROM_NOW`] for the world's current tick. An
+// impact at a later tick waits until a step reaches that tick. The tick matters to the bits:
+// the same impact felt a tick earlier or later gives other states (rings alive before the
+// impact's own time `t` are not, but the pruning of old ones and the ripples of an impact whose
+// `t` is already past are).
+//
+// # Errors
+// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] naming `impact.…` for an impact
+// the model rejects (a non-finite or out-of-range value); [`crate::SWELL_ERR_INVALID_ARGUMENT`]
+// for a tick before the world's current one (rewind to a world at or before it with
+// [`swell_world_assign`], then feel it and step again). Nothing changes on an error.
+//
+// # Safety
+// `world` a live handle (or null); `impact` readable (or null).
+SwellStatus swell_world_feel_impact(struct SwellWorld *world,
+                                    const struct SwellImpact *impact,
+                                    int64_t at_tick);
+
+// Copies the impacts the world's bodies made (splashes and wakes, when the scene's particle
+// layer has `body_impacts`; canonical order, pruned to the last hour) into `out`, at most
+// `cap` of them; `*out_len` = how many there are (more than `cap`: call again with a larger
+// buffer). With the scene's API impacts they are what the server's queries ripple with
+// ([`crate::swell_surface_set_impacts`]).
+//
+// # Errors
+// [`crate::SWELL_ERR_NULL`] (`out` may be null when `cap` is 0).
+//
+// # Safety
+// `world` a live handle (or null); `out` writable for `cap` impacts; `out_len` writable.
+SwellStatus swell_world_made_impacts(const struct SwellWorld *world,
+                                     struct SwellImpact *out,
+                                     size_t cap,
+                                     size_t *out_len);
 
 #ifdef __cplusplus
 }  // extern "C"

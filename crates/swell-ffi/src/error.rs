@@ -24,8 +24,9 @@ pub const SWELL_ERR_INVALID_SPEC: SwellStatus = 3;
 pub const SWELL_ERR_INVALID_ARGUMENT: SwellStatus = 4;
 /// No body with that id in the world (or one already has the id asked for).
 pub const SWELL_ERR_NOT_FOUND: SwellStatus = 5;
-/// Something this ABI cannot reproduce to the server's bits (a particle layer with
-/// `body_impacts`: the server's bodies step on their own splashes and wakes).
+/// Something this ABI cannot reproduce to the server's bits. No function returns it at present
+/// (body worlds of scenes with `body_impacts` were refused with it before they derived
+/// splashes and wakes); kept so the codes stay what they were.
 pub const SWELL_ERR_UNSUPPORTED: SwellStatus = 6;
 /// A bug in the library: a panic was caught at the boundary. The handle involved may be left
 /// in any state that is safe to free; please report the message.

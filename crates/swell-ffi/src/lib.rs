@@ -14,7 +14,8 @@
 //! - [`surface`] — surface handles and their queries: height with inversion, normal,
 //!   displacement, Jacobian, residual, a footprint's orientation; FFT layers included.
 //! - [`world`] — body worlds set up as the server sets up a scene's bodies: spawn, inputs,
-//!   step, state, copies for rewinding (prediction and reconciliation).
+//!   step, state, copies for rewinding (prediction and reconciliation), API impacts felt and
+//!   the bodies' own splashes and wakes.
 //!
 //! # Conventions
 //! The model's: right-handed, y up, the sea in x/z; metres, seconds, radians, kilograms;
@@ -36,9 +37,11 @@
 //! bits (the C test checks `proto/vectors/surface_v1.json`), and a world anchored at the
 //! server's tick, given the same spawns and inputs at the same ticks, reaches the server's body
 //! states bit for bit (the C test checks `proto/vectors/bodies_v1.json`, produced by the
-//! server's own body code). What the ABI does not reproduce: impacts (API impacts felt by
-//! bodies or rippling queries, and bodies' own splashes and wakes: [`swell_world_new`] refuses
-//! a scene whose bodies make impacts).
+//! server's own body code). Impacts too: a surface given the scene's impacts
+//! ([`swell_surface_set_impacts`]) answers the server's query bits, and a world fed the API
+//! impacts at the ticks the server published ([`swell_world_feel_impact`]) steps on them and on
+//! its bodies' own splashes and wakes as the server's world does (the model's
+//! `body::WorldImpacts`, which both step through).
 #![warn(missing_docs)]
 
 pub mod error;

@@ -107,7 +107,7 @@ impl Scene {
     }
 
     /// Whether the scene's bodies make impacts of their own (a particle layer with
-    /// `body_impacts`), which the body world here does not reproduce.
+    /// `body_impacts`).
     pub fn has_body_impacts(&self) -> bool {
         self.surface
             .impact_layer()

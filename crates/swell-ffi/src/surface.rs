@@ -274,7 +274,7 @@ pub struct SwellImpact {
 /// (`n` = 0 clears it): pass the scene's impacts as `GET /v1/scenes/{id}/impacts` lists them
 /// (and add those tick frames announce), and queries give the server's bits for the same set.
 /// Safe to call while other threads query: each query uses the set in force when it starts.
-/// Body worlds do not feel impacts (see `swell_world_new`).
+/// Body worlds feel API impacts through `swell_world_feel_impact`.
 ///
 /// # Errors
 /// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] naming `impacts[i]` for an
@@ -383,7 +383,8 @@ pub struct SwellSceneInfo {
     pub has_epoch: i32,
     /// 1 if any layer is an FFT layer (queries at a new grid time compute frames).
     pub has_fft: i32,
-    /// 1 if the bodies make impacts of their own (then [`crate::swell_world_new`] refuses).
+    /// 1 if the bodies make impacts of their own (splashes and wakes: a body world then needs
+    /// every body of the server's to follow it).
     pub has_body_impacts: i32,
     /// Number of layers.
     pub layers: u32,

@@ -2,22 +2,27 @@
 //! (`src/bodies/mod.rs`: the settings for its anchor tick, the default damping of a spawn, the
 //! sea read with the authority's options and FFT frames kept between steps), so a client that
 //! replays the same spawns and inputs at the same ticks reaches the server's states bit for bit.
+//!
+//! Impacts go through the model's [`WorldImpacts`], the type the server's scene bodies step
+//! through: API impacts are felt from the scene tick the server says they reached its body world
+//! ([`swell_world_feel_impact`]), and when the scene's particle layer has `body_impacts` each
+//! step derives the bodies' splashes and wakes and the later steps ripple on them, as the
+//! server's do.
 
 use std::collections::BTreeMap;
 use std::ffi::c_char;
 use std::sync::Arc;
 
+use swell_waves::FrameMemo;
 use swell_waves::body::{
-    BodyInput, BodySpec, BodyState, BodyStatus, MAX_YAW, SpawnSpec, World, authority_settings,
-    authority_step_options,
+    BodyInput, BodySpec, BodyState, BodyStatus, MAX_YAW, SpawnSpec, World, WorldImpacts,
+    authority_settings, authority_step_options,
 };
-use swell_waves::{FrameMemo, QueryFields};
+use swell_waves::particles::Impact;
 
-use crate::error::{
-    Error, SWELL_ERR_BAD_JSON, SWELL_ERR_NOT_FOUND, SWELL_ERR_UNSUPPORTED, SwellStatus, guard,
-};
+use crate::error::{Error, SWELL_ERR_BAD_JSON, SWELL_ERR_NOT_FOUND, SwellStatus, guard};
 use crate::scene::Scene;
-use crate::surface::{SwellSurface, bytes, get, get_mut};
+use crate::surface::{SwellImpact, SwellSurface, bytes, get, get_mut};
 
 /// `from_tick` of a [`SwellInput`] that acts from the world's current tick (the next one it
 /// steps), the server's default.
@@ -37,6 +42,12 @@ pub struct SwellWorld {
     anchor: i64,
     /// FFT frames of the last steps (a tick reads most of the previous tick's grid frames).
     memo: FrameMemo,
+    /// The API impacts felt and the impacts the bodies made: what the bodies step on besides
+    /// the surface (the server's own type).
+    impacts: WorldImpacts,
+    /// API impacts to feel when the world reaches their scene tick, in tick order (stable:
+    /// those of one tick in the order given).
+    pending: Vec<(i64, Impact)>,
 }
 
 /// A force and torque on one body for a span of ticks (the server's body input).
@@ -87,14 +98,27 @@ impl SwellWorld {
         self.anchor + self.world.tick() as i64
     }
 
-    /// One fixed step of every body, on the scene's sea read as the server reads it.
+    /// Feels the pending API impacts due at the current tick, as the server feels an impact
+    /// before it steps from the tick it reached the world at.
+    fn feel_due(&mut self) {
+        let now = self.tick();
+        let due = self.pending.partition_point(|(at, _)| *at <= now);
+        for (at, impact) in self.pending.drain(..due) {
+            // Validated when queued, so feeling cannot fail; an impact whose tick was passed
+            // without a step (never: steps are one tick each) would be felt late.
+            let _ = self.impacts.feel(impact, Some(at));
+        }
+    }
+
+    /// One fixed step of every body, on the scene's sea read as the server reads it, rippled by
+    /// the impacts felt and made so far; then the impacts this step made
+    /// ([`WorldImpacts::step_memo`], which the server's steps go through too).
     fn step_once(&mut self) -> Result<(), Error> {
+        self.feel_due();
         let options = authority_step_options();
-        let (surface, memo) = (&self.scene.surface, &self.memo);
-        self.world
-            .step_with(surface, &options, |t| {
-                surface.at_memo(t, QueryFields::HEIGHT, &options, memo)
-            })
+        self.impacts
+            .step_memo(&mut self.world, &self.scene.surface, &options, &self.memo)
+            .map(|_| ())
             .map_err(|e| Error::spec(&e))
     }
 
@@ -158,10 +182,14 @@ fn state_out(id: u64, b: &swell_waves::body::Body) -> SwellBodyState {
 /// anchored at (the scene tick of the scene's first spawn, or of its last re-anchor), which the
 /// server publishes as `anchor_tick` (spawn answer, `GET …/bodies`, tick frames).
 ///
+/// When the scene's particle layer has `body_impacts`, every step derives the bodies' splashes
+/// and wakes as the server's do, and later steps feel them: then each body moves the others, so
+/// the world must hold every body of the server's (spawned at its `spawn_tick`, with its
+/// inputs) to follow it. API impacts are fed with [`swell_world_feel_impact`].
+///
 /// # Errors
-/// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_UNSUPPORTED`] for a scene whose bodies make
-/// impacts (`body_impacts` on its particle layer); [`crate::SWELL_ERR_INVALID_SPEC`] if the
-/// scene's tick rate or gravity is out of the body model's range.
+/// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] if the scene's tick rate or
+/// gravity is out of the body model's range.
 ///
 /// # Safety
 /// `surface` a live handle (or null); `out` writable (or null).
@@ -178,12 +206,6 @@ pub unsafe extern "C" fn swell_world_new(
         // SAFETY: the caller's contract above.
         let s = unsafe { get(surface, "surface") }?;
         let scene = Arc::clone(&s.scene);
-        if scene.has_body_impacts() {
-            return Err(Error::new(
-                SWELL_ERR_UNSUPPORTED,
-                "the scene's particle layer has body_impacts: the server's bodies step on their own splashes and wakes, which this world does not reproduce",
-            ));
-        }
         let settings = authority_settings(anchor_tick, scene.tick_hz, scene.spec.gravity);
         let world = World::new(settings).map_err(|e| Error::spec(&e))?;
         *out = Box::into_raw(Box::new(SwellWorld {
@@ -192,6 +214,8 @@ pub unsafe extern "C" fn swell_world_new(
             specs: BTreeMap::new(),
             anchor: anchor_tick,
             memo: FrameMemo::new(),
+            impacts: WorldImpacts::new(),
+            pending: Vec::new(),
         }));
         Ok(())
     })
@@ -214,7 +238,7 @@ pub unsafe extern "C" fn swell_world_free(world: *mut SwellWorld) {
 }
 
 /// A copy of `world` with everything that decides its later ticks (bodies, their warm starts,
-/// the input log): stepping the copy and the original alike gives the same bits. Keep one at
+/// the input log, the impacts felt, pending and made): stepping the copy and the original alike gives the same bits. Keep one at
 /// the last tick the server confirmed, to rewind to when its inputs turn out to differ.
 ///
 /// # Errors
@@ -239,6 +263,8 @@ pub unsafe extern "C" fn swell_world_clone(
             specs: w.specs.clone(),
             anchor: w.anchor,
             memo: FrameMemo::new(),
+            impacts: w.impacts.clone(),
+            pending: w.pending.clone(),
         }));
         Ok(())
     })
@@ -274,6 +300,8 @@ pub unsafe extern "C" fn swell_world_assign(
         d.world = s.world.clone();
         d.specs = s.specs.clone();
         d.anchor = s.anchor;
+        d.impacts = s.impacts.clone();
+        d.pending = s.pending.clone();
         Ok(())
     })
 }
@@ -373,7 +401,7 @@ pub unsafe extern "C" fn swell_world_spawn_as(
     })
 }
 
-/// Removes body `id` and its inputs.
+/// Removes body `id`, its inputs and its wake distance.
 ///
 /// # Errors
 /// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_NOT_FOUND`].
@@ -386,6 +414,7 @@ pub unsafe extern "C" fn swell_world_remove(world: *mut SwellWorld, id: u64) -> 
         // SAFETY: the caller's contract above.
         let w = unsafe { get_mut(world, "world") }?;
         w.specs.remove(&id);
+        w.impacts.forget(id);
         if w.world.remove(id) {
             Ok(())
         } else {
@@ -586,5 +615,107 @@ pub unsafe extern "C" fn swell_world_set_state(
         w.world
             .restore_body(id, &spec, st, status, None)
             .map_err(|e| Error::invalid(e.to_string()))
+    })
+}
+
+/// Makes the world's bodies feel an API impact (`POST /v1/scenes/{id}/impacts`) from scene
+/// tick `at_tick` on, as the server's do: pass the `body_tick` the server published for it (the
+/// impact answer's `body_tick`, or `felt_impacts[i].tick` in `GET …/bodies`), the tick it
+/// reached the server's body world at; [`SWELL_FROM_NOW`] for the world's current tick. An
+/// impact at a later tick waits until a step reaches that tick. The tick matters to the bits:
+/// the same impact felt a tick earlier or later gives other states (rings alive before the
+/// impact's own time `t` are not, but the pruning of old ones and the ripples of an impact whose
+/// `t` is already past are).
+///
+/// # Errors
+/// [`crate::SWELL_ERR_NULL`]; [`crate::SWELL_ERR_INVALID_SPEC`] naming `impact.…` for an impact
+/// the model rejects (a non-finite or out-of-range value); [`crate::SWELL_ERR_INVALID_ARGUMENT`]
+/// for a tick before the world's current one (rewind to a world at or before it with
+/// [`swell_world_assign`], then feel it and step again). Nothing changes on an error.
+///
+/// # Safety
+/// `world` a live handle (or null); `impact` readable (or null).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn swell_world_feel_impact(
+    world: *mut SwellWorld,
+    impact: *const SwellImpact,
+    at_tick: i64,
+) -> SwellStatus {
+    guard(|| {
+        // SAFETY: the caller's contract above.
+        let w = unsafe { get_mut(world, "world") }?;
+        // SAFETY: the caller's contract above.
+        let m = *unsafe { get(impact, "impact") }?;
+        let impact = Impact {
+            t: m.t,
+            position: m.position,
+            strength: m.strength,
+            radius: m.radius,
+        };
+        impact.validate("impact").map_err(|e| Error::spec(&e))?;
+        let now = w.tick();
+        let at = if at_tick == SWELL_FROM_NOW {
+            now
+        } else {
+            at_tick
+        };
+        if at < now {
+            return Err(Error::invalid(format!(
+                "at_tick = {at} is in the past: the bodies are at tick {now} (rewind to a world at or before it)"
+            )));
+        }
+        if at == now {
+            w.impacts
+                .feel(impact, Some(at))
+                .map_err(|e| Error::spec(&e))?;
+        } else {
+            let i = w.pending.partition_point(|(t, _)| *t <= at);
+            w.pending.insert(i, (at, impact));
+        }
+        Ok(())
+    })
+}
+
+/// Copies the impacts the world's bodies made (splashes and wakes, when the scene's particle
+/// layer has `body_impacts`; canonical order, pruned to the last hour) into `out`, at most
+/// `cap` of them; `*out_len` = how many there are (more than `cap`: call again with a larger
+/// buffer). With the scene's API impacts they are what the server's queries ripple with
+/// ([`crate::swell_surface_set_impacts`]).
+///
+/// # Errors
+/// [`crate::SWELL_ERR_NULL`] (`out` may be null when `cap` is 0).
+///
+/// # Safety
+/// `world` a live handle (or null); `out` writable for `cap` impacts; `out_len` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn swell_world_made_impacts(
+    world: *const SwellWorld,
+    out: *mut SwellImpact,
+    cap: usize,
+    out_len: *mut usize,
+) -> SwellStatus {
+    guard(|| {
+        // SAFETY: the caller's contract above.
+        let w = unsafe { get(world, "world") }?;
+        // SAFETY: the caller's contract above.
+        let out_len = unsafe { get_mut(out_len, "out_len") }?;
+        let made = w.impacts.derived();
+        if cap > 0 && !made.is_empty() {
+            if out.is_null() {
+                return Err(Error::null("out"));
+            }
+            // SAFETY: non-null, and the caller promises `cap` writable impacts.
+            let dst = unsafe { std::slice::from_raw_parts_mut(out, cap) };
+            for (d, m) in dst.iter_mut().zip(made) {
+                *d = SwellImpact {
+                    t: m.t,
+                    position: m.position,
+                    strength: m.strength,
+                    radius: m.radius,
+                };
+            }
+        }
+        *out_len = made.len();
+        Ok(())
     })
 }

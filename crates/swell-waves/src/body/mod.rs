@@ -18,6 +18,9 @@
 //! - **Containment**: a body whose state turns non-finite is rolled back to its state before
 //!   the step, its velocities zeroed, and flagged ([`BodyStatus`]); NaN never leaves a step.
 //! - **Determinism**: see [`World`].
+//! - **Impacts** ([`WorldImpacts`]): the API impacts a world feels from the tick they reach
+//!   it, and the splashes and wakes its bodies make when the sea's particle layer has
+//!   `body_impacts`; the bodies step on the sea rippled by both.
 //! - **A scene's authority** sets its world up with [`authority_settings`],
 //!   [`authority_step_options`] and [`SpawnSpec`] (the default damping): the server and the C ABI
 //!   both build from these, so a client's prediction reaches the server's bits.
@@ -29,6 +32,7 @@
 mod authority;
 mod buoyancy;
 mod hull;
+mod impacts;
 mod orientation;
 mod spec;
 mod state;
@@ -38,6 +42,10 @@ mod world;
 pub use authority::{DEFAULT_DAMPING_RATIO, SpawnSpec, authority_settings, authority_step_options};
 pub use hull::{
     Cell, CellSpec, DEFAULT_BOX_CELLS, Hull, HullSpec, MAX_BOX_CELLS_PER_SIDE, MAX_CELLS,
+};
+pub use impacts::{
+    BODY_IMPACT_HISTORY, Derived, MAX_BODY_IMPACTS, MAX_BODY_NEAR_IMPACTS, MAX_FELT_IMPACTS,
+    WorldImpacts, ripple_or_bare,
 };
 pub use orientation::{
     BodyFootprint, MAX_FOOTPRINT, MAX_PROBES, MAX_YAW, Orientation, fit_plane, yaw_quat,
