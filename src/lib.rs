@@ -15,7 +15,7 @@
 //! ```
 //!
 //! # Layout
-//! Layers point down; nothing points back up (`tests/layers.rs` pins it):
+//! Layers point down; nothing points back up (`tests/server/layers.rs` pins it):
 //!
 //! ```text
 //! lib / main               composition: builds AppState, the router, the loops

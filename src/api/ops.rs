@@ -1,7 +1,7 @@
 //! Operations endpoints: health, readiness, metrics, the OpenAPI document and the docs page.
 //!
 //! The OpenAPI document is written by hand (a small `json!` value) rather than generated with
-//! utoipa: it keeps the build lean and the API is small; `tests/api.rs` checks that every route
+//! utoipa: it keeps the build lean and the API is small; `tests/server/api.rs` checks that every route
 //! the router serves is listed.
 
 use axum::extract::State;

@@ -2,7 +2,7 @@
 //!
 //! A code means one thing: the status comes from the code, so no caller can pair a code with a
 //! different status. The README's "Errors" table lists exactly these codes with these statuses
-//! (`tests/error_codes.rs` fails otherwise).
+//! (`tests/server/error_codes.rs` fails otherwise).
 
 use axum::http::StatusCode;
 

@@ -4,7 +4,7 @@
 //! - `tests/c/golden.c` checks every output of `proto/vectors/surface_v1.json` bit for bit, and
 //!   `tests/c/golden_f32.c` those of `surface_f32_v1.json` (the single-precision fast path);
 //! - `tests/c/bodies.c` replays the body logs of `proto/vectors/bodies_v1.json` (produced by
-//!   the server's body code, `tests/body_vectors.rs` in the root crate) and checks every body's
+//!   the server's body code, `tests/server/body_vectors.rs` in the root crate) and checks every body's
 //!   state at every tick bit for bit, and that a rewound prediction repeats its trajectory;
 //! - `tests/c/errors.c` checks status codes, messages and null handling.
 //!

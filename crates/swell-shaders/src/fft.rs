@@ -174,7 +174,7 @@ pub fn emit_passes(surface: &Surface, layer: usize) -> Result<String, ShaderErro
 /// and inputs, outputs to RGBA32F storage textures at `@binding(3)` and `@binding(4)`. The same
 /// arithmetic as the fragment passes per texel (not a workgroup-shared Stockham: each stage is
 /// one dispatch, 2·log₂N of them). Validated by naga; run by headless Chromium's WebGPU
-/// (`tests/browser_fft.rs`), where it reads back the fragment passes' values to the bit.
+/// (`tests/server/browser_fft.rs`), where it reads back the fragment passes' values to the bit.
 ///
 /// # Errors
 /// As [`emit_passes`].

@@ -2,7 +2,7 @@
 //! energy and drift, a storm with 100 bodies, hull averaging, replay and snapshot bits, NaN
 //! containment.
 
-mod common;
+use crate::common;
 
 use glam::{DMat3, DVec2, DVec3};
 use swell_waves::body::{

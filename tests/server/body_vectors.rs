@@ -10,7 +10,7 @@
 //!
 //! If this test fails, the server's body trajectories changed. If that was not the intent, fix
 //! the change. If it was, re-mint with
-//!     SWELL_MINT_VECTORS=1 cargo test -p swell --test body_vectors
+//!     SWELL_MINT_VECTORS=1 cargo test --workspace --test server -- body_vectors::
 //! and say so in the change: clients that predict bodies must update with the server.
 
 use std::path::PathBuf;
@@ -156,7 +156,7 @@ fn mint() -> Value {
         .collect();
     json!({
         "model_version": swell_waves::MODEL_VERSION,
-        "about": "Swell body vectors: for each case, build the scene from `scene` (the JSON a client PUTs), anchor its body world at scene tick `anchor` (world tick 0 = that tick, start time anchor/tick_hz), then for every tick from the anchor on: step to it, apply the `log` events at that tick in order (`spawn`: the POST .../bodies request, ids given in order from 0; `input`: the POST .../bodies/{id}/input request; a missing from_tick means the current tick), and compare every body's state with `states` (IEEE-754 binary64 bits in hex). Produced by the server's body code (swell::bodies::SceneBodies) in tests/body_vectors.rs. See README.md here.",
+        "about": "Swell body vectors: for each case, build the scene from `scene` (the JSON a client PUTs), anchor its body world at scene tick `anchor` (world tick 0 = that tick, start time anchor/tick_hz), then for every tick from the anchor on: step to it, apply the `log` events at that tick in order (`spawn`: the POST .../bodies request, ids given in order from 0; `input`: the POST .../bodies/{id}/input request; a missing from_tick means the current tick), and compare every body's state with `states` (IEEE-754 binary64 bits in hex). Produced by the server's body code (swell::bodies::SceneBodies) in tests/server/body_vectors.rs. See README.md here.",
         "cases": cases,
     })
 }
@@ -205,7 +205,7 @@ fn body_vectors_match_the_server_bit_for_bit() {
     }
     let text = std::fs::read_to_string(path()).unwrap_or_else(|e| {
         panic!(
-            "{}: {e}; mint with SWELL_MINT_VECTORS=1 cargo test -p swell --test body_vectors",
+            "{}: {e}; mint with SWELL_MINT_VECTORS=1 cargo test --workspace --test server -- body_vectors::",
             path().display()
         )
     });
@@ -236,7 +236,7 @@ fn body_vectors_match_the_server_bit_for_bit() {
             assert_eq!(
                 ws, gs,
                 "{} at tick {}: the server's body states moved. If intended, re-mint \
-                 (SWELL_MINT_VECTORS=1 cargo test -p swell --test body_vectors): clients that \
+                 (SWELL_MINT_VECTORS=1 cargo test --workspace --test server -- body_vectors::): clients that \
                  predict bodies must hear of it.",
                 g["name"], gs["tick"]
             );

@@ -9,7 +9,7 @@
 //! clock jump re-anchors the server's world, and a second client world built from the new
 //! `anchor_tick` and the body's `carried` state and inputs must follow it to the bit too.
 
-mod common;
+use crate::common;
 
 use std::ptr;
 use std::time::{Duration, Instant};

@@ -1,7 +1,7 @@
 //! The WebSocket stream over real sockets: both subprotocols, ping/pong, queries bit-identical
 //! to HTTP, tick frames, errors that keep the socket open, limits, slow consumers and shutdown.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

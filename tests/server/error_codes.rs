@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use swell::api::errors::code_for;
 use swell::error::ErrorCode;
 
-const README: &str = include_str!("../README.md");
+const README: &str = include_str!("../../README.md");
 
 /// The rows of the table under "### Errors": code → status column, as written.
 fn readme_table() -> BTreeMap<String, String> {

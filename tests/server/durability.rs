@@ -9,7 +9,7 @@
 //! body loop runs). `a` snapshots after every few records, so both the snapshot and the log's
 //! tail are replayed.
 
-mod common;
+use crate::common;
 
 use common::free_port;
 

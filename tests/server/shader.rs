@@ -1,6 +1,6 @@
 //! The GPU-client endpoints over a real socket: `/shader`, `/uniforms`, `/spectrum`.
 
-mod common;
+use crate::common;
 
 use common::{TestServer, bits, code, config, into_json};
 use serde_json::{Value, json};

@@ -2,7 +2,7 @@
 //! waits, unserved, until another closes, a WebSocket included) and `idle_timeout_ms` (an idle keep-alive connection,
 //! or one that never sends a request, is closed; a WebSocket is not).
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

@@ -10,7 +10,7 @@
 //! input answers, each impact's `body_tick`) holds both boats bit for bit at several ticks after
 //! the impacts; the same world without the API impacts does not.
 
-mod common;
+use crate::common;
 
 use std::ptr;
 use std::time::{Duration, Instant};

@@ -5,7 +5,7 @@
 //! (`swell_surface_set_impacts`) must answer `/sample`'s bits for every field at 400 points
 //! around them; without the impacts it must not.
 
-mod common;
+use crate::common;
 
 use std::ptr;
 

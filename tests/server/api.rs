@@ -1,6 +1,6 @@
 //! Every endpoint answers, over a real socket.
 
-mod common;
+use crate::common;
 
 use common::{TOKEN, TestServer, code, config, small_spec};
 use reqwest::Method;

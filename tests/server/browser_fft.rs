@@ -40,7 +40,7 @@
 //!
 //! Ignored by `cargo test` (it needs Chromium); `.ci/browser-parity` runs it with `--ignored`.
 
-mod common;
+use crate::common;
 
 use common::{TestServer, config};
 use serde_json::{Value, json};

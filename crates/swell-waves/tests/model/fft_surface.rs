@@ -1,7 +1,7 @@
 //! FFT layers seen through the surface and query API: only the transforms a query needs,
 //! physically normalised spectra (Hs = 4·sqrt(m0)), exact periodicity, grid vs direct summation.
 
-mod common;
+use crate::common;
 
 use common::points;
 use glam::DVec2;

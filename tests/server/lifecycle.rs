@@ -1,6 +1,6 @@
 //! Persistence across a restart, and graceful shutdown.
 
-mod common;
+use crate::common;
 
 use common::{TOKEN, TestServer, bits, config, config_with_dir, fft_spec, small_spec};
 use reqwest::Method;

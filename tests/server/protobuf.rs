@@ -1,7 +1,7 @@
 //! Protobuf on the HTTP query endpoints: a JSON request and its protobuf twin decode to the
 //! same request and give the same bits; errors come back as `ErrorResponse`.
 
-mod common;
+use crate::common;
 
 use common::{TestServer, bits, config};
 use prost::Message as _;

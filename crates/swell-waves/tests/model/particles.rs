@@ -1,7 +1,7 @@
 //! The particle layer inside a surface: queries, inversion, normals, orientation, bodies'
 //! filtered sea, batches, and finiteness under random specs and impacts.
 
-mod common;
+use crate::common;
 
 use glam::DVec2;
 use proptest::prelude::*;

@@ -1,7 +1,7 @@
 //! Scene clock over HTTP: pause, rate, seek; queries without `t` use the clock.
 //! Paused clocks make every assertion exact (no timing flakiness).
 
-mod common;
+use crate::common;
 
 use common::{TestServer, bits, config};
 use serde_json::json;

@@ -1,7 +1,7 @@
 //! Floating-body orientation on real seas: hull averaging for huge bodies, steep crests,
 //! degenerate sizes.
 
-mod common;
+use crate::common;
 
 use common::gerstner_spec;
 use serde_json::json;

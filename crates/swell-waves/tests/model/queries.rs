@@ -1,7 +1,7 @@
 //! Query behaviour on analytic (sine and Gerstner) surfaces: inversion against a converged f64
 //! reference, exact normals, batch and thread determinism, hard cases.
 
-mod common;
+use crate::common;
 
 use common::{gerstner_spec, points, sine_spec};
 use glam::{DVec2, DVec3};

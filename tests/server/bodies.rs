@@ -1,7 +1,7 @@
 //! Floating bodies end to end: spawn a boat in `calm`, watch it settle, push it, see it move;
 //! errors; persistence across a graceful restart.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

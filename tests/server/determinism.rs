@@ -2,7 +2,7 @@
 //! server: `/height`, `/sample` alone or in a batch, with or without `origin`, and a second server
 //! started with the same config.
 
-mod common;
+use crate::common;
 
 use common::{TestServer, bits, config, fft_spec, small_spec};
 use serde_json::{Value, json};

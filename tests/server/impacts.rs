@@ -2,7 +2,7 @@
 //! t, tick frames carry the new events (JSON and protobuf), and the journal keeps them across a
 //! restart so the sea comes back to the same bits.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

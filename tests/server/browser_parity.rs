@@ -18,11 +18,11 @@
 //! missing and runs it with `--ignored`. Each frame's uniform block comes from `/uniforms`.
 //!
 //! Bounds (issue 13): sine/Gerstner height and displacement ≤ 2 mm, normal ≤ 0.1°. FFT layers
-//! need their pass shaders and textures, which `tests/browser_fft.rs` runs (bound 5 mm); this
+//! need their pass shaders and textures, which `tests/server/browser_fft.rs` runs (bound 5 mm); this
 //! page tests scenes with FFT layers on their analytic layers only (a copy of the scene without
 //! its FFT layers) and skips an FFT-only scene.
 
-mod common;
+use crate::common;
 
 use common::{TestServer, config};
 use serde_json::{Value, json};
@@ -334,7 +334,7 @@ async fn exported_glsl_es_and_wgsl_match_sample_in_headless_chromium() {
             .cloned()
             .collect();
         if layers.is_empty() {
-            eprintln!("{id}: FFT layers only: skipped here (tests/browser_fft.rs runs it)");
+            eprintln!("{id}: FFT layers only: skipped here (tests/server/browser_fft.rs runs it)");
             continue;
         }
         if layers.len() == spec["layers"].as_array().unwrap().len() {

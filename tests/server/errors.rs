@@ -1,6 +1,6 @@
 //! Every bad input gets a 4xx with `{"error":{"code","message","field"?}}`, and changes nothing.
 
-mod common;
+use crate::common;
 
 use common::{TOKEN, TestServer, code, config, small_spec};
 use reqwest::Method;
@@ -354,7 +354,7 @@ async fn wrong_method_is_405_json() {
 
 #[tokio::test]
 async fn protobuf_admin_bodies_are_refused() {
-    // Query bodies may be protobuf (tests/protobuf.rs); scene specs are JSON only.
+    // Query bodies may be protobuf (tests/server/protobuf.rs); scene specs are JSON only.
     let s = TestServer::start(config()).await;
     let r = s
         .client

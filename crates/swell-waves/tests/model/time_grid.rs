@@ -5,7 +5,7 @@
 //! frames (the slow reference); grid and exact sampling agree to the interpolation bound; `t`
 //! and `t + T` give the same bits; caller-supplied frames at the wrong times are refused.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -1,7 +1,7 @@
 //! Determinism across processes: the `swell` binary, started as a separate OS process with the
 //! same (built-in) scenes, answers bit for bit what an in-process server answers.
 
-mod common;
+use crate::common;
 
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
