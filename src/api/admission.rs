@@ -15,6 +15,8 @@
 //!    request's charge by what it will hold ([`Reserve`]): 503 beyond the budget, before the
 //!    work. The answer's bytes then take the charge's place until hyper has written them (a
 //!    client that stops reading holds them only until the connection's send stall timeout).
+//!    An answer of shared bytes ([`SharedAnswer`], a cached spectrum) is charged once where it
+//!    is cached, not per request.
 //!
 //! Health probes (`/healthz`, `/readyz`) are routed outside all of this (see [`super::router`]),
 //! so no amount of client traffic makes them wait or fail.
@@ -200,6 +202,12 @@ impl<S: Send + Sync> FromRequestParts<S> for Reserve {
     }
 }
 
+/// Put in an answer's extensions by a handler whose body is shared bytes held, and charged to
+/// the budget, elsewhere ([`crate::scene::answers`]): sending them to one more client holds no
+/// more memory, so the answer is not charged again per request.
+#[derive(Debug, Clone, Copy)]
+pub struct SharedAnswer;
+
 /// The admission middleware (see the module docs for the order of checks).
 pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> Response {
     let limits = &gate.state.limits;
@@ -384,6 +392,9 @@ const CHARGED_ANSWER_BYTES: u64 = 64 * 1024;
 /// budget is replaced by a 503. An answer encoded as it is sent has no size yet: it keeps what
 /// its handler reserved (the request's `body_bytes` are gone by now).
 fn charge_answer(charge: Arc<Mutex<Charge>>, body_bytes: usize, resp: Response) -> Response {
+    if resp.extensions().get::<SharedAnswer>().is_some() {
+        return resp; // the charge drops here: the bytes are the cache's
+    }
     let hint = resp.body().size_hint();
     let size = hint.upper();
     {

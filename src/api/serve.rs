@@ -15,7 +15,8 @@
 //!   starts a request and does not finish its headers in time is answered 408
 //!   `request_timeout` (the JSON error) and the connection closes; hyper's own header timeout
 //!   (the idle timeout) closes without an answer, which is right for an idle connection but
-//!   leaves a slow client guessing.
+//!   leaves a slow client guessing. The bytes of a body that hyper drains after an early
+//!   answer (a 401 or 413 before the body was read) are not a head: they do not start it.
 //!
 //! - **`per_peer`**: connections open at once from one client address (the TCP peer; peers in
 //!   the exempt list are not counted). One more is answered `429` with the JSON error and
@@ -132,11 +133,16 @@ pub async fn serve(
             req.extensions_mut().insert(PeerAddr(remote));
             seen.start(req.headers().contains_key(hyper::header::UPGRADE));
             let seen = Arc::clone(&seen);
+            let progress = Arc::new(BodyProgress::of(req.body()));
+            let req = req.map(|body| Watched {
+                body,
+                progress: Arc::clone(&progress),
+            });
             // The router is always ready: `oneshot` polls readiness and calls.
             let answer = tower::ServiceExt::oneshot(app.clone(), req);
             async move {
                 let r = answer.await;
-                seen.answered();
+                seen.answered(&progress);
                 r
             }
         });
@@ -235,26 +241,122 @@ async fn refuse(mut tcp: TcpStream, permit: OwnedSemaphorePermit, per_peer: usiz
 }
 
 /// What the connection's service has seen, for the head deadline: requests whose heads were
-/// complete, whether one is being answered, and whether the connection was upgraded (from
-/// then on its bytes are WebSocket frames, not heads).
+/// complete, whether one is being answered, whether the connection was upgraded (from then on
+/// its bytes are WebSocket frames, not heads), and how many bytes still to be read belong to
+/// the body of the request last answered rather than to a new head.
 #[derive(Debug, Default)]
 struct Heads {
     complete: AtomicU64,
     answering: AtomicBool,
     upgrade: AtomicBool,
+    /// Bytes of the last answered request's body that its handler did not take (an early
+    /// 401/413 leaves the body unread): hyper drains them after the answer when they are at
+    /// hand, and they are not the start of a head. At most what is still on the wire (hyper
+    /// may hold some already), so a head's first bytes can be taken for the tail, never the
+    /// other way round: the timer may arm late, which leaves a slow head to the idle timeout,
+    /// but never for a request that was not started. `u64::MAX`: a body of unknown length
+    /// (chunked), so no byte is taken for a head until the next head completes.
+    tail: AtomicU64,
 }
 
 impl Heads {
     fn start(&self, upgrade: bool) {
         self.complete.fetch_add(1, Ordering::Relaxed);
         self.answering.store(true, Ordering::Relaxed);
+        self.tail.store(0, Ordering::Relaxed);
         if upgrade {
             self.upgrade.store(true, Ordering::Relaxed);
         }
     }
 
-    fn answered(&self) {
+    /// The request whose body went as `body` says has its answer.
+    fn answered(&self, body: &BodyProgress) {
+        self.tail.store(body.left(), Ordering::Relaxed);
         self.answering.store(false, Ordering::Relaxed);
+    }
+
+    /// Takes `n` bytes just read while no request is being answered: whether any of them start
+    /// a head (the rest of the body's tail is used up first).
+    fn starts_head(&self, n: u64) -> bool {
+        let tail = self.tail.load(Ordering::Relaxed);
+        if tail >= n {
+            self.tail.store(tail - n, Ordering::Relaxed);
+            return false;
+        }
+        self.tail.store(0, Ordering::Relaxed);
+        true
+    }
+}
+
+/// How much of a request's body its handler took, for [`Heads::tail`].
+#[derive(Debug)]
+struct BodyProgress {
+    /// The declared length (`Content-Length`); `None` for a chunked body.
+    declared: Option<u64>,
+    delivered: AtomicU64,
+    ended: AtomicBool,
+}
+
+impl BodyProgress {
+    fn of(body: &Incoming) -> BodyProgress {
+        use http_body::Body as _;
+        BodyProgress {
+            declared: body.size_hint().exact(),
+            delivered: AtomicU64::new(0),
+            ended: AtomicBool::new(body.is_end_stream()),
+        }
+    }
+
+    /// Body bytes hyper has not handed over: 0 once the body ended; unknown (`u64::MAX`) for
+    /// an unfinished chunked one.
+    fn left(&self) -> u64 {
+        if self.ended.load(Ordering::Relaxed) {
+            return 0;
+        }
+        self.declared.map_or(u64::MAX, |n| {
+            n.saturating_sub(self.delivered.load(Ordering::Relaxed))
+        })
+    }
+}
+
+/// A request body that counts what its handler takes ([`BodyProgress`]).
+struct Watched {
+    body: Incoming,
+    progress: Arc<BodyProgress>,
+}
+
+impl http_body::Body for Watched {
+    type Data = hyper::body::Bytes;
+    type Error = hyper::Error;
+
+    fn poll_frame(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+    ) -> Poll<Option<Result<http_body::Frame<Self::Data>, Self::Error>>> {
+        let p = Pin::new(&mut self.body).poll_frame(cx);
+        match &p {
+            Poll::Ready(Some(Ok(frame))) => {
+                if let Some(data) = frame.data_ref() {
+                    self.progress
+                        .delivered
+                        .fetch_add(data.len() as u64, Ordering::Relaxed);
+                }
+                if self.body.is_end_stream() {
+                    self.progress.ended.store(true, Ordering::Relaxed);
+                }
+            }
+            Poll::Ready(None) => self.progress.ended.store(true, Ordering::Relaxed),
+            _ => {}
+        }
+        p
+    }
+
+    fn is_end_stream(&self) -> bool {
+        self.body.is_end_stream()
+    }
+
+    fn size_hint(&self) -> http_body::SizeHint {
+        self.body.size_hint()
     }
 }
 
@@ -289,7 +391,8 @@ struct Counted {
     stall: Option<Pin<Box<Sleep>>>,
     heads: Arc<Heads>,
     head_after: Option<Duration>,
-    /// Armed at the first byte read while no request is being answered, with the count of
+    /// Armed at the first byte of a head: a byte read while no request is being answered that
+    /// is not the tail of the last one's body ([`Heads::starts_head`]), with the count of
     /// complete heads then; disarmed once that count moves. `Some((_, None))`: fired, answered.
     head: Option<(u64, Option<Pin<Box<Sleep>>>)>,
 }
@@ -335,7 +438,7 @@ impl Counted {
         &mut self,
         cx: &mut Context<'_>,
         p: Poll<std::io::Result<()>>,
-        got: bool,
+        got: usize,
     ) -> Poll<std::io::Result<()>> {
         let Some(after) = self.head_after else {
             return p;
@@ -354,7 +457,11 @@ impl Counted {
             // Answered 408: the stream ends here for hyper.
             return Poll::Ready(Ok(()));
         }
-        if got && self.head.is_none() && !self.heads.answering.load(Ordering::Relaxed) {
+        if got > 0
+            && self.head.is_none()
+            && !self.heads.answering.load(Ordering::Relaxed)
+            && self.heads.starts_head(got as u64)
+        {
             self.head = Some((complete, Some(Box::pin(tokio::time::sleep(after)))));
         }
         if let (Poll::Pending, Some((_, Some(timer)))) = (&p, &mut self.head)
@@ -379,7 +486,7 @@ impl AsyncRead for Counted {
         let this = self.get_mut();
         let before = buf.filled().len();
         let p = Pin::new(&mut this.tcp).poll_read(cx, buf);
-        let got = buf.filled().len() > before;
+        let got = buf.filled().len() - before;
         this.head_deadline(cx, p, got)
     }
 }

@@ -11,11 +11,15 @@
 //! - `GET /v1/scenes/{id}/spectrum?layer=N` — binary `swell-spectrum/1` (see
 //!   [`swell_shaders::spectrum`]).
 //!
+//! A spectrum is the same bytes for every request of a scene build: it is encoded once and
+//! shared ([`crate::scene::answers`]).
+//!
 //! Every answer carries `Swell-Model-Version`, `Swell-Spec-Hash` and a strong `ETag`; a request
 //! whose `If-None-Match` holds the current ETag gets 304 and no body.
 
 use std::sync::Arc;
 
+use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -25,7 +29,9 @@ use swell_shaders::{Entry, Lang, ShaderError};
 use swell_waves::LayerSpec;
 use swell_waves::surface::layer_seed;
 
+use super::admission::SharedAnswer;
 use crate::error::{ApiError, ErrorCode};
+use crate::scene::answers::AnswerKey;
 use crate::scene::{Scene, fnv1a64_hex};
 use crate::service::query::{check_time, resolve_time, run_query};
 use crate::state::AppState;
@@ -169,7 +175,7 @@ fn reply(
     headers: &HeaderMap,
     tag: &str,
     content_type: &'static str,
-    body: impl FnOnce() -> Result<Vec<u8>, ApiError>,
+    body: impl FnOnce() -> Result<Bytes, ApiError>,
 ) -> Result<Response, ApiError> {
     let mut resp = if not_modified(headers, tag) {
         StatusCode::NOT_MODIFIED.into_response()
@@ -248,7 +254,7 @@ pub async fn shader(
     );
     if not_modified(&headers, &tag) {
         return reply(&scene, &headers, &tag, "text/plain; charset=utf-8", || {
-            Ok(Vec::new())
+            Ok(Bytes::new())
         });
     }
     let s = Arc::clone(&scene);
@@ -261,7 +267,7 @@ pub async fn shader(
     })
     .await?;
     reply(&scene, &headers, &tag, "text/plain; charset=utf-8", || {
-        Ok(text.into_bytes())
+        Ok(Bytes::from(text))
     })
 }
 
@@ -320,7 +326,9 @@ pub async fn uniforms(
     });
     let bytes = serde_json::to_vec(&body).map_err(ApiError::internal)?;
     let tag = etag(&bytes);
-    reply(&scene, &headers, &tag, "application/json", || Ok(bytes))
+    reply(&scene, &headers, &tag, "application/json", || {
+        Ok(Bytes::from(bytes))
+    })
 }
 
 /// `GET /v1/scenes/{id}/spectrum?layer=N`.
@@ -359,22 +367,33 @@ pub async fn spectrum(
     );
     if not_modified(&headers, &tag) {
         return reply(&scene, &headers, &tag, "application/octet-stream", || {
-            Ok(Vec::new())
+            Ok(Bytes::new())
         });
     }
+    // A pure function of the build and the layer: made once and shared by every request for
+    // it (the layer was checked above, which bounds the keys), freed with the build.
     let s = Arc::clone(&scene);
-    let bytes = run_query(false, move || {
-        let meta = swell_shaders::spectrum::SpectrumMeta {
-            scene: s.id.clone(),
-            spec_hash: s.spec_hash.clone(),
-            seed,
-        };
-        swell_shaders::spectrum::export(&s.surface, layer, &meta).map_err(shader_error)
-    })
-    .await?;
-    reply(&scene, &headers, &tag, "application/octet-stream", || {
+    let bytes = scene
+        .answers
+        .get_or_build(AnswerKey::Spectrum { layer }, &state.buffers, || {
+            run_query(false, move || {
+                let meta = swell_shaders::spectrum::SpectrumMeta {
+                    scene: s.id.clone(),
+                    spec_hash: s.spec_hash.clone(),
+                    seed,
+                };
+                swell_shaders::spectrum::export(&s.surface, layer, &meta)
+                    .map(Bytes::from)
+                    .map_err(shader_error)
+            })
+        })
+        .await?;
+    let mut resp = reply(&scene, &headers, &tag, "application/octet-stream", || {
         Ok(bytes)
-    })
+    })?;
+    // Its bytes are charged once, to the cache, not again per request that sends them.
+    resp.extensions_mut().insert(SharedAnswer);
+    Ok(resp)
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Scenes: a named wave model (a [`SurfaceSpec`] plus a description and a tick rate), its built
 //! [`Surface`], and its clock.
 //!
+//! - [`answers`] — encoded answers a build shares with every request for them (spectra).
 //! - [`builtin`] — the scenes `swell serve` starts with.
 //! - [`error`] — [`SceneError`], why a spec or id was refused.
 //! - [`clock`] — scene time anchored to wall time: `t = offset + rate·(unix_now − anchor)` from
@@ -8,6 +9,7 @@
 //! - [`store`] — the clock record, and the reader of the pre-journal data dir layout (changes
 //!   are now journaled: [`crate::journal`]).
 
+pub mod answers;
 pub mod builtin;
 pub mod clock;
 pub mod error;
@@ -214,6 +216,9 @@ pub struct Scene {
     /// Impact events rippling on its particle layer (empty for a new build: replacing a scene
     /// starts its impacts afresh).
     pub impacts: crate::impacts::SceneImpacts,
+    /// Answers that are a pure function of this build, encoded once and shared
+    /// ([`answers`]); retired with the build.
+    pub answers: answers::SceneAnswers,
 }
 
 /// Source of [`Scene::uid`].
@@ -239,6 +244,7 @@ impl Scene {
             spec_hash,
             uid: NEXT_UID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             impacts,
+            answers: answers::SceneAnswers::default(),
         })
     }
 

@@ -270,6 +270,7 @@ impl AppState {
         );
         if let Some(old) = old {
             self.frames.forget_scene(old.scene.uid);
+            old.scene.answers.retire();
         }
     }
 
@@ -278,6 +279,7 @@ impl AppState {
         let old = self.write_scenes().remove(id);
         if let Some(old) = old {
             self.frames.forget_scene(old.scene.uid);
+            old.scene.answers.retire();
         }
     }
 

@@ -232,6 +232,60 @@ async fn a_head_that_does_not_arrive_in_time_is_answered_408() {
     s.stop().await;
 }
 
+/// Issue 27: the head timer armed at the first byte read while no request was being answered,
+/// so the tail of a body that hyper drained after an early reject (here a 401: the upload has
+/// no token) armed it, and a client that then went quiet was written a 408 for a request it
+/// never started. Now the body's undelivered bytes are known not to be a head: the connection
+/// stays open and quiet, and serves the next request, whose slow head still gets its 408.
+///
+/// The client sends its body without waiting for `100 Continue` (as many do), and the head is
+/// padded to exactly 8 KiB, hyper's first read, so the body is not read with it; hyper reads no
+/// body before the answer when `100 Continue` is expected, so it drains the body from the
+/// socket after the 401: the read that used to arm the timer.
+#[tokio::test]
+async fn a_drained_body_after_an_early_reject_is_not_a_slow_head() {
+    let _turn = ONE_AT_A_TIME.lock().await;
+    let mut c = limited(100, 60_000);
+    c.limits.head_timeout_ms = 300;
+    let s = TestServer::start(c).await;
+    let body = [b'x'; 64];
+    let start = "PUT /v1/scenes/upload HTTP/1.1\r\nhost: swell\r\ncontent-type: application/json\r\ncontent-length: 64\r\nexpect: 100-continue\r\nx-pad: ";
+    let end = "\r\n\r\n";
+    let pad = "p".repeat(8192 - start.len() - end.len());
+    let mut request = format!("{start}{pad}{end}").into_bytes();
+    assert_eq!(request.len(), 8192);
+    request.extend_from_slice(&body);
+    let mut tcp = TcpStream::connect(s.addr).await.unwrap();
+    tcp.write_all(&request).await.unwrap();
+    // The 401, then nothing for four head timeouts: the connection is idle, not in a head.
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    let quiet_until = Instant::now() + Duration::from_millis(1200);
+    while let Some(left) = quiet_until.checked_duration_since(Instant::now()) {
+        match tokio::time::timeout(left, tcp.read(&mut buf)).await {
+            Ok(Ok(0)) | Ok(Err(_)) => break,
+            Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
+            Err(_) => {}
+        }
+    }
+    let got = String::from_utf8_lossy(&got).into_owned();
+    assert!(got.starts_with("HTTP/1.1 401"), "{got:?}");
+    assert!(
+        !got.contains("408"),
+        "a 408 after the drained body: {got:?}"
+    );
+    // Still open: the next request is served on it.
+    let a = healthz(&mut tcp, Duration::from_secs(5)).await;
+    assert!(a.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
+    // And a slow head on it is still answered 408.
+    tcp.write_all(b"GET /healthz HTTP/1.1\r\n").await.unwrap();
+    let mut rest = Vec::new();
+    let _ = tokio::time::timeout(Duration::from_secs(5), tcp.read_to_end(&mut rest)).await;
+    let rest = String::from_utf8_lossy(&rest).into_owned();
+    assert!(rest.contains("HTTP/1.1 408"), "{rest:?}");
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn open_connections_are_published() {
     let _turn = ONE_AT_A_TIME.lock().await;

@@ -399,3 +399,97 @@ async fn fft_pass_shaders_and_their_uniforms() {
     assert_eq!(block[4..6], [json!(64.0), json!(253.0)]);
     s.stop().await;
 }
+
+/// The export `/spectrum` answered with before answers were cached, made here the same way:
+/// the cache must not change a byte.
+fn export_now(s: &TestServer, id: &str, layer: usize, seed: u64) -> Vec<u8> {
+    let entry = s.state.scene(id).unwrap();
+    let meta = swell_shaders::spectrum::SpectrumMeta {
+        scene: id.to_owned(),
+        spec_hash: entry.scene.spec_hash.clone(),
+        seed,
+    };
+    swell_shaders::spectrum::export(&entry.scene.surface, layer, &meta).unwrap()
+}
+
+/// Issue 27: every `/spectrum` request built the whole export (1.5 MB at 256²) and held its own
+/// copy until sent, so many clients fetching the same spectrum held as many copies. The answer
+/// is now made once per scene build and shared: a second request (or eight at once) builds
+/// nothing, the bytes are those of a fresh export, and a replaced scene's spectrum is its own,
+/// with the old one's bytes given back to the budget at once.
+#[tokio::test]
+async fn a_spectrum_is_built_once_per_scene_build_and_shared() {
+    let s = TestServer::start(config()).await;
+    let (st, _) = s.put_scene("sea", &common::fft_spec()).await;
+    assert_eq!(st, 201);
+    let old = s.state.scene("sea").unwrap().scene.clone();
+    assert_eq!(old.answers.builds(), 0);
+    let get = || async {
+        let r = s.get("/v1/scenes/sea/spectrum?layer=0").await;
+        assert_eq!(r.status(), 200);
+        r.bytes().await.unwrap()
+    };
+    let first = get().await;
+    assert_eq!(old.answers.builds(), 1);
+    let second = get().await;
+    assert_eq!(old.answers.builds(), 1, "the second request built it again");
+    let burst = futures_util::future::join_all((0..8).map(|_| get())).await;
+    assert_eq!(
+        old.answers.builds(),
+        1,
+        "concurrent requests built it again"
+    );
+    let (_, detail) = s.get_json("/v1/scenes/sea").await;
+    let seed = detail["derived"]["layers"][0]["seed"].as_u64().unwrap();
+    let fresh = export_now(&s, "sea", 0, seed);
+    assert_eq!(first.as_ref(), fresh.as_slice());
+    assert_eq!(second, first);
+    assert!(burst.iter().all(|b| *b == first));
+    // The cached bytes are the budget's, once.
+    assert_eq!(old.answers.cached_bytes(), first.len());
+    assert!(s.state.buffers.held() >= first.len());
+
+    // Replaced: another sea, another spectrum, built afresh; the old bytes are gone at once.
+    let mut spec = common::fft_spec();
+    spec["seed"] = json!(12);
+    assert_eq!(s.put_scene("sea", &spec).await.0, 200);
+    assert_eq!(old.answers.cached_bytes(), 0);
+    let new = s.state.scene("sea").unwrap().scene.clone();
+    assert_ne!(new.uid, old.uid);
+    let replaced = get().await;
+    assert_eq!(new.answers.builds(), 1);
+    assert_ne!(
+        replaced, first,
+        "the replaced scene answered the old spectrum"
+    );
+    let (_, detail) = s.get_json("/v1/scenes/sea").await;
+    let seed = detail["derived"]["layers"][0]["seed"].as_u64().unwrap();
+    assert_eq!(replaced.as_ref(), export_now(&s, "sea", 0, seed).as_slice());
+    // A request that was already making the old build's answer keeps nothing for it.
+    let late = old
+        .answers
+        .get_or_build(
+            swell::scene::answers::AnswerKey::Spectrum { layer: 0 },
+            &s.state.buffers,
+            || async { Ok::<_, ()>(bytes::Bytes::from_static(b"late")) },
+        )
+        .await
+        .unwrap();
+    assert_eq!(late.as_ref(), b"late");
+    assert_eq!(old.answers.cached_bytes(), 0);
+
+    // Deleted: the bytes go back to the budget.
+    let held = s.state.buffers.held();
+    let (st, _) = s
+        .admin(
+            reqwest::Method::DELETE,
+            "/v1/scenes/sea",
+            None,
+            Some(common::TOKEN),
+        )
+        .await;
+    assert_eq!(st, 204);
+    assert_eq!(new.answers.cached_bytes(), 0);
+    assert!(s.state.buffers.held() <= held - replaced.len());
+    s.stop().await;
+}
