@@ -714,7 +714,8 @@ mod impact_frames {
                 Message::Binary(b) => b,
                 other => panic!("{other:?}"),
             };
-            let decoded = <crate::wire::v1::ServerMessage as prost::Message>::decode(proto).unwrap();
+            let decoded =
+                <crate::wire::v1::ServerMessage as prost::Message>::decode(proto).unwrap();
             let Some(crate::wire::v1::server_message::Msg::Tick(t)) = decoded.msg else {
                 panic!("{decoded:?}");
             };

@@ -325,7 +325,9 @@ async fn tick_frames_carry_each_api_impacts_body_tick_in_both_codecs() {
     let mut json_ws = ws_connect(s.addr, SCENE, None).await;
     json_ws
         .send(Message::Text(
-            json!({"type": "subscribe", "ticks": true}).to_string().into(),
+            json!({"type": "subscribe", "ticks": true})
+                .to_string()
+                .into(),
         ))
         .await
         .unwrap();
