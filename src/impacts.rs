@@ -59,6 +59,14 @@ const RECENT: usize = 1024;
 pub struct ImpactEvent {
     /// First tick at or after the impact.
     pub tick: i64,
+    /// In a tick frame, for an API impact on a scene with a body world: the scene tick the
+    /// scene's bodies feel it from, the `body_tick` of its POST answer and of `GET …/bodies`
+    /// (`felt_impacts`), which a client replaying the bodies feels it at
+    /// (`swell_world_feel_impact`). Absent for impacts the bodies made (splashes and wakes: a
+    /// client's world derives them itself), on scenes without a body world, in
+    /// `GET …/impacts`, and for an impact a fleet replica caught up on after losing the store.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_tick: Option<i64>,
     /// Scene time of the impact, s.
     pub t: f64,
     /// World `[x, z]`, m.
@@ -74,6 +82,7 @@ impl ImpactEvent {
     pub fn new(impact: &Impact, tick_hz: f64) -> ImpactEvent {
         ImpactEvent {
             tick: apply_tick(impact.t, tick_hz),
+            body_tick: None,
             t: impact.t,
             position: impact.position,
             strength: impact.strength,
@@ -99,8 +108,9 @@ struct Inner {
     body_version: u64,
     /// Impacts added so far (never decreases; numbers [`SceneImpacts::since`]).
     added: u64,
-    /// The last [`RECENT`] additions, `(number, impact)`.
-    recent: VecDeque<(u64, Impact)>,
+    /// The last [`RECENT`] additions, `(number, impact, body tick)` (the body tick of an API
+    /// impact whose writer knew it: [`ImpactEvent::body_tick`]).
+    recent: VecDeque<(u64, Impact, Option<i64>)>,
     /// The ring lifetime of the scene's particle layer, s: API impacts older than the newest by
     /// more than this are dropped. `None`: keep all (no particle layer, nothing ripples).
     lifetime: Option<f64>,
@@ -123,10 +133,10 @@ impl Inner {
         };
     }
 
-    fn announce(&mut self, impact: Impact) {
+    fn announce(&mut self, impact: Impact, body_tick: Option<i64>) {
         self.added += 1;
         let n = self.added;
-        self.recent.push_back((n, impact));
+        self.recent.push_back((n, impact, body_tick));
         if self.recent.len() > RECENT {
             self.recent.pop_front();
         }
@@ -198,16 +208,17 @@ impl SceneImpacts {
     pub fn add_checked(&self, impact: Impact, window: f64) -> Result<(), AddError> {
         let mut g = self.write();
         room(&g, &impact, window)?;
-        Self::push(&mut g, impact).map_err(AddError::Invalid)
+        Self::push(&mut g, impact, None).map_err(AddError::Invalid)
     }
 
     /// Adds an API impact (replaying the journal, or applying the fleet's feed: no limits, it
-    /// was accepted once).
+    /// was accepted once), announced to tick frames with `body_tick`, the scene tick its
+    /// bodies feel it from where known ([`ImpactEvent::body_tick`]).
     ///
     /// # Errors
     /// The model's: an invalid impact or a full set.
-    pub fn add(&self, impact: Impact) -> Result<(), SpecError> {
-        Self::push(&mut self.write(), impact)
+    pub fn add(&self, impact: Impact, body_tick: Option<i64>) -> Result<(), SpecError> {
+        Self::push(&mut self.write(), impact, body_tick)
     }
 
     /// Sets the ring lifetime that expires API impacts (at scene build).
@@ -215,11 +226,11 @@ impl SceneImpacts {
         self.write().lifetime = Some(lifetime);
     }
 
-    fn push(g: &mut Inner, impact: Impact) -> Result<(), SpecError> {
+    fn push(g: &mut Inner, impact: Impact, body_tick: Option<i64>) -> Result<(), SpecError> {
         let with = g.api.with(impact)?;
         g.api = Arc::new(expire(with, g.lifetime));
         g.remerge();
-        g.announce(impact);
+        g.announce(impact, body_tick);
         Ok(())
     }
 
@@ -245,22 +256,23 @@ impl SceneImpacts {
         g.body_version = version;
         g.remerge();
         if announce {
+            // Body-derived: no body tick (a client's world derives them itself).
             for i in fresh {
-                g.announce(i);
+                g.announce(i, None);
             }
         }
     }
 
-    /// The impacts added after addition number `seen` (oldest first, at most the last 1,024) and
-    /// the number of the latest addition: a tick loop passes back what it got to see only new
-    /// ones next time.
-    pub fn since(&self, seen: u64) -> (u64, Vec<Impact>) {
+    /// The impacts added after addition number `seen` (oldest first, at most the last 1,024),
+    /// each with its body tick ([`ImpactEvent::body_tick`]), and the number of the latest
+    /// addition: a tick loop passes back what it got to see only new ones next time.
+    pub fn since(&self, seen: u64) -> (u64, Vec<(Impact, Option<i64>)>) {
         let g = self.read();
         let new = g
             .recent
             .iter()
-            .filter(|(n, _)| *n > seen)
-            .map(|(_, i)| *i)
+            .filter(|(n, _, _)| *n > seen)
+            .map(|(_, i, b)| (*i, *b))
             .collect();
         (g.added, new)
     }
@@ -350,7 +362,8 @@ pub fn missing(old: &[Impact], new: &[Impact]) -> Vec<Impact> {
     out
 }
 
-/// The impacts a scene's next tick frame carries: those added since `seen`, which is moved on.
+/// The impacts a scene's next tick frame carries: those added since `seen`, which is moved on,
+/// each API one with the tick the scene's bodies feel it from where known.
 /// A replaced scene starts its numbering afresh, so a number above the scene's count means
 /// "from the start".
 pub fn frame_events(scene: &crate::scene::Scene, seen: &mut u64) -> Vec<ImpactEvent> {
@@ -361,7 +374,10 @@ pub fn frame_events(scene: &crate::scene::Scene, seen: &mut u64) -> Vec<ImpactEv
     });
     *seen = latest;
     new.iter()
-        .map(|i| ImpactEvent::new(i, scene.spec.tick_hz))
+        .map(|(i, body_tick)| ImpactEvent {
+            body_tick: *body_tick,
+            ..ImpactEvent::new(i, scene.spec.tick_hz)
+        })
         .collect()
 }
 

@@ -1058,8 +1058,27 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
         socks.push(ws);
     }
     let mut frames: Vec<std::collections::BTreeMap<i64, String>> = vec![Default::default(); 3];
-    let until_t = Instant::now() + Duration::from_millis(1500);
+    // Each replica's frames' impacts, and a second impact posted while they stream: every
+    // replica's frame announces it with the tick the log sequenced (its POST answer's), not
+    // one of its own (what a live native client feels it at).
+    let mut announced: Vec<Vec<Value>> = vec![Vec::new(); 3];
+    let mut second: Option<Value> = None;
+    let started = Instant::now();
+    let until_t = started + Duration::from_millis(1500);
     while Instant::now() < until_t {
+        if second.is_none() && started.elapsed() > Duration::from_millis(300) {
+            let (st, v) = admin(
+                &c,
+                &rs[0],
+                Method::POST,
+                "/v1/scenes/bay/impacts",
+                Some(json!({"position": [-3.0, 1.0], "strength": 0.5, "radius": 1.0})),
+            )
+            .await;
+            assert_eq!(st, 202, "{v}");
+            assert!(v["body_tick"].is_i64(), "{v}");
+            second = Some(v);
+        }
         for (i, ws) in socks.iter_mut().enumerate() {
             use futures_util::StreamExt as _;
             if let Ok(Some(Ok(tokio_tungstenite::tungstenite::Message::Text(t)))) =
@@ -1068,9 +1087,16 @@ async fn bodies_spawned_and_driven_through_different_replicas_are_bit_identical_
                 let v: Value = serde_json::from_str(&t).unwrap();
                 if v["type"] == "tick" {
                     frames[i].insert(v["tick"].as_i64().unwrap(), v["bodies"].to_string());
+                    announced[i].extend(v["impacts"].as_array().into_iter().flatten().cloned());
                 }
             }
         }
+    }
+    let second = second.expect("the second impact");
+    for (i, got) in announced.iter().enumerate() {
+        let carried: Vec<&Value> = got.iter().filter(|e| e["t"] == second["t"]).collect();
+        assert_eq!(carried.len(), 1, "replica {i}'s frames carried {got:?}");
+        assert_eq!(carried[0]["body_tick"], second["body_tick"], "replica {i}");
     }
     let common: Vec<i64> = frames[0]
         .keys()

@@ -27,7 +27,14 @@ export interface BodyState {
   submerged: number; quarantined: boolean;
 }
 export interface Impact { t: number; position: Vec2; strength: number; radius: number }
-export interface ImpactEvent extends Impact { tick: number }
+/** An impact as tick frames and GET …/impacts carry it: `tick`, the first tick at or after
+ * `t`. `body_tick`, in a tick frame, for an API impact on a scene with bodies: the scene tick
+ * the server's bodies feel it from (the POST answer's and `bodies().felt_impacts`'), which a
+ * client replaying the bodies feels it at; absent for impacts the bodies made (splashes, wakes:
+ * derive them), on scenes without bodies, and in GET …/impacts. */
+export interface ImpactEvent extends Impact { tick: number; body_tick?: number }
+/** An API impact the scene's bodies feel, with the scene tick they feel it from. */
+export interface FeltImpact extends Impact { body_tick?: number }
 /** `anchor_tick`: the scene's body world's anchor (absent while the scene has no bodies); a change means a clock
  * jump re-anchored it (rebuild a replayed world from `bodies()`). */
 export interface TickFrame { tick: number; t: number; bodies: BodyState[]; impacts?: ImpactEvent[]; anchor_tick?: number }
@@ -65,9 +72,9 @@ export class SwellClient {
     Promise<{ text: string; modelVersion: number; specHash: string; etag: string }>;
   uniforms(id: string, opts?: { t?: number; origin?: Vec2 }): Promise<{ t: number; origin: Vec2; waves: number; phases: number[]; block: number[]; rings_dropped: number }>;
   impacts(id: string, opts?: { t?: number }): Promise<{ t: number; impacts: ImpactEvent[] }>;
-  addImpact(id: string, impact: { position: Vec2; t?: number; strength: number; radius: number }): Promise<{ tick: number; t: number }>;
+  addImpact(id: string, impact: { position: Vec2; t?: number; strength: number; radius: number }): Promise<{ tick: number; t: number; body_tick?: number }>;
   spectrum(id: string, layer: number): Promise<Spectrum>;
-  bodies(id: string): Promise<{ tick: number; t: number; anchor_tick?: number; bodies: BodyDescription[] }>;
+  bodies(id: string): Promise<{ tick: number; t: number; anchor_tick?: number; bodies: BodyDescription[]; felt_impacts?: FeltImpact[] }>;
   body(id: string, bid: number): Promise<BodyDescription & { tick: number; anchor_tick: number }>;
   spawnBody(id: string, spec: object): Promise<SpawnedBody>;
   putScene(id: string, spec: object): Promise<any>;

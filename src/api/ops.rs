@@ -241,7 +241,8 @@ pub fn openapi_document() -> Value {
                 "Upgrade to a WebSocket. Subprotocol swell.v1.json (default): text frames \
                 tagged by \"type\" (client: ping {id, client_time}, sample {id, ...as POST sample}, \
                 orientation {id, ...}, subscribe {ticks, bodies?}; server: pong, sample_result, \
-                orientation_result, tick {tick, t, bodies, impacts?, anchor_tick?}, error {id?, code, message, field?}, \
+                orientation_result, tick {tick, t, bodies, impacts? [{tick, t, position, strength, radius, \
+                body_tick?}], anchor_tick?}, error {id?, code, message, field?}, \
                 clock {t, tick, tick_hz, rate, paused, unix, generation} when the clock changes). \
                 swell.v1.protobuf: binary frames of swell.v1.ClientMessage / ServerMessage \
                 (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \

@@ -58,6 +58,14 @@ pub enum Op {
         scene: String,
         /// The impact.
         impact: swell_waves::particles::Impact,
+        /// The scene tick the scene's bodies feel it from, where the writer knew it when it
+        /// announced the impact: tick frames carry it ([`crate::impacts::ImpactEvent::body_tick`]).
+        /// Never logged (`serde(skip)`): the body world's own log records that tick
+        /// ([`BodyEvent::Impact`], a fleet body log's `impact` command), so a replay needs none.
+        /// A local write applies it with the tick its body world just felt it at; a fleet's
+        /// feed entry carries it beside the op (`body_tick`, set by the impact script).
+        #[serde(skip)]
+        body_tick: Option<i64>,
     },
 }
 
@@ -116,7 +124,7 @@ impl AdminState {
                 self.clocks.remove(scene);
                 self.impacts.remove(scene);
             }
-            Op::Impact { scene, impact } => {
+            Op::Impact { scene, impact, .. } => {
                 self.impacts.entry(scene.clone()).or_default().push(*impact);
             }
             Op::Clock { scene, clock } => {

@@ -14,7 +14,8 @@
 //! - a clock record is anchored at its own Unix time ([`ClockRecord::restore`]), so every process
 //!   that applies it reads the same `t` at the same instant, whenever it applied it;
 //! - an impact joins the scene's set without the API's limits (the process that accepted it
-//!   checked them; every replay and replica must hold the same set);
+//!   checked them; every replay and replica must hold the same set), announced to tick frames
+//!   with the tick the scene's bodies feel it from when the op carries one;
 //! - an op on a scene this process does not hold changes nothing (its other records are gone
 //!   with it).
 //!
@@ -85,9 +86,13 @@ impl AppState {
                     self.replace_clock(&entry, clock);
                 }
             }
-            Op::Impact { scene, impact } => {
+            Op::Impact {
+                scene,
+                impact,
+                body_tick,
+            } => {
                 if let Ok(entry) = self.scene(scene)
-                    && let Err(e) = entry.scene.impacts.add(*impact)
+                    && let Err(e) = entry.scene.impacts.add(*impact, *body_tick)
                 {
                     tracing::error!(scene = %scene, error = %e, "skipping an impact");
                 }

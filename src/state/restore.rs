@@ -44,6 +44,7 @@ pub fn restore(state: &AppState, rec: Recovered) {
             let op = Op::Impact {
                 scene: id.clone(),
                 impact: *impact,
+                body_tick: None,
             };
             state.apply(&op, Prepared::Nothing);
         }

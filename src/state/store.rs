@@ -203,32 +203,48 @@ impl Store for Local {
     ) -> BoxFuture<'a, Result<Option<i64>, StateError>> {
         Box::pin(async move {
             let id = entry.scene.id.clone();
-            let op = Op::Impact {
-                scene: id.clone(),
-                impact,
-            };
-            // Checked, journaled and applied under one lock, so concurrent adds can neither
-            // overshoot the limits nor reach the journal in another order than the set.
-            let mut seq = {
+            // Checked, journaled, felt and applied under one lock, so concurrent adds can
+            // neither overshoot the limits nor reach the journal in another order than the set.
+            let (seq, felt, body_seq) = {
                 let _one = state.impact_lock();
                 entry.scene.impacts.check_room(&impact, lifetime)?;
+                let logged = Op::Impact {
+                    scene: id.clone(),
+                    impact,
+                    body_tick: None,
+                };
                 let seq = match state.journal() {
-                    Some(j) => j.append(op.clone()).map_err(StateError::internal)?,
+                    Some(j) => j.append(logged).map_err(StateError::internal)?,
                     None => 0,
                 };
-                state.apply(&op, Prepared::Nothing);
-                seq
+                // The scene's bodies feel it from their current tick: recorded in their history
+                // under their lock, so a replay feels it from the same tick
+                // (crate::bodies::SceneBodies::feel). Felt before the set announces it, so the
+                // tick frame that carries it carries that tick (`BodyEvent::Impact::at`) too.
+                let (felt, body_seq) = match state.bodies.get(&id) {
+                    Some(cell) => {
+                        let done = Local::body_cmd(state, &cell, &id, &BodyCmd::Impact(impact))?;
+                        (Some(done.tick), Some(done.seq))
+                    }
+                    None => (None, None),
+                };
+                // The op as journaled, with the tick its frame announces (never logged).
+                state.apply(
+                    &Op::Impact {
+                        scene: id.clone(),
+                        impact,
+                        body_tick: felt,
+                    },
+                    Prepared::Nothing,
+                );
+                (seq, felt, body_seq)
             };
-            // The scene's bodies feel it from their current tick: recorded in their history
-            // under their lock, so a replay feels it from the same tick
-            // (crate::bodies::SceneBodies::feel).
-            let mut felt = None;
-            if let Some(cell) = state.bodies.get(&id) {
-                let done = Local::body_cmd(state, &cell, &id, &BodyCmd::Impact(impact))?;
-                seq = seq.max(done.seq?);
-                // The world's tick when it felt it (`BodyEvent::Impact::at`).
-                felt = Some(done.tick);
-            }
+            // A body journal that failed is reported once the set holds the impact, as the
+            // journaled op says it does.
+            let seq = match body_seq {
+                Some(body) => seq.max(body?),
+                None => seq,
+            };
             commit_seq(state, seq).await?;
             Ok(felt)
         })

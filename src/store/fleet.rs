@@ -6,7 +6,9 @@
 //!   (`{"t","rate","paused","unix"}`: the clock's anchor). What a replica needs to catch up
 //!   from nothing.
 //! - `swell:feed` — a Redis Stream, the change feed: one entry per admin change, `op` (the
-//!   journal's [`Op`] JSON) and `nonce` (which request wrote it). Trimmed to about
+//!   journal's [`Op`] JSON), `nonce` (which request wrote it) and, for an API impact on a
+//!   scene with a body log, `body_tick` (the tick the log sequenced it at, which
+//!   [`Op::Impact`]'s unlogged `body_tick` takes on every replica). Trimmed to about
 //!   [`FEED_MAXLEN`] entries: the hash, not the stream, is the record.
 //! - `swell:impacts:<scene>:list` — a list, the scene's API impacts (each an
 //!   [`Impact`](swell_waves::particles::Impact) JSON) in the order they were accepted; and
@@ -108,7 +110,9 @@ return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], '
 /// watermark. ARGV: impact JSON, op JSON, nonce, scene id, most impacts, max feed length, body
 /// command JSON, wanted tick, the impact's t minus the ring lifetime. Returns the new feed
 /// entry's id, followed by a space and the tick the `impact` command was sequenced at when the
-/// scene has a body log (the tick every replica's bodies feel it from), or `full:<n>`.
+/// scene has a body log (the tick every replica's bodies feel it from), or `full:<n>`. The feed
+/// entry carries that tick too (field `body_tick`), so every replica's tick frames announce the
+/// impact with the tick the log sequenced, not one of their own.
 const IMPACT_SCRIPT: &str = r"
 local oldest = tonumber(ARGV[9])
 while true do
@@ -120,15 +124,15 @@ local n = redis.call('LLEN', KEYS[1])
 if n >= tonumber(ARGV[5]) then return 'full:' .. n end
 redis.call('RPUSH', KEYS[1], ARGV[1])
 redis.call('SADD', KEYS[2], ARGV[4])
-local felt = ''
 if redis.call('EXISTS', KEYS[4]) == 1 then
   local t = tonumber(ARGV[8])
   local wm = redis.call('GET', KEYS[5])
   if wm and t <= tonumber(wm) then t = tonumber(wm) + 1 end
   redis.call('XADD', KEYS[4], '*', 'cmd', ARGV[7], 'nonce', ARGV[3], 'tick', t)
-  felt = ' ' .. string.format('%d', t)
+  local felt = string.format('%d', t)
+  return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3], 'body_tick', felt) .. ' ' .. felt
 end
-return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3]) .. felt
+return redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[2], 'nonce', ARGV[3])
 ";
 
 /// Reads everything a replica catches up from, in one atomic step: the admin hash (flat
@@ -442,9 +446,11 @@ impl Fleet {
         lifetime: f64,
     ) -> Result<Option<i64>, StateError> {
         let impact_json = serde_json::to_string(&impact).map_err(StateError::internal)?;
+        // Its `body_tick` is not logged: the script puts the tick it sequences beside the op.
         let op_json = serde_json::to_string(&Op::Impact {
             scene: scene.to_owned(),
             impact,
+            body_tick: None,
         })
         .map_err(StateError::internal)?;
         let cmd_json = serde_json::to_string(&crate::store::bodies::BodyCmd::Impact(impact))
@@ -698,13 +704,17 @@ impl Fleet {
     }
 
     async fn apply_entry(&self, entry: &StreamId, state: &AppState) {
-        let Some(op) = entry
+        let Some(mut op) = entry
             .get::<String>("op")
             .and_then(|s| serde_json::from_str::<Op>(&s).ok())
         else {
             tracing::error!(id = %entry.id, "store: skipping an unreadable feed entry");
             return;
         };
+        if let Op::Impact { body_tick, .. } = &mut op {
+            // The tick the impact script sequenced in the body log: tick frames announce it.
+            *body_tick = entry.get::<i64>("body_tick");
+        }
         let nonce: Option<String> = entry.get("nonce");
         let built = match &op {
             Op::ScenePut { .. } => nonce.and_then(|n| lock(&self.0.prebuilt).remove(&n)),
@@ -779,9 +789,12 @@ pub fn resync_impacts(state: &AppState, scenes: &[String], lists: &[Vec<String>]
         }
         changed += 1;
         for impact in fresh {
+            // Caught up, not announced with a tick: GET …/bodies lists the tick the bodies feel
+            // it from.
             let op = Op::Impact {
                 scene: scene.id.clone(),
                 impact,
+                body_tick: None,
             };
             state.apply(&op, Prepared::Nothing);
         }

@@ -663,10 +663,19 @@ mod impact_frames {
     }
 
     /// A frame with impacts is assembled to exactly the bytes of the general encoders (JSON
-    /// keys sorted, protobuf field 4 after the bodies), and one without omits the field.
+    /// keys sorted, protobuf field 4 after the bodies), and one without omits the field. An API
+    /// impact's body tick goes out in both; a body-made impact has none.
     #[test]
     fn frames_carry_impacts_in_both_codecs() {
-        for impacts in [vec![], vec![ImpactEvent::new(&impact(3.01), 30.0)]] {
+        let felt = ImpactEvent {
+            body_tick: Some(88),
+            ..ImpactEvent::new(&impact(2.5), 30.0)
+        };
+        for impacts in [
+            vec![],
+            vec![ImpactEvent::new(&impact(3.01), 30.0)],
+            vec![felt, ImpactEvent::new(&impact(3.01), 30.0)],
+        ] {
             let tick = Tick {
                 tick: 91,
                 t: 91.0 / 30.0,
@@ -697,6 +706,22 @@ mod impact_frames {
                 other => panic!("{other:?}"),
             };
             assert_eq!(text.contains("\"impacts\""), !impacts.is_empty(), "{text}");
+            let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+            for (i, e) in impacts.iter().enumerate() {
+                assert_eq!(v["impacts"][i]["body_tick"].as_i64(), e.body_tick, "{text}");
+            }
+            let proto = match shared.message(Codec::Protobuf, &Interest::default()) {
+                Message::Binary(b) => b,
+                other => panic!("{other:?}"),
+            };
+            let decoded =
+                <crate::wire::v1::ServerMessage as prost::Message>::decode(proto).unwrap();
+            let Some(crate::wire::v1::server_message::Msg::Tick(t)) = decoded.msg else {
+                panic!("{decoded:?}");
+            };
+            let ticks: Vec<_> = t.impacts.iter().map(|i| i.body_tick).collect();
+            let want: Vec<_> = impacts.iter().map(|i| i.body_tick).collect();
+            assert_eq!(ticks, want);
         }
         assert_eq!(ImpactEvent::new(&impact(3.01), 30.0).tick, 91);
         assert_eq!(ImpactEvent::new(&impact(3.0), 30.0).tick, 90);

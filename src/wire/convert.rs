@@ -309,6 +309,7 @@ pub fn impact_events(events: &[crate::impacts::ImpactEvent]) -> Vec<v1::ImpactEv
             z: e.position[1],
             strength: e.strength,
             radius: e.radius,
+            body_tick: e.body_tick,
         })
         .collect()
 }

@@ -201,6 +201,8 @@ async fn tick_frames_carry_new_impacts() {
                     Message::Text(t) => {
                         let f: Value = serde_json::from_str(t.as_str()).unwrap();
                         if let Some(list) = f["impacts"].as_array() {
+                            // No body world: nothing felt it, so no body tick.
+                            assert!(list[0].get("body_tick").is_none(), "{f}");
                             return (
                                 list[0]["t"].as_f64().unwrap(),
                                 list[0]["position"][1].as_f64().unwrap(),
@@ -212,6 +214,7 @@ async fn tick_frames_carry_new_impacts() {
                         if let Some(v1::server_message::Msg::Tick(tick)) = f.msg
                             && let Some(e) = tick.impacts.first()
                         {
+                            assert_eq!(e.body_tick, None);
                             return (e.t, e.z);
                         }
                     }
@@ -681,7 +684,7 @@ async fn a_fleet_re_read_adds_the_impacts_it_lacks_through_the_reducer() {
     let entry = s.state.scene("harbour").unwrap();
     assert_eq!(entry.scene.impacts.api().events(), &[ours, missed]);
     // Announced: a tick loop that saw everything before the re-read gets it as new.
-    assert_eq!(entry.scene.impacts.since(seen).1, vec![missed]);
+    assert_eq!(entry.scene.impacts.since(seen).1, vec![(missed, None)]);
     assert_ne!(heights(&s, "harbour", now + 2.0).await, heights_before);
     // Again, with both: nothing to add, nothing doubled.
     let both = vec![vec![

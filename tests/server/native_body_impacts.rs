@@ -303,3 +303,119 @@ async fn a_native_world_feels_the_published_impacts_and_its_own_splashes_to_the_
     }
     s.stop().await;
 }
+
+/// A live client needs each API impact's `body_tick` to feel it where the server's bodies did;
+/// before, tick frames carried the impacts without it and a client had to poll
+/// `GET …/bodies`. Here subscribers in both codecs get every impact posted on a scene with
+/// bodies with the `body_tick` of its POST answer (and of `felt_impacts`), and the impacts the
+/// bodies made (a dropped boat's splash) without one.
+#[tokio::test]
+async fn tick_frames_carry_each_api_impacts_body_tick_in_both_codecs() {
+    use common::ws_connect;
+    use futures_util::{SinkExt, StreamExt};
+    use prost::Message as _;
+    use swell::wire::v1;
+    use tokio_tungstenite::tungstenite::Message;
+
+    let s = TestServer::start(config()).await;
+    let (st, v) = s.put_scene(SCENE, &scene()).await;
+    assert!(st == 200 || st == 201, "{v}");
+    // Dropped from 2 m: it splashes, an impact the bodies make.
+    post(&s, "bodies", &boat(0.0, 2.0), 201).await;
+    let mut json_ws = ws_connect(s.addr, SCENE, None).await;
+    json_ws
+        .send(Message::Text(
+            json!({"type": "subscribe", "ticks": true})
+                .to_string()
+                .into(),
+        ))
+        .await
+        .unwrap();
+    let mut proto_ws = ws_connect(s.addr, SCENE, Some("swell.v1.protobuf")).await;
+    let sub = v1::ClientMessage {
+        id: None,
+        msg: Some(v1::client_message::Msg::Subscribe(v1::Subscribe {
+            ticks: true,
+            ..Default::default()
+        })),
+    };
+    proto_ws
+        .send(Message::Binary(sub.encode_to_vec().into()))
+        .await
+        .unwrap();
+    // Both loops run before the impacts go in.
+    for ws in [&mut json_ws, &mut proto_ws] {
+        let _ = tokio::time::timeout(Duration::from_secs(10), ws.next())
+            .await
+            .expect("a first frame");
+    }
+    let mut posted = Vec::new();
+    for (x, z) in [(3.0, 2.0), (-5.0, 1.5)] {
+        let answer = post(
+            &s,
+            "impacts",
+            &json!({"position": [x, z], "strength": 0.6, "radius": 1.0}),
+            202,
+        )
+        .await;
+        assert!(answer["body_tick"].is_i64(), "{answer}");
+        posted.push(answer);
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    // Each codec's frames: (t, body_tick) of every impact, until both posted ones came.
+    let mine = |t: f64| posted.iter().any(|p| p["t"].as_f64() == Some(t));
+    let mut seen: Vec<Vec<(f64, Option<i64>)>> = Vec::new();
+    for ws in [&mut json_ws, &mut proto_ws] {
+        let mut got: Vec<(f64, Option<i64>)> = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while got.iter().filter(|(t, _)| mine(*t)).count() < posted.len() {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let m = tokio::time::timeout(left, ws.next())
+                .await
+                .unwrap_or_else(|_| panic!("frames so far carried {got:?}, posted {posted:?}"))
+                .unwrap()
+                .unwrap();
+            match m {
+                Message::Text(t) => {
+                    let f: Value = serde_json::from_str(t.as_str()).unwrap();
+                    for e in f["impacts"].as_array().into_iter().flatten() {
+                        got.push((e["t"].as_f64().unwrap(), e["body_tick"].as_i64()));
+                    }
+                }
+                Message::Binary(b) => {
+                    if let Some(v1::server_message::Msg::Tick(tick)) =
+                        v1::ServerMessage::decode(b.as_ref()).unwrap().msg
+                    {
+                        got.extend(tick.impacts.iter().map(|e| (e.t, e.body_tick)));
+                    }
+                }
+                _ => {}
+            }
+        }
+        seen.push(got);
+    }
+    for (codec, got) in ["json", "protobuf"].into_iter().zip(&seen) {
+        for p in &posted {
+            let t = p["t"].as_f64().unwrap();
+            let carried: Vec<_> = got.iter().filter(|(gt, _)| *gt == t).collect();
+            assert_eq!(carried.len(), 1, "{codec}: {got:?}");
+            assert_eq!(carried[0].1, p["body_tick"].as_i64(), "{codec}: {p}");
+        }
+        for (t, body_tick) in got.iter().filter(|(t, _)| !mine(*t)) {
+            assert_eq!(*body_tick, None, "{codec}: a body-made impact at t = {t}");
+        }
+    }
+    // The same ticks as the list of bodies publishes.
+    let (_, listed) = s.get_json(&format!("/v1/scenes/{SCENE}/bodies")).await;
+    for p in &posted {
+        assert!(
+            listed["felt_impacts"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .any(|f| f["t"] == p["t"] && f["body_tick"] == p["body_tick"]),
+            "{p} not in {listed}"
+        );
+    }
+    s.stop().await;
+}

@@ -40,6 +40,28 @@ namespace Swell
         /// A change means a clock jump re-anchored it: a native world replaying bodies is rebuilt
         /// from GET …/bodies (docs/clients.md, Native engines).</summary>
         public long? AnchorTick;
+        /// <summary>Impacts accepted since the previous frame (usually none), in both subprotocols.</summary>
+        public List<ImpactEvent> Impacts = new List<ImpactEvent>();
+    }
+
+    /// <summary>An impact on the scene's particle layer, as a tick frame carries it.</summary>
+    public sealed class ImpactEvent
+    {
+        /// <summary>First tick at or after T: ceil(T·tick_hz).</summary>
+        public long Tick;
+        /// <summary>Scene time of the impact, s.</summary>
+        public double T;
+        /// <summary>World position (x, z), m.</summary>
+        public double[] Position = new double[2];
+        /// <summary>Splash height at the impact point, m.</summary>
+        public double Strength;
+        /// <summary>Particle radius of the ring, m.</summary>
+        public double Radius;
+        /// <summary>For an API impact on a scene with bodies: the scene tick the server's bodies feel
+        /// it from (the POST answer's body_tick), which a native world replaying the bodies feels it
+        /// at (crates/swell-ffi: swell_world_feel_impact). Null for impacts the bodies made (splashes,
+        /// wakes: a native world derives them) and on scenes without bodies.</summary>
+        public long? BodyTick;
     }
 
     /// <summary>How an interpolated state was obtained.</summary>

@@ -1,6 +1,6 @@
 // A minimal protobuf encoder/decoder for the few stream messages this client uses
 // (proto/swell/v1/stream.proto, query.proto): ClientMessage {ping, subscribe} out, and
-// ServerMessage {pong, tick (full body states), error, clock} in. Hand-written so the package
+// ServerMessage {pong, tick (full body states, impacts), error, clock} in. Hand-written so the package
 // needs no Google.Protobuf; unknown fields are skipped, as protobuf requires.
 using System;
 using System.Collections.Generic;
@@ -258,10 +258,30 @@ namespace Swell
                 if (f == 1 && w == 0) t.Tick = (long)r.Varint();
                 else if (f == 2 && w == 1) t.T = r.Double();
                 else if (f == 3 && w == 2) t.Bodies.Add(Body(r.Sub()));
+                else if (f == 5 && w == 2) t.Impacts.Add(Impact(r.Sub()));
                 else if (f == 6 && w == 0) t.AnchorTick = (long)r.Varint();
-                else r.Skip(w); // compact bodies (not asked for), impacts
+                else r.Skip(w); // compact bodies (not asked for)
             }
             return t;
+        }
+
+        static ImpactEvent Impact(Reader r)
+        {
+            var e = new ImpactEvent();
+            while (r.More)
+            {
+                ulong key = r.Varint();
+                int f = (int)(key >> 3), w = (int)(key & 7);
+                if (f == 1 && w == 0) e.Tick = (long)r.Varint();
+                else if (f == 2 && w == 1) e.T = r.Double();
+                else if (f == 3 && w == 1) e.Position[0] = r.Double();
+                else if (f == 4 && w == 1) e.Position[1] = r.Double();
+                else if (f == 5 && w == 1) e.Strength = r.Double();
+                else if (f == 6 && w == 1) e.Radius = r.Double();
+                else if (f == 7 && w == 0) e.BodyTick = (long)r.Varint();
+                else r.Skip(w);
+            }
+            return e;
         }
 
         static BodyState Body(Reader r)

@@ -179,6 +179,18 @@ namespace Swell
                             Quarantined = Json.Bool(b, "quarantined", false),
                         });
                     }
+                    foreach (var e in Json.List(o, "impacts"))
+                    {
+                        f.Impacts.Add(new ImpactEvent
+                        {
+                            Tick = (long)Json.Num(e, "tick"),
+                            T = Json.Num(e, "t"),
+                            Position = Json.Nums(Json.Get(e, "position")),
+                            Strength = Json.Num(e, "strength"),
+                            Radius = Json.Num(e, "radius"),
+                            BodyTick = Json.Get(e, "body_tick") is double ? (long?)(long)Json.Num(e, "body_tick") : null,
+                        });
+                    }
                     m.Frame = f;
                     break;
                 case "error":

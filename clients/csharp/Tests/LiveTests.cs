@@ -20,6 +20,9 @@ namespace Swell.Tests
 
         const string SmallSpec = "{\"description\":\"csharp clock test\",\"tick_hz\":20,\"seed\":3,\"layers\":[{\"kind\":\"gerstner\",\"waves\":[{\"amplitude\":0.4,\"wavelength\":30,\"direction\":[1,0.5],\"steepness\":0.6}]}]}";
 
+        // With a particle layer (impacts ripple on one) for bodies to feel impacts on.
+        const string ParticleSpec = "{\"description\":\"csharp impacts test\",\"tick_hz\":20,\"seed\":4,\"layers\":[{\"kind\":\"gerstner\",\"waves\":[{\"amplitude\":0.1,\"wavelength\":20,\"direction\":[1,0],\"steepness\":0.3}]},{\"kind\":\"particles\",\"count\":16,\"tile_size\":32,\"radius\":1,\"amplitude\":0.02}]}";
+
         internal static void Run(string url, string token, string vectors)
         {
             var http = new SwellClient(url, token);
@@ -227,6 +230,34 @@ namespace Swell.Tests
                             Runner.Assert(Math.Abs(at[ida].Position[1] - (y0 + (y1 - y0) * u)) < 1e-12, "the lerp of the frames around it");
                         }
                         await s.Unsubscribe();
+                        await s.CloseAsync();
+                    }
+                });
+
+                Runner.TA("WebSocket " + wire + ": a tick frame carries each API impact with the POST answer's body tick", async () =>
+                {
+                    string id = "felt-cs-" + wire.ToString().ToLowerInvariant();
+                    await http.PutScene(id, Json.Parse(ParticleSpec));
+                    var hull = Json.Parse("{\"kind\":\"box\",\"length\":8,\"beam\":3,\"height\":1.5}");
+                    await http.SpawnBody(id, new Dictionary<string, object> { { "mass", 3000.0 }, { "hull", hull }, { "position", new[] { 0.0, 0.4, 0 } } });
+                    var frames = new List<TickFrame>();
+                    using (var s = new SwellSession(http.StreamUrl(id), wire))
+                    {
+                        s.OnTick += f => { lock (frames) frames.Add(f); };
+                        await s.ConnectAsync();
+                        await s.Subscribe();
+                        await Next(frames, f => true);
+                        var impact = new Dictionary<string, object> { { "position", new[] { 2.0, 1.0 } }, { "strength", 0.5 }, { "radius", 1.0 } };
+                        var answer = await http.RequestJson(HttpMethod.Post, "/v1/scenes/" + id + "/impacts", impact, true);
+                        Runner.Assert(Json.Get(answer, "body_tick") is double, "the answer has a body_tick: " + Json.Write(answer));
+                        double t = Json.Num(answer, "t");
+                        var carrying = await Next(frames, f => f.Impacts.Any(e => e.T == t));
+                        var e0 = carrying.Impacts.First(e => e.T == t);
+                        Runner.Assert(e0.BodyTick.HasValue, "the frame's impact has a body tick");
+                        Runner.Equal(Json.Num(answer, "body_tick"), (double)e0.BodyTick.Value, "the body tick the POST answered");
+                        Runner.Equal(Json.Num(answer, "tick"), (double)e0.Tick, "the tick the POST answered");
+                        Runner.Equal(2.0, e0.Position[0], "x");
+                        Runner.Equal(1.0, e0.Position[1], "z");
                         await s.CloseAsync();
                     }
                 });

@@ -262,7 +262,11 @@ export class SwellClient {
     return this._json('GET', `/v1/scenes/${id}/impacts${t != null ? `?t=${t}` : ''}`);
   }
 
-  /** POST …/impacts (admin): a splash `{position: [x, z], t?, strength, radius}` → `{tick, t}` (202). */
+  /**
+   * POST …/impacts (admin): a splash `{position: [x, z], t?, strength, radius}` → `{tick, t,
+   * body_tick?}` (202); `body_tick`, on a scene with bodies: the scene tick they feel it from
+   * (tick frames carry it on the impact too).
+   */
   addImpact(id, impact) {
     checkSceneId(id);
     if (!impact || typeof impact !== 'object') throw new ArgumentError('impact', 'an impact is an object');
@@ -273,7 +277,7 @@ export class SwellClient {
     return this._json('POST', `/v1/scenes/${id}/impacts`, { body: JSON.stringify(impact), contentType: 'application/json', admin: true });
   }
 
-  /** GET …/bodies: `{tick, t, bodies: [...]}`. */
+  /** GET …/bodies: `{tick, t, anchor_tick?, bodies: [...], felt_impacts?: [{body_tick, t, position, strength, radius}]}`. */
   bodies(id) { return this._json('GET', `/v1/scenes/${checkSceneId(id)}/bodies`); }
 
   /** GET …/bodies/{bid}. */

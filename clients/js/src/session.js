@@ -103,7 +103,8 @@ export class ClockSync {
  * Options: `WebSocket` (constructor; default the global one: browsers, Node 22+, or Node 20
  * with `--experimental-websocket`), `pingInterval` (ms, 1000), `syncPings` (pings `connect()`
  * waits for, 5), `requestTimeout` (ms, 10000), `backoff` (`{initial: 200, max: 5000, factor:
- * 2}` ms), `onTick(frame)`, `onOpen()`, `onClose(event)`, `onClock(event)` (the scene's clock
+ * 2}` ms), `onTick(frame)` (a TickFrame: `{tick, t, bodies, impacts?, anchor_tick?}`, each
+ * impact with `body_tick`, the tick the scene's bodies feel it from, when they do), `onOpen()`, `onClose(event)`, `onClock(event)` (the scene's clock
  * changed: `{t, tick, tick_hz, rate, paused, unix, generation}`), `resyncPings` (pings sent at a
  * clock change, 3), `interpolator` (a BodyInterpolator fed every tick frame), `now` (client
  * clock in s; default `performance.now()/1000`).

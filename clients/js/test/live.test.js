@@ -337,6 +337,31 @@ describe('live server', { skip }, () => {
         assert.equal(frames.length, 0, 'no frames after unsubscribe');
       } finally { s.close(); }
     });
+
+    test('a tick frame carries each API impact with its body_tick, as the POST answer', async () => {
+      // Its own scene with bodies and a particle layer, so no other test's sea changes.
+      await admin.putScene('jsfelt', { tick_hz: 30, seed: 4, layers: [
+        { kind: 'gerstner', waves: [{ amplitude: 0.1, wavelength: 20, direction: [1, 0], steepness: 0.3 }] },
+        { kind: 'particles', count: 16, tile_size: 32, radius: 1, amplitude: 0.02 }] });
+      await admin.spawnBody('jsfelt', { mass: 3000, hull: { kind: 'box', length: 8, beam: 3, height: 1.5 }, position: [0, 0.4, 0] });
+      const frames = [];
+      const s = new SwellSession(http.streamUrl('jsfelt'), { onTick: (f) => frames.push(f) });
+      await s.connect();
+      try {
+        s.subscribe();
+        for (let i = 0; i < 100 && frames.length === 0; i++) await sleep(20);
+        const answer = await admin.addImpact('jsfelt', { position: [2, 1], strength: 0.5, radius: 1 });
+        assert.equal(typeof answer.body_tick, 'number', JSON.stringify(answer));
+        let carried;
+        for (let i = 0; i < 200 && !carried; i++) {
+          carried = frames.flatMap((f) => f.impacts ?? []).find((e) => e.t === answer.t);
+          if (!carried) await sleep(20);
+        }
+        assert.ok(carried, 'no tick frame carried the impact');
+        assert.equal(carried.body_tick, answer.body_tick);
+        assert.equal(carried.tick, answer.tick);
+      } finally { s.close(); }
+    });
   });
 });
 
