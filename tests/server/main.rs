@@ -26,6 +26,7 @@ mod errors;
 mod impacts;
 mod layers;
 mod lifecycle;
+mod native;
 mod native_body_impacts;
 mod native_impacts;
 mod native_reconcile;

@@ -11,6 +11,7 @@
 //! the impacts; the same world without the API impacts does not.
 
 use crate::common;
+use crate::native::{arr, ok};
 
 use std::ptr;
 use std::time::{Duration, Instant};
@@ -36,12 +37,6 @@ fn scene() -> Value {
 fn boat(x: f64, y: f64) -> Value {
     json!({"mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
            "position": [x, y, 0.0]})
-}
-
-fn ok(status: SwellStatus) {
-    // SAFETY: the message is a NUL-terminated string owned by this thread's last error.
-    let msg = unsafe { std::ffi::CStr::from_ptr(swell_last_error_message()) };
-    assert_eq!(status, SWELL_OK, "status {status}: {msg:?}");
 }
 
 /// Seeks the paused clock into the middle of scene tick `tick` and waits until the bodies
@@ -80,12 +75,6 @@ async fn post(s: &TestServer, path: &str, body: &Value, want: u16) -> Value {
         .await;
     assert_eq!(st, want, "{path}: {v}");
     v
-}
-
-fn arr<const N: usize>(v: &Value) -> [f64; N] {
-    let a = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
-    assert_eq!(a.len(), N, "{v}");
-    std::array::from_fn(|i| a[i].as_f64().unwrap())
 }
 
 /// Every number of a state, as bits: a published one, and one of the C ABI.

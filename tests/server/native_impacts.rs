@@ -6,6 +6,7 @@
 //! around them; without the impacts it must not.
 
 use crate::common;
+use crate::native::{ok, status_message};
 
 use std::ptr;
 
@@ -13,17 +14,6 @@ use common::{TOKEN, TestServer, config};
 use reqwest::Method;
 use serde_json::{Value, json};
 use swell_ffi::*;
-
-fn status_message() -> String {
-    // SAFETY: the message is a NUL-terminated string owned by this thread's last error.
-    unsafe { std::ffi::CStr::from_ptr(swell_last_error_message()) }
-        .to_string_lossy()
-        .into_owned()
-}
-
-fn ok(status: SwellStatus) {
-    assert_eq!(status, SWELL_OK, "status {status}: {}", status_message());
-}
 
 fn bits(v: &Value) -> u64 {
     v.as_f64()

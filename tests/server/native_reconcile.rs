@@ -10,6 +10,7 @@
 //! `anchor_tick` and the body's `carried` state and inputs must follow it to the bit too.
 
 use crate::common;
+use crate::native::{arr, ok};
 
 use std::ptr;
 use std::time::{Duration, Instant};
@@ -26,12 +27,6 @@ const T0: i64 = 3_000_000;
 fn boat(x: f64, yaw: f64) -> Value {
     json!({"mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
            "position": [x, 0.4, -3.0], "yaw": yaw})
-}
-
-fn ok(status: SwellStatus) {
-    // SAFETY: the message is a NUL-terminated string owned by this thread's last error.
-    let msg = unsafe { std::ffi::CStr::from_ptr(swell_last_error_message()) };
-    assert_eq!(status, SWELL_OK, "status {status}: {msg:?}");
 }
 
 /// Seeks the paused clock into the middle of scene tick `tick`.
@@ -73,12 +68,6 @@ async fn input(s: &TestServer, id: u64, req: &Value) -> Value {
         .await;
     assert_eq!(st, 202, "{v}");
     v
-}
-
-fn arr<const N: usize>(v: &Value) -> [f64; N] {
-    let a = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
-    assert_eq!(a.len(), N, "{v}");
-    std::array::from_fn(|i| a[i].as_f64().unwrap())
 }
 
 /// A published state as the C ABI holds one.
