@@ -1,7 +1,7 @@
 //! The server's integration tests, one module per area, in one test binary: one build and one
-//! link of the server for all of them (a binary per file built and linked the server ~20 times,
-//! ~7 minutes of a cold CI run's ~8 minutes of test builds on two cores), and tests that wait on
-//! sockets, child processes or browsers overlap with the rest instead of running file by file.
+//! link for all of them (27 binaries, one per file, each compiled and linked against the whole
+//! server: ~520 s of CPU in a cold build; this one ~40 s), and tests that wait on sockets, child
+//! processes or browsers overlap with the rest instead of running file by file.
 //!
 //! Kept in binaries of their own (`tests/*.rs`): `fleet` (its 200 ms bounds must not measure the
 //! load of other tests; its tests run one at a time), `hostile` (latency and RSS bounds under an
