@@ -1,7 +1,7 @@
 //! The server's integration tests, one module per area, in one test binary: one build and one
-//! link for all of them (27 binaries, one per file, each compiled and linked against the whole
-//! server: ~520 s of CPU in a cold build; this one ~40 s), and tests that wait on sockets, child
-//! processes or browsers overlap with the rest instead of running file by file.
+//! link for all of them (21 binaries, one per file, took ~20 s of CPU each in a cold build,
+//! every one linked against the whole server; this one ~40 s), and tests that wait on sockets,
+//! child processes or browsers overlap with the rest instead of running file by file.
 //!
 //! Kept in binaries of their own (`tests/*.rs`): `fleet` (its 200 ms bounds must not measure the
 //! load of other tests; its tests run one at a time), `hostile` (latency and RSS bounds under an
