@@ -11,13 +11,12 @@
 //! the impacts; the same world without the API impacts does not.
 
 use crate::common;
-use crate::native::{arr, ok};
+use crate::native::{arr, at_tick, ok, seek_paused};
 
 use std::ptr;
 use std::time::{Duration, Instant};
 
-use common::{TOKEN, TestServer, config};
-use reqwest::Method;
+use common::{TestServer, config};
 use serde_json::{Value, json};
 use swell_ffi::*;
 
@@ -34,47 +33,20 @@ fn scene() -> Value {
     ]})
 }
 
-fn boat(x: f64, y: f64) -> Value {
-    json!({"mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
-           "position": [x, y, 0.0]})
-}
-
 /// Seeks the paused clock into the middle of scene tick `tick` and waits until the bodies
 /// are there.
 async fn seek(s: &TestServer, tick: i64) -> Value {
-    let (st, v) = s
-        .put_clock(
-            SCENE,
-            &json!({"paused": true, "t": (tick as f64 + 0.5) / 30.0}),
-        )
-        .await;
-    assert_eq!(st, 200, "{v}");
-    let start = Instant::now();
-    loop {
-        let (st, v) = s.get_json(&format!("/v1/scenes/{SCENE}/bodies")).await;
-        assert_eq!(st, 200, "{v}");
-        if v["tick"] == json!(tick) {
-            return v;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "the bodies did not reach tick {tick}: {v}"
-        );
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
+    seek_paused(s, SCENE, tick).await;
+    at_tick(s, &format!("/v1/scenes/{SCENE}/bodies"), tick).await
 }
 
 async fn post(s: &TestServer, path: &str, body: &Value, want: u16) -> Value {
-    let (st, v) = s
-        .admin(
-            Method::POST,
-            &format!("/v1/scenes/{SCENE}/{path}"),
-            Some(body),
-            Some(TOKEN),
-        )
-        .await;
-    assert_eq!(st, want, "{path}: {v}");
-    v
+    crate::native::post(s, SCENE, path, body, want).await
+}
+
+fn boat(x: f64, y: f64) -> Value {
+    json!({"mass": 3000.0, "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+           "position": [x, y, 0.0]})
 }
 
 /// Every number of a state, as bits: a published one, and one of the C ABI.

@@ -10,7 +10,7 @@
 //! `anchor_tick` and the body's `carried` state and inputs must follow it to the bit too.
 
 use crate::common;
-use crate::native::{arr, ok};
+use crate::native::{arr, at_tick, ok, post, seek_paused};
 
 use std::ptr;
 use std::time::{Duration, Instant};
@@ -29,47 +29,6 @@ fn boat(x: f64, yaw: f64) -> Value {
            "position": [x, 0.4, -3.0], "yaw": yaw})
 }
 
-/// Seeks the paused clock into the middle of scene tick `tick`.
-async fn seek(s: &TestServer, tick: i64) {
-    let (st, v) = s
-        .put_clock(
-            SCENE,
-            &json!({"paused": true, "t": (tick as f64 + 0.5) / 30.0}),
-        )
-        .await;
-    assert_eq!(st, 200, "{v}");
-}
-
-/// Body `id` as the server has it once its world has reached scene tick `tick`.
-async fn body_at(s: &TestServer, id: u64, tick: i64) -> Value {
-    let start = Instant::now();
-    loop {
-        let (st, v) = s.get_json(&format!("/v1/scenes/{SCENE}/bodies/{id}")).await;
-        assert_eq!(st, 200, "{v}");
-        if v["tick"] == json!(tick) {
-            return v;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "the bodies did not reach tick {tick}: {v}"
-        );
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-}
-
-async fn input(s: &TestServer, id: u64, req: &Value) -> Value {
-    let (st, v) = s
-        .admin(
-            Method::POST,
-            &format!("/v1/scenes/{SCENE}/bodies/{id}/input"),
-            Some(req),
-            Some(TOKEN),
-        )
-        .await;
-    assert_eq!(st, 202, "{v}");
-    v
-}
-
 /// A published state as the C ABI holds one.
 fn state(v: &Value) -> SwellBodyState {
     SwellBodyState {
@@ -84,6 +43,15 @@ fn state(v: &Value) -> SwellBodyState {
 }
 
 /// The answer's `from_tick` and `ticks` as a C ABI input (force and torque as sent).
+/// Body `id` as the server has it once its world has reached scene tick `tick`.
+async fn body_at(s: &TestServer, id: u64, tick: i64) -> Value {
+    at_tick(s, &format!("/v1/scenes/{SCENE}/bodies/{id}"), tick).await
+}
+
+async fn input(s: &TestServer, id: u64, req: &Value) -> Value {
+    post(s, SCENE, &format!("bodies/{id}/input"), req, 202).await
+}
+
 fn swell_input(sent: &Value, answer: &Value) -> SwellInput {
     SwellInput {
         force: arr(&sent["force"]),
@@ -124,7 +92,7 @@ fn check(world: *mut SwellWorld, id: u64, server: &Value, tick: i64) {
 #[tokio::test]
 async fn a_native_world_built_from_the_published_ticks_follows_the_server_bit_for_bit() {
     let s = TestServer::start(config()).await;
-    seek(&s, T0).await;
+    seek_paused(&s, SCENE, T0).await;
     let spawn = |b: Value| {
         let s = &s;
         async move {
@@ -147,7 +115,7 @@ async fn a_native_world_built_from_the_published_ticks_follows_the_server_bit_fo
         (Some(T0), Some(T0))
     );
     // The second one joins 12 ticks later, in the same world.
-    seek(&s, T0 + 12).await;
+    seek_paused(&s, SCENE, T0 + 12).await;
     body_at(&s, a["id"].as_u64().unwrap(), T0 + 12).await;
     let b_spec = boat(-20.0, 0.3);
     let b = spawn(b_spec.clone()).await;
@@ -208,7 +176,7 @@ async fn a_native_world_built_from_the_published_ticks_follows_the_server_bit_fo
     check(world, id, &b, spawn_tick);
     // Forward in steps the loop walks through (never more than its catch-up limit at once).
     for tick in [T0 + 20, T0 + 35, T0 + 54, T0 + 70] {
-        seek(&s, tick).await;
+        seek_paused(&s, SCENE, tick).await;
         let server = body_at(&s, id, tick).await;
         assert_eq!(server["anchor_tick"], json!(T0), "{server}");
         check(world, id, &server, tick);
@@ -222,7 +190,7 @@ async fn a_native_world_built_from_the_published_ticks_follows_the_server_bit_fo
                       "from_tick": T0 + 72, "ticks": 100});
     input(&s, id, &late).await;
     let jump = T0 + 70 + 600;
-    seek(&s, jump).await;
+    seek_paused(&s, SCENE, jump).await;
     let start = Instant::now();
     let carried = loop {
         let (_, v) = s.get_json(&format!("/v1/scenes/{SCENE}/bodies/{id}")).await;
@@ -256,7 +224,7 @@ async fn a_native_world_built_from_the_published_ticks_follows_the_server_bit_fo
         }
     }
     for tick in [jump + 10, jump + 40] {
-        seek(&s, tick).await;
+        seek_paused(&s, SCENE, tick).await;
         let server = body_at(&s, id, tick).await;
         check(rebuilt, id, &server, tick);
     }
