@@ -38,16 +38,21 @@ pub async fn seek_paused(s: &TestServer, scene: &str, tick: i64) {
 
 /// `GET path` once its answer's `tick` is `tick` (the body world got there), within 20 s.
 pub async fn at_tick(s: &TestServer, path: &str, tick: i64) -> Value {
+    when_field(s, path, "tick", tick).await
+}
+
+/// `GET path` once its answer's `field` is `value`, within 20 s.
+pub async fn when_field(s: &TestServer, path: &str, field: &str, value: i64) -> Value {
     let start = Instant::now();
     loop {
         let (st, v) = s.get_json(path).await;
         assert_eq!(st, 200, "{v}");
-        if v["tick"] == json!(tick) {
+        if v[field] == json!(value) {
             return v;
         }
         assert!(
             start.elapsed() < Duration::from_secs(20),
-            "the bodies did not reach tick {tick}: {v}"
+            "`{field}` did not reach {value}: {v}"
         );
         tokio::time::sleep(Duration::from_millis(10)).await;
     }

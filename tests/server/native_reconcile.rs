@@ -10,10 +10,9 @@
 //! `anchor_tick` and the body's `carried` state and inputs must follow it to the bit too.
 
 use crate::common;
-use crate::native::{arr, at_tick, ok, post, seek_paused};
+use crate::native::{arr, at_tick, ok, post, seek_paused, when_field};
 
 use std::ptr;
-use std::time::{Duration, Instant};
 
 use common::{TOKEN, TestServer, config};
 use reqwest::Method;
@@ -191,18 +190,8 @@ async fn a_native_world_built_from_the_published_ticks_follows_the_server_bit_fo
     input(&s, id, &late).await;
     let jump = T0 + 70 + 600;
     seek_paused(&s, SCENE, jump).await;
-    let start = Instant::now();
-    let carried = loop {
-        let (_, v) = s.get_json(&format!("/v1/scenes/{SCENE}/bodies/{id}")).await;
-        if v["anchor_tick"] == json!(jump) {
-            break v;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "no re-anchor: {v}"
-        );
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    };
+    let path = format!("/v1/scenes/{SCENE}/bodies/{id}");
+    let carried = when_field(&s, &path, "anchor_tick", jump).await;
     assert_eq!(carried["spawn_tick"], json!(T0 + 12), "{carried}");
     let c = &carried["carried"];
     assert_eq!(c["inputs"].as_array().map(Vec::len), Some(1), "{carried}");
