@@ -203,6 +203,15 @@ pub struct Limits {
     /// Whether `/metrics` on the main listener is public; when false it needs an admin token.
     /// Either way it is also served on `--probe-bind`, if set.
     pub metrics_public: bool,
+    /// Threads of the compute pool, which runs batch queries and decodes and encodes large
+    /// bodies off the reactor ([`crate::compute`]); 0: one per core. Work beyond them waits its
+    /// turn (`swell_compute_queued`).
+    pub compute_threads: usize,
+    /// How many steps of niceness (0–19) below the server's own priority the compute pool runs,
+    /// so that cheap requests, probes and stream ticks get the cores first when batch work
+    /// saturates them. 0: the same priority. One setting per process: the first server started
+    /// in a process sets the pool up.
+    pub compute_nice: i32,
 }
 
 impl Default for Limits {
@@ -245,6 +254,8 @@ impl Default for Limits {
             metrics_public: true,
             max_scenes: 1024,
             max_fft_bytes: 2 << 30,
+            compute_threads: 0,
+            compute_nice: 10,
         }
     }
 }

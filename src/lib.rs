@@ -62,6 +62,7 @@
 pub mod access;
 pub mod api;
 pub mod bodies;
+pub mod compute;
 pub mod config;
 pub mod error;
 pub mod frames;
@@ -352,6 +353,12 @@ impl Server {
         }
         let addr = self.local_addr();
         tracing::info!(%addr, scenes = state.scenes().len(), "serving");
+        let compute = compute::configure(compute::Settings::from_limits(&state.limits));
+        tracing::info!(
+            threads = compute.threads,
+            nice = compute.nice,
+            "compute pool (compute_threads, compute_nice)"
+        );
         // Probes and metrics on their own port: outside every limit clients can fill, and off
         // the public path. Stops with the shutdown token.
         if let Some(probe) = self.probe_listener {

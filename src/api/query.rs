@@ -1,6 +1,6 @@
 //! Query endpoints over HTTP: height, sample, orientation. Each resolves the scene and its time
 //! and runs the transport-free query of [`crate::service::query`], inline when it is cheap, on
-//! the blocking pool when not ([`run_query`]).
+//! the compute pool when not ([`run_query`]).
 
 use std::sync::Arc;
 
@@ -69,12 +69,13 @@ pub async fn sample(
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();
     let inline = sample_runs_inline(&state.frames, &scene, at, &req);
+    // A large protobuf answer is encoded here too, off the reactor.
     run_query(inline, move || {
         run_sample(&st.frames, &st.limits, &scene, at, &req)
+            .map(|r| SampleReply::prepare(format, r))
     })
     .await
     .map_err(ApiError::from)
-    .map(|r| SampleReply(format, r))
 }
 
 /// `POST /v1/scenes/{id}/orientation`.

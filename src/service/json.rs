@@ -16,7 +16,7 @@ pub struct JsonError {
 }
 
 /// Request bodies and WebSocket messages of at least this many bytes are decoded on the
-/// blocking pool: a 65,536-point sample (~1.5 MB of JSON) takes ~10 ms to parse, which on a
+/// compute pool: a 65,536-point sample (~1.5 MB of JSON) takes ~10 ms to parse, which on a
 /// reactor thread would delay every other connection that thread serves.
 pub const DECODE_OFF_REACTOR_BYTES: usize = 64 * 1024;
 

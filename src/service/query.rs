@@ -5,8 +5,8 @@
 //! ([`crate::api::query`]) and the WebSocket session ([`crate::stream`]) share them. A caller
 //! resolves the scene and its time ([`resolve_time`]), then runs the query through
 //! [`run_query`]: inline on the reactor when it is cheap (a few points whose FFT frames, if any,
-//! are already cached, [`runs_inline`]), else in `spawn_blocking` (a frame to compute and big
-//! batches are CPU work). Answers are checked for non-finite numbers where they are encoded
+//! are already cached, [`runs_inline`]), else on the compute pool ([`crate::compute`]: a frame to
+//! compute and big batches are CPU work). Answers are checked for non-finite numbers where they are encoded
 //! ([`crate::service::finite`]), not here.
 
 use glam::DVec2;
@@ -346,7 +346,7 @@ pub fn run_orientation(
 
 /// Points (sample points, or orientation probes) a query may have and still run on the reactor
 /// thread. 64 Gerstner points with height inversion take ~35 µs here (0.56 µs a point on
-/// `lake`), about what the hop to the blocking pool and back costs in latency and context
+/// `lake`), about what the hop to the compute pool and back costs in latency and context
 /// switches on a loaded 2-core machine; past that, a query could hold a reactor thread long
 /// enough to delay other connections, so it moves to the pool.
 pub const INLINE_POINTS: usize = 64;
@@ -381,12 +381,12 @@ pub fn sample_runs_inline(frames: &FrameCache, scene: &Scene, at: At, req: &Samp
     }
 }
 
-/// Runs query work: at once when it is cheap (`inline`), else on the blocking pool, off the
-/// reactor. The work's error is the caller's choice (a [`QueryError`] or anything a
+/// Runs query work: at once when it is cheap (`inline`), else on the compute pool
+/// ([`crate::compute`]), off the reactor and below its priority. The work's error is the caller's choice (a [`QueryError`] or anything a
 /// [`QueryError`] converts into).
 ///
 /// # Errors
-/// The work's error; [`QueryError::Task`] (converted) when the blocking task panicked.
+/// The work's error; [`QueryError::Task`] (converted) when the work panicked.
 pub async fn run_query<T: Send + 'static, E: From<QueryError> + Send + 'static>(
     inline: bool,
     f: impl FnOnce() -> Result<T, E> + Send + 'static,
@@ -394,7 +394,7 @@ pub async fn run_query<T: Send + 'static, E: From<QueryError> + Send + 'static>(
     if inline {
         return f();
     }
-    tokio::task::spawn_blocking(f)
+    crate::compute::run(f)
         .await
         .map_err(|e| E::from(QueryError::Task(e.to_string())))?
 }
@@ -411,6 +411,27 @@ pub fn orientation_probes(req: &OrientationRequest) -> usize {
 mod tests {
     use super::*;
 
+    /// Work that is not cheap runs on the compute pool's threads (below the reactor's
+    /// priority), cheap work where it is called.
+    #[tokio::test]
+    async fn work_off_the_reactor_runs_on_the_compute_pool() {
+        let name = || std::thread::current().name().unwrap_or_default().to_owned();
+        let off = run_query::<_, QueryError>(false, move || Ok(name()))
+            .await
+            .unwrap();
+        assert!(off.starts_with("swell-compute-"), "{off}");
+        let here = name();
+        let inline = run_query::<_, QueryError>(true, move || Ok(name()))
+            .await
+            .unwrap();
+        assert_eq!(inline, here);
+        // A panic is an error for its request, not a crash.
+        let e = run_query::<(), QueryError>(false, || panic!("boom"))
+            .await
+            .unwrap_err();
+        assert!(matches!(e, QueryError::Task(_)), "{e:?}");
+    }
+
     use crate::scene::builtin::built as builtin;
 
     #[test]
@@ -422,7 +443,7 @@ mod tests {
         assert!(runs_inline(&frames, &lake, at, 1, h, &o));
         assert!(runs_inline(&frames, &calm, at, INLINE_POINTS, h, &o));
         assert!(!runs_inline(&frames, &calm, at, INLINE_POINTS + 1, h, &o));
-        // An FFT scene whose frames are not computed yet: the blocking pool.
+        // An FFT scene whose frames are not computed yet: the compute pool.
         assert!(!runs_inline(&frames, &storm, at, 1, h, &o));
         // Once they are (the frame-ahead loop's job at now), on the reactor.
         frames.surface_at(&storm, at.t, at.now, h, &o).unwrap();

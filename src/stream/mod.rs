@@ -593,7 +593,7 @@ pub async fn session<W, R>(
                         ));
                         continue;
                     }
-                    // A large message (a big sample) is decoded on the blocking pool, as HTTP
+                    // A large message (a big sample) is decoded on the compute pool, as HTTP
                     // bodies are (`DECODE_OFF_REACTOR_BYTES`): this session waits for it, the
                     // other connections on this reactor thread do not.
                     Some(Ok(Message::Text(t))) => match codec {
@@ -805,18 +805,16 @@ fn clock_event(state: &AppState, scene_id: &str, queue: &Queue) {
     }
 }
 
-/// Decodes a large message on the blocking pool.
+/// Decodes a large message on the compute pool ([`crate::compute`]).
 async fn off_reactor(
     decode: impl FnOnce() -> Result<Incoming, DecodeError> + Send + 'static,
 ) -> Result<Incoming, DecodeError> {
-    tokio::task::spawn_blocking(decode)
-        .await
-        .unwrap_or_else(|e| {
-            Err(DecodeError {
-                id: None,
-                error: ApiError::internal(e),
-            })
+    crate::compute::run(decode).await.unwrap_or_else(|e| {
+        Err(DecodeError {
+            id: None,
+            error: ApiError::internal(e),
         })
+    })
 }
 
 /// Acts on one client message.
@@ -978,7 +976,7 @@ fn query(
     let st = state.clone();
     let queue = queue.clone();
     state.tasks.spawn(async move {
-        let result = tokio::task::spawn_blocking(move || run(&st, &scene, at))
+        let result = crate::compute::run(move || run(&st, &scene, at))
             .await
             .map_err(|e| QueryError::Task(e.to_string()))
             .and_then(|r| r);

@@ -1,0 +1,278 @@
+//! The compute pool: where request work too big for the reactor runs — batch queries, decoding
+//! large bodies, encoding large answers — on a fixed set of threads at a lower CPU priority
+//! than the reactor.
+//!
+//! Why not tokio's blocking pool: it starts a thread per task (up to 512), so a hundred
+//! clients posting 20,000-point samples at once made a hundred CPU-bound threads that each got
+//! the same share of the two cores as the two reactor threads. Every cheap request, probe and
+//! tick write then waited its turn behind them: the good client of `.ci/hostile` saw 100–220 ms
+//! stalls in the first second of the attack, and encoding those answers on the reactor cost it
+//! 2–13 ms stalls after that. Here the work queues (first come, first served) for
+//! [`Limits::compute_threads`](crate::Limits::compute_threads) threads, and those threads run
+//! at niceness [`Limits::compute_nice`](crate::Limits::compute_nice): the kernel gives the
+//! reactor the cores first, and the pool everything the reactor leaves, so a saturated pool
+//! slows batch answers, not the cheap ones. Alone on a machine the pool has every core it
+//! would have had.
+//!
+//! One pool per process, started at the first use with the settings of the first server that
+//! configured it ([`configure`]); a later server in the same process (tests) shares it. A job
+//! whose caller went away (a cancelled request) before a thread took it is skipped. A job that
+//! panics is caught and reported to its caller as [`Lost`]; the thread lives on.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, Mutex, OnceLock};
+
+type Job = Box<dyn FnOnce() + Send>;
+
+/// The pool's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Settings {
+    /// Threads (at least 1).
+    pub threads: usize,
+    /// Their niceness, 0–19 (0: the server's own priority).
+    pub nice: i32,
+}
+
+impl Settings {
+    /// From the limits: `compute_threads` 0 means one thread per core.
+    pub fn from_limits(limits: &crate::Limits) -> Settings {
+        let threads = match limits.compute_threads {
+            0 => std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
+            n => n,
+        };
+        Settings {
+            threads,
+            nice: limits.compute_nice.clamp(0, 19),
+        }
+    }
+}
+
+struct Pool {
+    settings: Settings,
+    jobs: Sender<Job>,
+    /// Jobs sent and not yet taken by a thread.
+    queued: Arc<AtomicUsize>,
+}
+
+static POOL: OnceLock<Pool> = OnceLock::new();
+static WANTED: OnceLock<Settings> = OnceLock::new();
+
+/// Sets the settings the pool starts with (once per process; the first call wins). Returns
+/// the settings the pool has or will have, which differ from `settings` when another server
+/// in this process configured it first.
+pub fn configure(settings: Settings) -> Settings {
+    let wanted = *WANTED.get_or_init(|| settings);
+    POOL.get().map_or(wanted, |p| p.settings)
+}
+
+fn pool() -> &'static Pool {
+    POOL.get_or_init(|| {
+        let settings = *WANTED.get_or_init(|| Settings::from_limits(&crate::Limits::default()));
+        let (jobs, rx) = channel::<Job>();
+        let rx = Arc::new(Mutex::new(rx));
+        let queued = Arc::new(AtomicUsize::new(0));
+        for i in 0..settings.threads.max(1) {
+            let (rx, queued) = (Arc::clone(&rx), Arc::clone(&queued));
+            let nice = settings.nice;
+            let spawned = std::thread::Builder::new()
+                .name(format!("swell-compute-{i}"))
+                .spawn(move || worker(&rx, &queued, nice));
+            if let Err(e) = spawned {
+                tracing::error!(error = %e, "could not start a compute thread");
+            }
+        }
+        Pool {
+            settings,
+            jobs,
+            queued,
+        }
+    })
+}
+
+fn worker(rx: &Mutex<Receiver<Job>>, queued: &AtomicUsize, nice: i32) {
+    set_thread_nice(nice);
+    loop {
+        // The lock is held only while waiting for the next job; the others wait for the lock.
+        let job = match rx.lock() {
+            Ok(rx) => rx.recv(),
+            Err(_) => return,
+        };
+        let Ok(job) = job else { return };
+        publish(queued.fetch_sub(1, Ordering::Relaxed) - 1);
+        job();
+    }
+}
+
+fn publish(queued: usize) {
+    #[allow(clippy::cast_precision_loss)]
+    metrics::gauge!("swell_compute_queued").set(queued as f64);
+}
+
+/// Lowers the calling thread's priority by `nice` steps below what it has (Linux:
+/// `setpriority` on a thread id applies to that thread, and threads it starts inherit it), at
+/// most to 19. Best effort: where it is refused the thread keeps the server's priority, and the
+/// log says so once.
+fn set_thread_nice(nice: i32) {
+    if nice <= 0 {
+        return;
+    }
+    #[cfg(target_os = "linux")]
+    {
+        let r = thread_nice().and_then(|now| {
+            let to = (now + nice).min(19);
+            // SAFETY: gettid has no preconditions; setpriority takes plain integers.
+            let r = unsafe {
+                #[allow(clippy::cast_sign_loss)]
+                libc::setpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t, to)
+            };
+            if r == 0 {
+                Ok(())
+            } else {
+                Err(std::io::Error::last_os_error())
+            }
+        });
+        if let Err(e) = r {
+            static WARNED: std::sync::Once = std::sync::Once::new();
+            WARNED.call_once(|| {
+                tracing::warn!(error = %e, nice, "compute threads keep the server's priority (compute_nice)");
+            });
+        }
+    }
+}
+
+/// The calling thread's niceness.
+#[cfg(target_os = "linux")]
+fn thread_nice() -> std::io::Result<i32> {
+    // SAFETY: errno is the calling thread's; getpriority takes plain integers. -1 is a valid
+    // niceness, so errno tells an error apart.
+    unsafe {
+        *libc::__errno_location() = 0;
+        #[allow(clippy::cast_sign_loss)]
+        let n = libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t);
+        if n == -1 && *libc::__errno_location() != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(n)
+    }
+}
+
+/// The job's thread panicked, or the pool could not take it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Lost;
+
+impl std::fmt::Display for Lost {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("the compute job panicked")
+    }
+}
+
+impl std::error::Error for Lost {}
+
+/// Runs `f` on the pool and waits for its result without blocking the caller's thread.
+/// Dropping the returned future before a thread took the job skips it.
+///
+/// # Errors
+/// [`Lost`] when `f` panicked.
+pub async fn run<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> Result<T, Lost> {
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let job: Job = Box::new(move || {
+        if tx.is_closed() {
+            return;
+        }
+        if let Ok(v) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+            let _ = tx.send(v);
+        }
+    });
+    let pool = pool();
+    publish(pool.queued.fetch_add(1, Ordering::Relaxed) + 1);
+    if pool.jobs.send(job).is_err() {
+        publish(pool.queued.fetch_sub(1, Ordering::Relaxed) - 1);
+        return Err(Lost);
+    }
+    rx.await.map_err(|_| Lost)
+}
+
+/// The pool's settings (starting it if it has not started).
+pub fn settings() -> Settings {
+    pool().settings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn jobs_run_and_a_panic_is_reported_without_losing_the_thread() {
+        assert_eq!(run(|| 6 * 7).await, Ok(42));
+        let r = run(|| -> u32 { panic!("boom") }).await;
+        assert_eq!(r, Err(Lost));
+        // Every thread still takes work: more jobs than threads, all answered.
+        let n = settings().threads * 4;
+        let all = futures_util::future::join_all((0..n).map(|i| run(move || i * 2))).await;
+        assert_eq!(all, (0..n).map(|i| Ok(i * 2)).collect::<Vec<_>>());
+    }
+
+    #[cfg(target_os = "linux")]
+    #[tokio::test]
+    async fn compute_threads_run_below_the_servers_priority() {
+        let step = settings().nice;
+        // Every thread of the test process has the niceness it started with, as the thread
+        // that started the pool had.
+        let here = thread_nice().unwrap();
+        let got = run(|| thread_nice().unwrap()).await.unwrap();
+        assert_eq!(got, (here + step).min(19));
+        assert!(step > 0, "the default is a lower priority");
+        assert_eq!(thread_nice().unwrap(), here, "the caller's priority moved");
+    }
+
+    #[tokio::test]
+    async fn a_job_whose_caller_left_is_skipped() {
+        use std::sync::atomic::AtomicBool;
+        // Fill every thread with a job that waits, so the next one queues.
+        let threads = settings().threads;
+        let gate = Arc::new((Mutex::new(false), std::sync::Condvar::new()));
+        let started = Arc::new(AtomicUsize::new(0));
+        let mut holds = Vec::new();
+        for _ in 0..threads {
+            let (g, s) = (Arc::clone(&gate), Arc::clone(&started));
+            holds.push(tokio::spawn(run(move || {
+                s.fetch_add(1, Ordering::SeqCst);
+                let (m, c) = &*g;
+                let mut open = m.lock().unwrap();
+                while !*open {
+                    open = c.wait(open).unwrap();
+                }
+            })));
+        }
+        // (Other tests share the pool: their jobs may run first, never for long.)
+        while started.load(Ordering::SeqCst) < threads {
+            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+        }
+        let ran = Arc::new(AtomicBool::new(false));
+        let r = Arc::clone(&ran);
+        let queued = run(move || r.store(true, Ordering::SeqCst));
+        // Polled once (so it is sent), then dropped: the caller left.
+        let mut queued = Box::pin(queued);
+        let waited = tokio::time::timeout(std::time::Duration::from_millis(20), queued.as_mut());
+        assert!(
+            waited.await.is_err(),
+            "the job ran while every thread was held"
+        );
+        drop(queued);
+        {
+            let (m, c) = &*gate;
+            *m.lock().unwrap() = true;
+            c.notify_all();
+        }
+        for h in holds {
+            h.await.unwrap().unwrap();
+        }
+        // Jobs sent after it run, so the skipped one was taken by then (first come, first
+        // served), by a thread that has since taken another.
+        for _ in 0..2 * threads {
+            run(|| ()).await.unwrap();
+        }
+        assert!(!ran.load(Ordering::SeqCst), "the abandoned job ran");
+    }
+}
