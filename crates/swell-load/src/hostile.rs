@@ -31,6 +31,10 @@ use tokio::io::{AsyncReadExt as _, AsyncWriteExt as _};
 use tokio::net::{TcpSocket, TcpStream};
 use tokio_util::sync::CancellationToken;
 
+/// How long the good client runs alone before the attack: 250 requests at the default rate,
+/// so that its p99 is not one outlier.
+const BASELINE: Duration = Duration::from_secs(5);
+
 /// How long after the attack the server's memory is read again.
 const SETTLE: Duration = Duration::from_secs(12);
 
@@ -76,6 +80,17 @@ pub struct HostileArgs {
     /// Requests a second of the well-behaved client.
     #[arg(long, default_value_t = 50.0)]
     pub good_rate: f64,
+    /// The attackers' CPU priority (Linux): `normal`, `low` (niceness 19) or `idle`
+    /// (`SCHED_IDLE`: they run only on CPU time nothing else wants, and yield the moment the
+    /// server or the good client wakes). The well-behaved client, the probes and the memory
+    /// watcher keep the tool's own priority. With the battery on the server's cores, every cycle
+    /// an attacker spends is one the server and the good client cannot have, and the kernel
+    /// lets a running attacker finish its time slice (~1–3 ms) before a woken server thread
+    /// runs: at `normal` the good client's tail measures that. At `idle` the attackers still
+    /// send at their full rates (the report gives them) but take no time the server wants, as
+    /// attackers on other machines would.
+    #[arg(long, value_enum, default_value_t = AttackerPriority::Normal)]
+    pub attacker_priority: AttackerPriority,
     /// Fail (exit 1) unless: probes p99 < 50 ms, every good request answered 2xx, good p99 ≤
     /// `--p99-factor` × its baseline (or ≤ `--p99-floor-ms`), and resident memory within
     /// `--rss-budget-mb` of the start during the attack and within `--rss-settle-mb` after.
@@ -160,6 +175,10 @@ pub struct HostileReport {
     pub idle_refused: u64,
     /// Idle connections still open at the end of the attack.
     pub idle_held: u64,
+    /// The attack's length, s (for the rates below).
+    pub attack_s: f64,
+    /// The attackers' CPU priority (`--attacker-priority`).
+    pub attacker_priority: AttackerPriority,
     /// Server resident memory at the start, MiB.
     pub rss_start_mb: f64,
     /// Highest resident memory seen during the attack, MiB.
@@ -236,8 +255,11 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
         ..Default::default()
     };
 
-    eprintln!("hostile: baseline, 3 s of the good client alone");
-    report.baseline = good_client_apart(&height, args.good_rate, Duration::from_secs(3)).await;
+    eprintln!(
+        "hostile: baseline, {} s of the good client alone",
+        BASELINE.as_secs()
+    );
+    report.baseline = good_client_apart(&height, args.good_rate, BASELINE).await;
 
     eprintln!(
         "hostile: attack for {} s ({} slow bodies, {} non-readers x2, flood x{}, {} idle)",
@@ -245,7 +267,12 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
     );
     let stop = CancellationToken::new();
     let counters = Arc::new(Counters::default());
-    let mut tasks = tokio::task::JoinSet::new();
+    // The attackers run on a runtime of their own, whose threads take `--attacker-priority`.
+    let attackers = attacker_runtime(args.attacker_priority).await?;
+    let mut tasks = Spawner {
+        set: tokio::task::JoinSet::new(),
+        on: attackers.handle().clone(),
+    };
     for i in 0..args.slow_bodies {
         let src = Ipv4Addr::new(127, 0, 2, 1 + (i % 8) as u8);
         tasks.spawn(slow_body(
@@ -304,6 +331,8 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
         })
     };
     let attack = Duration::from_secs_f64(args.duration.clamp(1.0, 600.0));
+    report.attack_s = attack.as_secs_f64();
+    report.attacker_priority = args.attacker_priority;
     let probes = tokio::spawn(probe(base.clone(), attack));
     report.during = good_client_apart(&height, args.good_rate, attack).await;
     report.probes = probes.await.unwrap_or_default();
@@ -313,10 +342,11 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
     report.idle_held = counters.idle_held.load(Ordering::Relaxed);
     // Give every attacker a moment to hang up, then settle.
     let _ = tokio::time::timeout(Duration::from_secs(5), async {
-        while tasks.join_next().await.is_some() {}
+        while tasks.set.join_next().await.is_some() {}
     })
     .await;
-    tasks.abort_all();
+    tasks.set.abort_all();
+    attackers.shutdown_background();
     // Long enough for the server's idle blocking threads to retire (tokio keeps them 10 s) and
     // for two of its 5 s heap-trim beats.
     eprintln!("hostile: attackers gone; settling {} s", SETTLE.as_secs());
@@ -368,6 +398,97 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
         }
     }
     Ok(report)
+}
+
+/// A [`tokio::task::JoinSet`] whose tasks run on the attackers' runtime.
+struct Spawner {
+    set: tokio::task::JoinSet<()>,
+    on: tokio::runtime::Handle,
+}
+
+impl Spawner {
+    fn spawn(&mut self, task: impl Future<Output = ()> + Send + 'static) {
+        self.set.spawn_on(task, &self.on);
+    }
+}
+
+/// The attackers' CPU priority (`--attacker-priority`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum AttackerPriority {
+    /// The tool's own priority.
+    #[default]
+    Normal,
+    /// Niceness 19.
+    Low,
+    /// `SCHED_IDLE` (and niceness 19).
+    Idle,
+}
+
+impl std::fmt::Display for AttackerPriority {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            AttackerPriority::Normal => "normal",
+            AttackerPriority::Low => "low (nice 19)",
+            AttackerPriority::Idle => "idle (SCHED_IDLE)",
+        })
+    }
+}
+
+/// The attackers' runtime: two worker threads (the machines these runs are made on have two
+/// cores) at `priority`.
+async fn attacker_runtime(priority: AttackerPriority) -> anyhow::Result<tokio::runtime::Runtime> {
+    let failed = Arc::new(std::sync::Mutex::new(None));
+    let seen = Arc::clone(&failed);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .thread_name("swell-load-attacker")
+        .enable_all()
+        .on_thread_start(move || {
+            if let Err(e) = set_thread_priority(priority)
+                && let Ok(mut f) = seen.lock()
+            {
+                *f = Some(e);
+            }
+        })
+        .build()
+        .map_err(|e| anyhow::anyhow!("cannot start the attackers' runtime: {e}"))?;
+    // The workers start with the runtime: a refusal shows once a task has run on it.
+    let _ = rt.spawn(async {}).await;
+    if let Some(e) = failed.lock().ok().and_then(|mut f| f.take()) {
+        anyhow::bail!("--attacker-priority {priority}: {e}");
+    }
+    Ok(rt)
+}
+
+/// Sets the calling thread's priority (Linux: `setpriority` and `sched_setscheduler` on a
+/// thread id apply to that thread only; lowering a priority needs no privilege).
+fn set_thread_priority(priority: AttackerPriority) -> std::io::Result<()> {
+    if priority == AttackerPriority::Normal {
+        return Ok(());
+    }
+    #[cfg(target_os = "linux")]
+    // SAFETY: gettid has no preconditions; setpriority and sched_setscheduler take plain
+    // integers and a pointer to a local.
+    unsafe {
+        let tid = libc::gettid();
+        #[allow(clippy::cast_sign_loss)]
+        if libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, 19) != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        if priority == AttackerPriority::Idle {
+            let p = libc::sched_param { sched_priority: 0 };
+            if libc::sched_setscheduler(tid, libc::SCHED_IDLE, &raw const p) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    Err(std::io::Error::new(
+        std::io::ErrorKind::Unsupported,
+        "attacker priorities are set on Linux only",
+    ))
 }
 
 #[derive(Debug, Default)]
@@ -660,9 +781,10 @@ impl std::fmt::Display for HostileReport {
         l(f, "baseline", &self.baseline)?;
         l(f, "during", &self.during)?;
         l(f, "probes", &self.probes)?;
+        let flood_rate = (self.flood_ok + self.flood_429) as f64 / self.attack_s.max(1e-9);
         writeln!(
             f,
-            "slow bodies: {} sockets, {} answered 408 | non-readers cut: {} | flood: {} ok, {} x 429 | idle: {} refused, {} held",
+            "slow bodies: {} sockets, {} answered 408 | non-readers cut: {} | flood: {} ok, {} x 429 ({flood_rate:.0} req/s sent and answered) | idle: {} refused, {} held",
             self.slow_body_sockets,
             self.slow_body_408,
             self.non_readers_cut,
@@ -670,6 +792,11 @@ impl std::fmt::Display for HostileReport {
             self.flood_429,
             self.idle_refused,
             self.idle_held
+        )?;
+        writeln!(
+            f,
+            "attackers at {} priority for {:.0} s",
+            self.attacker_priority, self.attack_s
         )?;
         writeln!(
             f,
