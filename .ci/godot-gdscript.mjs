@@ -71,6 +71,19 @@ async function decimals(port) {
     const text = await (await fetch(`http://127.0.0.1:${port}/v1/scenes/${id}`)).text();
     for (const d of text.match(/-?\d+\.\d+(e-?\d+)?/g) ?? []) out.push([d, bitsHex(Number(d))]);
   }
+  // Hard cases for an exact reader: 17 digits, ties to even (2^53 + 1, the halfway points
+  // around 1 and 2^-1022), the ends of the range, subnormals, and decimals that round up past
+  // a power of two.
+  const hard = [
+    '0.1', '0.30000000000000004', '9007199254740993', '9007199254740995', '1.0000000000000002',
+    '1.00000000000000011102230246251565404236316680908203125',
+    '1.00000000000000011102230246251565404236316680908203124',
+    '1.7976931348623157e308', '2.2250738585072014e-308', '2.2250738585072011e-308',
+    '4.9406564584124654e-324', '5e-324', '2.4703282292062328e-324', '123456789012345678',
+    '0.9999999999999999', '0.99999999999999995', '3.141592653589793', '6.283185307179586',
+    '1e23', '8.98846567431158e307', '-2.5e-3', '7.038531e-26', '1448997445238699',
+  ];
+  for (const d of hard) out.push([d, bitsHex(Number(d))]);
   return out;
 }
 

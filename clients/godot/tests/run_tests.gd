@@ -16,6 +16,7 @@ const SwellSurface := preload("res://addons/swell/swell_surface.gd")
 const SwellClient := preload("res://addons/swell/swell_client.gd")
 const SwellSession := preload("res://addons/swell/swell_session.gd")
 const SwellOcean := preload("res://addons/swell/swell_ocean.gd")
+const SwellJson := preload("res://addons/swell/swell_json.gd")
 
 var passed := 0
 var failed := 0
@@ -163,13 +164,23 @@ func test_interpolator_fixed() -> void:
 # bits) Godot's JSON.parse_string reads to other bits. A report, not a check: it is why the
 # uniforms test compares phases within 4e-15·max(1, t) rad and not bit for bit.
 func test_json_decimals() -> void:
-	var off := 0
+	var godot_off := 0
+	var bad: Array = []
 	for pair in expected.decimals:
-		var v: float = JSON.parse_string(pair[0])
-		if hex(v) != pair[1]:
-			off += 1
-	print("  json: %d of %d decimals from GET /v1/scenes/{calm,lake} parse to other bits in Godot than in JS" % [off, expected.decimals.size()])
-	check(expected.decimals.size() > 20, "json: decimals compared")
+		if hex(float(JSON.parse_string(pair[0]))) != pair[1]:
+			godot_off += 1
+		if hex(SwellJson.to_double(pair[0])) != pair[1]:
+			bad.append("%s: %s, JS %s" % [pair[0], hex(SwellJson.to_double(pair[0])), pair[1]])
+	print("  json: %d of %d decimals parse to other bits in Godot's JSON than in JS; SwellJson: %d" % [godot_off, expected.decimals.size(), bad.size()])
+	check(expected.decimals.size() > 40 and bad.is_empty(), "json: SwellJson reads %d decimals (GET /v1/scenes/{calm,lake} and hard cases) to JS's bits" % expected.decimals.size(), str(bad.slice(0, 5)))
+	# Numbers inside strings are not numbers; every number of the text is read again, in order.
+	var text := '{"a":"x -1.5 \\" 2e3","b":[0.1,-2.5e-3,{"c":1.7976931348623157e308,"d":[]}],"e":true,"f":null,"g":3,"h":5e-324}'
+	var v = SwellJson.parse(text)
+	var ok: bool = v is Dictionary and v.a == 'x -1.5 " 2e3' and v.b.size() == 3 and hex(v.b[0]) == "3fb999999999999a" \
+		and hex(v.b[1]) == "bf647ae147ae147b" and hex(v.b[2].c) == "7fefffffffffffff" and v.e == true and v.f == null \
+		and float(v.g) == 3.0 and hex(v.h) == "0000000000000001"
+	check(ok, "json: SwellJson.parse reads a document's numbers and leaves its strings", str(v))
+	check(SwellJson.parse("{not json") == null, "json: SwellJson.parse of a broken text is null")
 
 
 # --- against a real server ----------------------------------------------------------------
@@ -213,8 +224,6 @@ func test_uniforms_match_server() -> void:
 	var c = new_client()
 	var bad: Array = []
 	var n := 0
-	var ulp_off := 0
-	var worst := 0.0
 	for id in ["calm", "lake", "open-sea"]:
 		var surf := SwellSurface.new(await c.scene(id))
 		for tc in [[0.0, 0.0, 0.0], [10.0, 5.0, 7.0], [28417808.757, -1000.5, 333.25], [1e6 + 0.1, 1e6, -1e6]]:
@@ -222,20 +231,14 @@ func test_uniforms_match_server() -> void:
 			var mine := surf.uniforms(tc[0], tc[1], tc[2])
 			for i in u.phases.size():
 				n += 1
-				# Not bits: a wave's k or ω read one ulp off (test_json_decimals) moves the phase by
-				# up to an ulp times t, plus the roundings of its terms: 4e-15·max(1, t) rad.
-				var diff := absf(mine.phases[i] - float(u.phases[i]))
-				worst = maxf(worst, diff / maxf(1.0, absf(tc[0])))
-				if diff > 4e-15 * maxf(1.0, absf(tc[0])):
+				# The server's bits: both answers' numbers are read exactly (SwellJson).
+				if hex(mine.phases[i]) != hex(u.phases[i]):
 					bad.append("%s t=%s phase %d: %s vs server %s" % [id, tc[0], i, hex(mine.phases[i]), hex(u.phases[i])])
-				elif hex(mine.phases[i]) != hex(u.phases[i]):
-					ulp_off += 1
 			for i in u.block.size():
 				n += 1
 				if mine.block[i] != PackedFloat32Array([float(u.block[i])])[0]:
 					bad.append("%s t=%s block[%d]: %s vs %s" % [id, tc[0], i, mine.block[i], u.block[i]])
-	print("  uniforms: %d phases not the server's bits, at most %s·max(1, t) rad off (JSON input, see test_json_decimals)" % [ulp_off, String.num_scientific(worst)])
-	check(bad.is_empty() and n > 100, "uniforms: %d values equal GET …/uniforms (f32 block to the bit, f64 phases within 4e-15·max(1, t) rad) on calm, lake, open-sea" % n, str(bad.slice(0, 5)))
+	check(bad.is_empty() and n > 100, "uniforms: %d values equal GET …/uniforms bit for bit (f64 phases, f32 block) on calm, lake, open-sea" % n, str(bad.slice(0, 5)))
 	c.queue_free()
 
 

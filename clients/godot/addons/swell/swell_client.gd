@@ -6,6 +6,8 @@ extends Node
 ## Add it to the tree first (HTTPRequest nodes are its children). Numbers go out with
 ## JSON.stringify(..., full_precision = true): times and positions keep all 17 digits.
 
+const SwellJson := preload("swell_json.gd")
+
 ## Base URL, e.g. "http://127.0.0.1:8080" (no trailing slash needed).
 @export var base_url: String = "http://127.0.0.1:8080"
 ## Admin bearer token, only for set_clock.
@@ -28,8 +30,9 @@ func scenes():
 
 
 ## GET /v1/scenes/{id}: spec, derived (every built wave), model_version, spec_hash, clock.
+## Its numbers are read exactly (SwellJson), so SwellSurface computes the server's bits.
 func scene(id: String):
-	return await request_json(HTTPClient.METHOD_GET, "/v1/scenes/" + id.uri_encode())
+	return await request_json(HTTPClient.METHOD_GET, "/v1/scenes/" + id.uri_encode(), null, false, "", true)
 
 
 ## GET /v1/scenes/{id}/clock: {t, tick, tick_hz, rate, paused, unix, generation}.
@@ -66,7 +69,7 @@ func uniforms(id: String, t: float = NAN, origin: Vector2 = Vector2.ZERO, origin
 	var q := "?origin=%s,%s" % [_num(o[0]), _num(o[1])]
 	if not is_nan(t):
 		q += "&t=" + _num(t)
-	return await request_json(HTTPClient.METHOD_GET, "/v1/scenes/" + id.uri_encode() + "/uniforms" + q)
+	return await request_json(HTTPClient.METHOD_GET, "/v1/scenes/" + id.uri_encode() + "/uniforms" + q, null, false, "", true)
 
 
 ## GET …/shader?lang=gdshaderinc: the scene's Godot shader include, as text (null on failure).
@@ -90,12 +93,15 @@ static func _num(x: float) -> String:
 	return JSON.stringify(x, "", false, true)
 
 
-## One JSON request: the parsed answer, or null (see last_error).
-func request_json(method: int, path: String, body = null, admin: bool = false, token: String = ""):
+## One JSON request: the parsed answer, or null (see last_error). `exact`: every number read to
+## the nearest double (SwellJson; Godot's own parser reads some an ulp off), for answers whose
+## numbers must be the server's bits.
+func request_json(method: int, path: String, body = null, admin: bool = false, token: String = "", exact: bool = false):
 	var raw = await request(method, path, body, admin, token)
 	if raw == null:
 		return null
-	var parsed = JSON.parse_string(raw.get_string_from_utf8())
+	var text: String = raw.get_string_from_utf8()
+	var parsed = SwellJson.parse(text) if exact else JSON.parse_string(text)
 	if parsed == null:
 		last_error = {"status": 200, "code": "bad_json", "message": "the answer to %s is not JSON" % path}
 	return parsed
