@@ -255,7 +255,8 @@ struct Heads {
     /// may hold some already), so a head's first bytes can be taken for the tail, never the
     /// other way round: the timer may arm late, which leaves a slow head to the idle timeout,
     /// but never for a request that was not started. `u64::MAX`: a body of unknown length
-    /// (chunked), so no byte is taken for a head until the next head completes.
+    /// (chunked), whose tail ends at the first read that finds the socket empty
+    /// ([`Heads::socket_drained`]).
     tail: AtomicU64,
 }
 
@@ -273,6 +274,17 @@ impl Heads {
     fn answered(&self, body: &BodyProgress) {
         self.tail.store(body.left(), Ordering::Relaxed);
         self.answering.store(false, Ordering::Relaxed);
+    }
+
+    /// A read found the socket empty while no request was being answered. hyper drains an
+    /// unread body after its answer only as far as the socket has bytes at hand: past that it
+    /// stops reading the connection and closes it after the answer. So a body of unknown length
+    /// (chunked) has ended by then, on the wire, one way or the other, and the next byte read
+    /// is a head's.
+    fn socket_drained(&self) {
+        let _ = self
+            .tail
+            .compare_exchange(u64::MAX, 0, Ordering::Relaxed, Ordering::Relaxed);
     }
 
     /// Takes `n` bytes just read while no request is being answered: whether any of them start
@@ -457,11 +469,11 @@ impl Counted {
             // Answered 408: the stream ends here for hyper.
             return Poll::Ready(Ok(()));
         }
-        if got > 0
-            && self.head.is_none()
-            && !self.heads.answering.load(Ordering::Relaxed)
-            && self.heads.starts_head(got as u64)
-        {
+        let answering = self.heads.answering.load(Ordering::Relaxed);
+        if p.is_pending() && !answering {
+            self.heads.socket_drained();
+        }
+        if got > 0 && self.head.is_none() && !answering && self.heads.starts_head(got as u64) {
             self.head = Some((complete, Some(Box::pin(tokio::time::sleep(after)))));
         }
         if let (Poll::Pending, Some((_, Some(timer)))) = (&p, &mut self.head)
