@@ -304,9 +304,13 @@ impl Queue {
 
     /// [`Queue::push`] for a query's answer: the charge its work held becomes the encoded
     /// message's size, held until the writer has sent it.
-    fn push_answer(&self, out: Outgoing, mut charge: Charge) {
+    fn push_answer(&self, out: Outgoing, charge: Charge) {
         let id = out.id;
-        let m = encode(self.codec, out.finite_or_error());
+        self.push_encoded_answer(id, encode(self.codec, out.finite_or_error()), charge);
+    }
+
+    /// [`Queue::push_answer`] for an answer already encoded (on the compute pool).
+    fn push_encoded_answer(&self, id: Option<u64>, m: Message, mut charge: Charge) {
         let len = match &m {
             Message::Text(t) => t.len(),
             Message::Binary(b) => b.len(),
@@ -975,14 +979,20 @@ fn query(
     }
     let st = state.clone();
     let queue = queue.clone();
+    let codec = queue.codec;
     state.tasks.spawn(async move {
-        let result = crate::compute::run(move || run(&st, &scene, at))
-            .await
-            .map_err(|e| QueryError::Task(e.to_string()))
-            .and_then(|r| r);
+        // Encoded where it ran too: a large answer is milliseconds of number formatting that
+        // the reactor should not spend.
+        let result = crate::compute::run(move || {
+            run(&st, &scene, at)
+                .map(|event| encode(codec, Outgoing { id, event }.finite_or_error()))
+        })
+        .await
+        .map_err(|e| QueryError::Task(e.to_string()))
+        .and_then(|r| r);
         drop(permit);
         match result {
-            Ok(event) => queue.push_answer(Outgoing { id, event }, charge),
+            Ok(m) => queue.push_encoded_answer(id, m, charge),
             Err(e) => queue.error(id, e.into()),
         }
     });
