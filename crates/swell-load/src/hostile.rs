@@ -92,8 +92,9 @@ pub struct HostileArgs {
     #[arg(long, value_enum, default_value_t = AttackerPriority::Normal)]
     pub attacker_priority: AttackerPriority,
     /// Fail (exit 1) unless: probes p99 < 50 ms, every good request answered 2xx, good p99 ≤
-    /// `--p99-factor` × its baseline (or ≤ `--p99-floor-ms`), and resident memory within
-    /// `--rss-budget-mb` of the start during the attack and within `--rss-settle-mb` after.
+    /// `--p99-factor` × its baseline (or ≤ `--p99-floor-ms`), no good answer slower than
+    /// `--max-ms` (when set), and resident memory within `--rss-budget-mb` of the start during
+    /// the attack and within `--rss-settle-mb` after.
     #[arg(long)]
     pub assert: bool,
     /// See `--assert`.
@@ -102,6 +103,10 @@ pub struct HostileArgs {
     /// A p99 this low passes whatever the baseline (timer and scheduler noise on loopback), ms.
     #[arg(long, default_value_t = 5.0)]
     pub p99_floor_ms: f64,
+    /// The slowest good answer allowed during the attack, ms (0: not checked). A stall of the
+    /// whole server (every reactor thread busy at once) shows here before it moves the p99.
+    #[arg(long, default_value_t = 0.0)]
+    pub max_ms: f64,
     /// See `--assert`, MiB.
     #[arg(long, default_value_t = 320.0)]
     pub rss_budget_mb: f64,
@@ -380,6 +385,12 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
             fail(format!(
                 "good client p99 {:.2} ms > {bound:.2} ms ({}x its baseline {:.2} ms, floor {} ms)",
                 r.during.p99_ms, args.p99_factor, r.baseline.p99_ms, args.p99_floor_ms
+            ));
+        }
+        if args.max_ms > 0.0 && r.during.max_ms > args.max_ms {
+            fail(format!(
+                "the good client's slowest answer took {:.1} ms (--max-ms {})",
+                r.during.max_ms, args.max_ms
             ));
         }
         if pid.is_some() {
