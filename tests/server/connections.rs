@@ -248,16 +248,34 @@ async fn a_drained_body_after_an_early_reject_is_not_a_slow_head() {
     let mut c = limited(100, 60_000);
     c.limits.head_timeout_ms = 300;
     let s = TestServer::start(c).await;
-    let body = [b'x'; 64];
-    let start = "PUT /v1/scenes/upload HTTP/1.1\r\nhost: swell\r\ncontent-type: application/json\r\ncontent-length: 64\r\nexpect: 100-continue\r\nx-pad: ";
+    let mut tcp = rejected_upload(
+        s.addr,
+        "content-length: 64\r\nexpect: 100-continue",
+        &[b'x'; 64],
+    )
+    .await;
+    // Still open: the next request is served on it.
+    let a = healthz(&mut tcp, Duration::from_secs(5)).await;
+    assert!(a.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
+    // And a slow head on it is still answered 408.
+    slow_head_gets_408(tcp).await;
+    s.stop().await;
+}
+
+/// Sends an upload without a token (a PUT whose head, with `framing`'s headers, is padded to
+/// exactly 8 KiB, hyper's first read, so `body` is not read with it), and checks the 401 and
+/// then nothing for four head timeouts (300 ms): the connection is idle, not in a head.
+async fn rejected_upload(addr: std::net::SocketAddr, framing: &str, body: &[u8]) -> TcpStream {
+    let start = format!(
+        "PUT /v1/scenes/upload HTTP/1.1\r\nhost: swell\r\ncontent-type: application/json\r\n{framing}\r\nx-pad: "
+    );
     let end = "\r\n\r\n";
     let pad = "p".repeat(8192 - start.len() - end.len());
     let mut request = format!("{start}{pad}{end}").into_bytes();
     assert_eq!(request.len(), 8192);
-    request.extend_from_slice(&body);
-    let mut tcp = TcpStream::connect(s.addr).await.unwrap();
+    request.extend_from_slice(body);
+    let mut tcp = TcpStream::connect(addr).await.unwrap();
     tcp.write_all(&request).await.unwrap();
-    // The 401, then nothing for four head timeouts: the connection is idle, not in a head.
     let mut got = Vec::new();
     let mut buf = [0u8; 4096];
     let quiet_until = Instant::now() + Duration::from_millis(1200);
@@ -274,64 +292,12 @@ async fn a_drained_body_after_an_early_reject_is_not_a_slow_head() {
         !got.contains("408"),
         "a 408 after the drained body: {got:?}"
     );
-    // Still open: the next request is served on it.
-    let a = healthz(&mut tcp, Duration::from_secs(5)).await;
-    assert!(a.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
-    // And a slow head on it is still answered 408.
-    tcp.write_all(b"GET /healthz HTTP/1.1\r\n").await.unwrap();
-    let mut rest = Vec::new();
-    let _ = tokio::time::timeout(Duration::from_secs(5), tcp.read_to_end(&mut rest)).await;
-    let rest = String::from_utf8_lossy(&rest).into_owned();
-    assert!(rest.contains("HTTP/1.1 408"), "{rest:?}");
-    s.stop().await;
+    tcp
 }
 
-/// The same with a chunked body (sent with its head, no `100 Continue` asked: with one, hyper
-/// closes the connection after an early answer instead of draining a chunked body). Its length
-/// is not known when the 401 goes out, so the server took every byte after it for the body's
-/// tail until the next head completed, and a slow head after a drained chunked body had only
-/// the idle timeout (60 s). The tail now ends at the first read that finds the socket empty
-/// (hyper drains only what is at hand): the connection stays quiet, serves the next request,
-/// and a slow head after that is answered 408.
-#[tokio::test]
-async fn a_drained_chunked_body_is_not_a_slow_head_and_the_next_slow_head_is() {
-    let _turn = ONE_AT_A_TIME.lock().await;
-    let mut c = limited(100, 60_000);
-    c.limits.head_timeout_ms = 300;
-    let s = TestServer::start(c).await;
-    // A 401 for a chunked upload without a token, then 1.2 s of quiet on the connection.
-    let rejected = || async {
-        let start = "PUT /v1/scenes/upload HTTP/1.1\r\nhost: swell\r\ncontent-type: application/json\r\ntransfer-encoding: chunked\r\nx-pad: ";
-        let end = "\r\n\r\n";
-        let pad = "p".repeat(8192 - start.len() - end.len());
-        let mut request = format!("{start}{pad}{end}").into_bytes();
-        request.extend_from_slice(format!("40\r\n{}\r\n0\r\n\r\n", "x".repeat(64)).as_bytes());
-        let mut tcp = TcpStream::connect(s.addr).await.unwrap();
-        tcp.write_all(&request).await.unwrap();
-        let mut got = Vec::new();
-        let mut buf = [0u8; 4096];
-        let quiet_until = Instant::now() + Duration::from_millis(1200);
-        while let Some(left) = quiet_until.checked_duration_since(Instant::now()) {
-            match tokio::time::timeout(left, tcp.read(&mut buf)).await {
-                Ok(Ok(0)) | Ok(Err(_)) => break,
-                Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
-                Err(_) => {}
-            }
-        }
-        let got = String::from_utf8_lossy(&got).into_owned();
-        assert!(got.starts_with("HTTP/1.1 401"), "{got:?}");
-        assert!(
-            !got.contains("408"),
-            "a 408 after the drained body: {got:?}"
-        );
-        tcp
-    };
-    // The connection is open and serves the next request.
-    let mut tcp = rejected().await;
-    let a = healthz(&mut tcp, Duration::from_secs(5)).await;
-    assert!(a.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
-    // The first head after the drained body, trickled: 408 within the head timeout.
-    let mut tcp = rejected().await;
+/// Trickles a head on `tcp` and checks it is answered 408 within the head timeout, well before
+/// the idle timeout.
+async fn slow_head_gets_408(mut tcp: TcpStream) {
     let begun = Instant::now();
     tcp.write_all(b"GET /healthz HTTP/1.1\r\n").await.unwrap();
     let mut rest = Vec::new();
@@ -348,6 +314,29 @@ async fn a_drained_chunked_body_is_not_a_slow_head_and_the_next_slow_head_is() {
         "{:?}",
         begun.elapsed()
     );
+}
+
+/// The same with a chunked body (sent with its head, no `100 Continue` asked: with one, hyper
+/// closes the connection after an early answer instead of draining a chunked body). Its length
+/// is not known when the 401 goes out, so the server took every byte after it for the body's
+/// tail until the next head completed, and a slow head after a drained chunked body had only
+/// the idle timeout (60 s). The tail now ends at the first read that finds the socket empty
+/// (hyper drains only what is at hand): the connection stays quiet, serves the next request,
+/// and a slow head after that is answered 408.
+#[tokio::test]
+async fn a_drained_chunked_body_is_not_a_slow_head_and_the_next_slow_head_is() {
+    let _turn = ONE_AT_A_TIME.lock().await;
+    let mut c = limited(100, 60_000);
+    c.limits.head_timeout_ms = 300;
+    let s = TestServer::start(c).await;
+    let chunked = format!("40\r\n{}\r\n0\r\n\r\n", "x".repeat(64));
+    // The connection is open and serves the next request.
+    let mut tcp = rejected_upload(s.addr, "transfer-encoding: chunked", chunked.as_bytes()).await;
+    let a = healthz(&mut tcp, Duration::from_secs(5)).await;
+    assert!(a.is_some_and(|a| a.starts_with("HTTP/1.1 200")));
+    // The first head after the drained body, trickled: 408 within the head timeout.
+    let tcp = rejected_upload(s.addr, "transfer-encoding: chunked", chunked.as_bytes()).await;
+    slow_head_gets_408(tcp).await;
     s.stop().await;
 }
 
