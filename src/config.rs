@@ -436,6 +436,14 @@ pub fn parse_toml(text: &str) -> Result<FileContents, String> {
         })?;
         scenes.push((id, spec));
     }
+    if let Some(l) = &file.limits
+        && !(0..=19).contains(&l.compute_nice)
+    {
+        return Err(format!(
+            "limits.compute_nice = {}: niceness steps run from 0 (the server's own priority) to 19",
+            l.compute_nice
+        ));
+    }
     Ok(FileContents {
         scenes,
         limits: file.limits,

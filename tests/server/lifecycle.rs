@@ -101,6 +101,12 @@ layers = [{ kind = "sine", waves = [{ amplitude = 0.1, wavelength = 8, direction
 
     let err = swell::config::parse_toml("[scenes.pond]\nlayers = []\ncolour = 1\n").unwrap_err();
     assert!(err.contains("colour"), "{err}");
+    let err = swell::config::parse_toml("[limits]\ncompute_nice = 25\n").unwrap_err();
+    assert!(err.contains("limits.compute_nice = 25"), "{err}");
+    let ok =
+        swell::config::parse_toml("[limits]\ncompute_threads = 3\ncompute_nice = 0\n").unwrap();
+    let limits = ok.limits.unwrap();
+    assert_eq!((limits.compute_threads, limits.compute_nice), (3, 0));
 }
 
 /// Shutdown waits for an in-flight request: a big batch started before the signal completes
