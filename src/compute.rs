@@ -7,23 +7,78 @@
 //! the same share of the two cores as the two reactor threads. Every cheap request, probe and
 //! tick write then waited its turn behind them: the good client of `.ci/hostile` saw 100–220 ms
 //! stalls in the first second of the attack, and encoding those answers on the reactor cost it
-//! 2–13 ms stalls after that. Here the work queues (first come, first served) for
+//! 2–13 ms stalls after that. Here the work queues (in turns by client, below) for
 //! [`Limits::compute_threads`](crate::Limits::compute_threads) threads, and those threads run
 //! at niceness [`Limits::compute_nice`](crate::Limits::compute_nice): the kernel gives the
 //! reactor the cores first, and the pool everything the reactor leaves, so a saturated pool
 //! slows batch answers, not the cheap ones. Alone on a machine the pool has every core it
 //! would have had.
 //!
+//! Waiting work is served in turns by client address, one job per client per turn, first come
+//! first served within a client: a client with a hundred large queries waiting delays another
+//! client's one query by at most one job per thread, not by all hundred. The client is the one
+//! admission resolved (through trusted proxies), carried to [`run`] by [`for_client`] around the
+//! request or session; work outside any client shares one turn.
+//!
 //! One pool per process, started at the first use with the settings of the first server that
 //! configured it ([`configure`]); a later server in the same process (tests) shares it. A job
 //! whose caller went away (a cancelled request) before a thread took it is skipped. A job that
 //! panics is caught and reported to its caller as [`Lost`]; the thread lives on.
 
+use std::collections::{HashMap, VecDeque};
+use std::net::IpAddr;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, Sender, channel};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Condvar, Mutex, OnceLock};
 
 type Job = Box<dyn FnOnce() + Send>;
+
+/// Whose work a job is (`None`: no client).
+type Client = Option<IpAddr>;
+
+tokio::task_local! {
+    static CLIENT: Client;
+}
+
+/// Runs `f` with `client` as the client of every [`run`] inside it (on this task).
+pub async fn for_client<F: Future>(client: Client, f: F) -> F::Output {
+    CLIENT.scope(client, f).await
+}
+
+/// The client [`for_client`] set around the running task, if any.
+pub fn current_client() -> Client {
+    CLIENT.try_with(|c| *c).ok().flatten()
+}
+
+/// Jobs waiting, by client, and the order in which clients take their turns.
+#[derive(Default)]
+struct Waiting {
+    jobs: HashMap<Client, VecDeque<Job>>,
+    /// Clients with jobs waiting, the next to be served first.
+    turns: VecDeque<Client>,
+}
+
+impl Waiting {
+    fn push(&mut self, client: Client, job: Job) {
+        let q = self.jobs.entry(client).or_default();
+        if q.is_empty() {
+            self.turns.push_back(client);
+        }
+        q.push_back(job);
+    }
+
+    /// The next client's oldest job; the client goes to the back of the turns if it has more.
+    fn pop(&mut self) -> Option<Job> {
+        let client = self.turns.pop_front()?;
+        let q = self.jobs.get_mut(&client)?;
+        let job = q.pop_front();
+        if q.is_empty() {
+            self.jobs.remove(&client);
+        } else {
+            self.turns.push_back(client);
+        }
+        job
+    }
+}
 
 /// The pool's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,7 +105,7 @@ impl Settings {
 
 struct Pool {
     settings: Settings,
-    jobs: Sender<Job>,
+    waiting: Arc<(Mutex<Waiting>, Condvar)>,
     /// Jobs sent and not yet taken by a thread.
     queued: Arc<AtomicUsize>,
 }
@@ -69,36 +124,42 @@ pub fn configure(settings: Settings) -> Settings {
 fn pool() -> &'static Pool {
     POOL.get_or_init(|| {
         let settings = *WANTED.get_or_init(|| Settings::from_limits(&crate::Limits::default()));
-        let (jobs, rx) = channel::<Job>();
-        let rx = Arc::new(Mutex::new(rx));
+        let waiting = Arc::new((Mutex::new(Waiting::default()), Condvar::new()));
         let queued = Arc::new(AtomicUsize::new(0));
         for i in 0..settings.threads.max(1) {
-            let (rx, queued) = (Arc::clone(&rx), Arc::clone(&queued));
+            let (waiting, queued) = (Arc::clone(&waiting), Arc::clone(&queued));
             let nice = settings.nice;
             let spawned = std::thread::Builder::new()
                 .name(format!("swell-compute-{i}"))
-                .spawn(move || worker(&rx, &queued, nice));
+                .spawn(move || worker(&waiting, &queued, nice));
             if let Err(e) = spawned {
                 tracing::error!(error = %e, "could not start a compute thread");
             }
         }
         Pool {
             settings,
-            jobs,
+            waiting,
             queued,
         }
     })
 }
 
-fn worker(rx: &Mutex<Receiver<Job>>, queued: &AtomicUsize, nice: i32) {
+fn worker(waiting: &(Mutex<Waiting>, Condvar), queued: &AtomicUsize, nice: i32) {
     set_thread_nice(nice);
+    let (lock, ready) = waiting;
     loop {
-        // The lock is held only while waiting for the next job; the others wait for the lock.
-        let job = match rx.lock() {
-            Ok(rx) => rx.recv(),
-            Err(_) => return,
+        let job = {
+            let Ok(mut w) = lock.lock() else { return };
+            loop {
+                if let Some(job) = w.pop() {
+                    break job;
+                }
+                w = match ready.wait(w) {
+                    Ok(w) => w,
+                    Err(_) => return,
+                };
+            }
         };
-        let Ok(job) = job else { return };
         publish(queued.fetch_sub(1, Ordering::Relaxed) - 1);
         job();
     }
@@ -169,12 +230,24 @@ impl std::fmt::Display for Lost {
 
 impl std::error::Error for Lost {}
 
-/// Runs `f` on the pool and waits for its result without blocking the caller's thread.
-/// Dropping the returned future before a thread took the job skips it.
+/// Runs `f` on the pool, in the turn of the client [`for_client`] set (if any), and waits for
+/// its result without blocking the caller's thread. Dropping the returned future before a
+/// thread took the job skips it.
 ///
 /// # Errors
 /// [`Lost`] when `f` panicked.
 pub async fn run<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> Result<T, Lost> {
+    run_for(current_client(), f).await
+}
+
+/// [`run`] in `client`'s turn.
+///
+/// # Errors
+/// [`Lost`] when `f` panicked.
+pub async fn run_for<T: Send + 'static>(
+    client: Client,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> Result<T, Lost> {
     let (tx, rx) = tokio::sync::oneshot::channel();
     let job: Job = Box::new(move || {
         if tx.is_closed() {
@@ -186,9 +259,14 @@ pub async fn run<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> R
     });
     let pool = pool();
     publish(pool.queued.fetch_add(1, Ordering::Relaxed) + 1);
-    if pool.jobs.send(job).is_err() {
-        publish(pool.queued.fetch_sub(1, Ordering::Relaxed) - 1);
-        return Err(Lost);
+    {
+        let (lock, ready) = &*pool.waiting;
+        let Ok(mut w) = lock.lock() else {
+            publish(pool.queued.fetch_sub(1, Ordering::Relaxed) - 1);
+            return Err(Lost);
+        };
+        w.push(client, job);
+        ready.notify_one();
     }
     rx.await.map_err(|_| Lost)
 }
@@ -224,6 +302,45 @@ mod tests {
         assert_eq!(got, (here + step).min(19));
         assert!(step > 0, "the default is a lower priority");
         assert_eq!(thread_nice().unwrap(), here, "the caller's priority moved");
+    }
+
+    /// Turns by client: one job each per turn, each client's own in the order sent.
+    #[test]
+    fn waiting_work_is_served_in_turns_by_client() {
+        let order = Arc::new(Mutex::new(Vec::new()));
+        let job = |name: &'static str| -> Job {
+            let order = Arc::clone(&order);
+            Box::new(move || order.lock().unwrap().push(name))
+        };
+        let (a, b) = (
+            Some(IpAddr::from([10, 0, 0, 1])),
+            Some(IpAddr::from([10, 0, 0, 2])),
+        );
+        let mut w = Waiting::default();
+        for name in ["a1", "a2", "a3", "a4"] {
+            w.push(a, job(name));
+        }
+        w.push(b, job("b1"));
+        w.push(None, job("n1"));
+        w.push(b, job("b2"));
+        while let Some(j) = w.pop() {
+            j();
+        }
+        assert_eq!(
+            *order.lock().unwrap(),
+            ["a1", "b1", "n1", "a2", "b2", "a3", "a4"]
+        );
+        assert!(w.jobs.is_empty() && w.turns.is_empty());
+    }
+
+    #[tokio::test]
+    async fn the_client_set_around_a_task_is_its_jobs_client() {
+        let ip = Some(IpAddr::from([192, 0, 2, 7]));
+        assert_eq!(current_client(), None);
+        assert_eq!(for_client(ip, async { current_client() }).await, ip);
+        let seen = for_client(ip, async { run(current_client).await }).await;
+        // The job itself runs on a pool thread, outside the task: it sees no client.
+        assert_eq!(seen, Ok(None));
     }
 
     #[tokio::test]

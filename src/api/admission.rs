@@ -272,7 +272,10 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
         return ApiError::overloaded("too many requests in flight; retry shortly").into_response();
     };
     let timeout = limits.request_timeout();
-    let resp = match tokio::time::timeout(timeout, next.run(req)).await {
+    // Batch work takes its turn on the compute pool as this client's.
+    let turn = peer.map(|p| gate.policy.client(p, req.headers()));
+    let work = crate::compute::for_client(turn, next.run(req));
+    let resp = match tokio::time::timeout(timeout, work).await {
         Ok(r) => r,
         Err(_) => {
             return ApiError::new(

@@ -184,7 +184,9 @@ pub async fn stream(
     Ok(ws.on_upgrade(move |socket: WebSocket| {
         tasks.track_future(async move {
             let (sink, stream) = socket.split();
-            session(state, id, codec, client, sink, stream).await;
+            // Its large decodes take their turn on the compute pool as this client's.
+            crate::compute::for_client(client, session(state, id, codec, client, sink, stream))
+                .await;
         })
     }))
 }
@@ -983,7 +985,7 @@ fn query(
     state.tasks.spawn(async move {
         // Encoded where it ran too: a large answer is milliseconds of number formatting that
         // the reactor should not spend.
-        let result = crate::compute::run(move || {
+        let result = crate::compute::run_for(queue.client, move || {
             run(&st, &scene, at)
                 .map(|event| encode(codec, Outgoing { id, event }.finite_or_error()))
         })
