@@ -271,6 +271,11 @@ pub async fn run_for<T: Send + 'static>(
     rx.await.map_err(|_| Lost)
 }
 
+/// Jobs waiting for a thread now (all clients).
+pub fn queued() -> usize {
+    pool().queued.load(Ordering::Relaxed)
+}
+
 /// The pool's settings (starting it if it has not started).
 pub fn settings() -> Settings {
     pool().settings

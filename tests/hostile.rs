@@ -1047,3 +1047,96 @@ async fn large_bodies_decode_off_the_reactor_with_the_same_answers() {
     assert_eq!(v["field"], "points[7000][1]", "{v}");
     s.stop().await;
 }
+
+/// Batch work takes turns by client address: with every compute thread held, one address
+/// queues eight large samples and another then one; once the threads are free, the second
+/// address's answer comes before most of the first's (first come, first served would put it
+/// last: its decode and its query would each wait behind all eight of the other's).
+#[tokio::test]
+async fn one_address_with_many_batches_does_not_queue_out_another() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::{Arc, Condvar, Mutex};
+    let s = TestServer::start(hostile_config()).await;
+    // Hold every compute thread (other tests' jobs queue meanwhile, a second at most).
+    let threads = swell::compute::settings().threads;
+    let gate = Arc::new((Mutex::new(false), Condvar::new()));
+    let started = Arc::new(AtomicUsize::new(0));
+    let mut holds = Vec::new();
+    for _ in 0..threads {
+        let (g, n) = (Arc::clone(&gate), Arc::clone(&started));
+        holds.push(tokio::spawn(swell::compute::run(move || {
+            n.fetch_add(1, Ordering::SeqCst);
+            let (m, c) = &*g;
+            let mut open = m.lock().unwrap();
+            while !*open {
+                open = c.wait(open).unwrap();
+            }
+        })));
+    }
+    while started.load(Ordering::SeqCst) < threads {
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+    let points: Vec<[f64; 2]> = (0..6000)
+        .map(|i| [f64::from(i % 100) * 0.5, f64::from(i / 100) * 0.5])
+        .collect();
+    let body = json!({"t": 5.0, "points": points, "fields": ["height"]}).to_string();
+    let url = format!("http://{}/v1/scenes/lake/sample", s.addr);
+    let order = Arc::new(Mutex::new(Vec::new()));
+    let send = |from: [u8; 4], name: &'static str| {
+        let (client, url, body, order) = (
+            client_from(from),
+            url.clone(),
+            body.clone(),
+            Arc::clone(&order),
+        );
+        tokio::spawn(async move {
+            let r = client
+                .post(&url)
+                .header("content-type", "application/json")
+                .body(body)
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(r.status(), 200, "{name}");
+            let _ = r.bytes().await.unwrap();
+            order.lock().unwrap().push(name);
+        })
+    };
+    let wait_queued = |n: usize| async move {
+        let until = Instant::now() + Duration::from_secs(10);
+        while swell::compute::queued() < n {
+            assert!(
+                Instant::now() < until,
+                "{} jobs queued, want {n}",
+                swell::compute::queued()
+            );
+            tokio::time::sleep(Duration::from_millis(2)).await;
+        }
+    };
+    let mut sent = Vec::new();
+    for _ in 0..8 {
+        sent.push(send([127, 0, 9, 1], "a"));
+    }
+    wait_queued(8).await;
+    sent.push(send([127, 0, 9, 2], "b"));
+    wait_queued(9).await;
+    {
+        let (m, c) = &*gate;
+        *m.lock().unwrap() = true;
+        c.notify_all();
+    }
+    for h in holds {
+        h.await.unwrap().unwrap();
+    }
+    for h in sent {
+        h.await.unwrap();
+    }
+    let order = order.lock().unwrap().clone();
+    let b = order.iter().position(|n| *n == "b").unwrap();
+    assert!(
+        b <= 5,
+        "the other address answered {}th of 9: {order:?}",
+        b + 1
+    );
+    s.stop().await;
+}
