@@ -27,8 +27,7 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::net::IpAddr;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex, OnceLock};
+use std::sync::{Condvar, Mutex, OnceLock};
 
 type Job = Box<dyn FnOnce() + Send>;
 
@@ -55,6 +54,8 @@ struct Waiting {
     jobs: HashMap<Client, VecDeque<Job>>,
     /// Clients with jobs waiting, the next to be served first.
     turns: VecDeque<Client>,
+    /// Jobs waiting, all clients (`swell_compute_queued`).
+    len: usize,
 }
 
 impl Waiting {
@@ -64,19 +65,23 @@ impl Waiting {
             self.turns.push_back(client);
         }
         q.push_back(job);
+        self.len += 1;
+        publish(self.len);
     }
 
     /// The next client's oldest job; the client goes to the back of the turns if it has more.
     fn pop(&mut self) -> Option<Job> {
         let client = self.turns.pop_front()?;
         let q = self.jobs.get_mut(&client)?;
-        let job = q.pop_front();
+        let job = q.pop_front()?;
         if q.is_empty() {
             self.jobs.remove(&client);
         } else {
             self.turns.push_back(client);
         }
-        job
+        self.len -= 1;
+        publish(self.len);
+        Some(job)
     }
 }
 
@@ -105,9 +110,8 @@ impl Settings {
 
 struct Pool {
     settings: Settings,
-    waiting: Arc<(Mutex<Waiting>, Condvar)>,
-    /// Jobs sent and not yet taken by a thread.
-    queued: Arc<AtomicUsize>,
+    waiting: Mutex<Waiting>,
+    ready: Condvar,
 }
 
 static POOL: OnceLock<Pool> = OnceLock::new();
@@ -124,43 +128,41 @@ pub fn configure(settings: Settings) -> Settings {
 fn pool() -> &'static Pool {
     POOL.get_or_init(|| {
         let settings = *WANTED.get_or_init(|| Settings::from_limits(&crate::Limits::default()));
-        let waiting = Arc::new((Mutex::new(Waiting::default()), Condvar::new()));
-        let queued = Arc::new(AtomicUsize::new(0));
+        // The threads wait on the pool itself, which is `'static` once this returns: they
+        // take their first job only through `POOL`, after it is set.
         for i in 0..settings.threads.max(1) {
-            let (waiting, queued) = (Arc::clone(&waiting), Arc::clone(&queued));
-            let nice = settings.nice;
             let spawned = std::thread::Builder::new()
                 .name(format!("swell-compute-{i}"))
-                .spawn(move || worker(&waiting, &queued, nice));
+                .spawn(move || worker(POOL.wait(), settings.nice));
             if let Err(e) = spawned {
                 tracing::error!(error = %e, "could not start a compute thread");
             }
         }
         Pool {
             settings,
-            waiting,
-            queued,
+            waiting: Mutex::new(Waiting::default()),
+            ready: Condvar::new(),
         }
     })
 }
 
-fn worker(waiting: &(Mutex<Waiting>, Condvar), queued: &AtomicUsize, nice: i32) {
+fn worker(pool: &Pool, nice: i32) {
     set_thread_nice(nice);
-    let (lock, ready) = waiting;
     loop {
         let job = {
-            let Ok(mut w) = lock.lock() else { return };
+            let Ok(mut w) = pool.waiting.lock() else {
+                return;
+            };
             loop {
                 if let Some(job) = w.pop() {
                     break job;
                 }
-                w = match ready.wait(w) {
+                w = match pool.ready.wait(w) {
                     Ok(w) => w,
                     Err(_) => return,
                 };
             }
         };
-        publish(queued.fetch_sub(1, Ordering::Relaxed) - 1);
         job();
     }
 }
@@ -258,22 +260,19 @@ pub async fn run_for<T: Send + 'static>(
         }
     });
     let pool = pool();
-    publish(pool.queued.fetch_add(1, Ordering::Relaxed) + 1);
     {
-        let (lock, ready) = &*pool.waiting;
-        let Ok(mut w) = lock.lock() else {
-            publish(pool.queued.fetch_sub(1, Ordering::Relaxed) - 1);
+        let Ok(mut w) = pool.waiting.lock() else {
             return Err(Lost);
         };
         w.push(client, job);
-        ready.notify_one();
+        pool.ready.notify_one();
     }
     rx.await.map_err(|_| Lost)
 }
 
 /// Jobs waiting for a thread now (all clients).
 pub fn queued() -> usize {
-    pool().queued.load(Ordering::Relaxed)
+    pool().waiting.lock().map_or(0, |w| w.len)
 }
 
 /// The pool's settings (starting it if it has not started).
@@ -283,6 +282,9 @@ pub fn settings() -> Settings {
 
 #[cfg(test)]
 mod tests {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
     use super::*;
 
     #[tokio::test]
@@ -328,6 +330,7 @@ mod tests {
         w.push(b, job("b1"));
         w.push(None, job("n1"));
         w.push(b, job("b2"));
+        assert_eq!(w.len, 7);
         while let Some(j) = w.pop() {
             j();
         }
@@ -335,7 +338,7 @@ mod tests {
             *order.lock().unwrap(),
             ["a1", "b1", "n1", "a2", "b2", "a3", "a4"]
         );
-        assert!(w.jobs.is_empty() && w.turns.is_empty());
+        assert!(w.jobs.is_empty() && w.turns.is_empty() && w.len == 0);
     }
 
     #[tokio::test]

@@ -212,10 +212,10 @@ pub struct SharedAnswer;
 pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> Response {
     let limits = &gate.state.limits;
     let peer = req.extensions().get::<PeerAddr>().map(|p| p.0.ip());
-    // The client (through trusted proxies); `None` for an exempt one.
-    let client = peer
-        .map(|p| gate.policy.client(p, req.headers()))
-        .filter(|c| !gate.policy.exempt.contains(*c));
+    // The client (through trusted proxies), and the same for the limits: `None` for an
+    // exempt one.
+    let resolved = peer.map(|p| gate.policy.client(p, req.headers()));
+    let client = resolved.filter(|c| !gate.policy.exempt.contains(*c));
     let now = Instant::now();
     if let Some(c) = client
         && let Err(wait) = gate.per_peer.check(c, now)
@@ -272,9 +272,8 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
         return ApiError::overloaded("too many requests in flight; retry shortly").into_response();
     };
     let timeout = limits.request_timeout();
-    // Batch work takes its turn on the compute pool as this client's.
-    let turn = peer.map(|p| gate.policy.client(p, req.headers()));
-    let work = crate::compute::for_client(turn, next.run(req));
+    // Batch work takes its turn on the compute pool as this client's (exempt or not).
+    let work = crate::compute::for_client(resolved, next.run(req));
     let resp = match tokio::time::timeout(timeout, work).await {
         Ok(r) => r,
         Err(_) => {
