@@ -212,6 +212,12 @@ pub struct Limits {
     /// saturates them. 0: the same priority. One setting per process: the first server started
     /// in a process sets the pool up.
     pub compute_nice: i32,
+    /// How long an address that broke a per-peer limit (a 429 for its request rate, a 408, a
+    /// connection over `max_connections_per_peer`, an answer it did not read, a WebSocket
+    /// closed 1008) has its new connections served on the slow lane, ms: threads that run only
+    /// on CPU time nobody else wants ([`crate::lanes`]). Keyed by the TCP peer; exempt peers
+    /// and trusted proxies are never demoted. 0: no slow lane.
+    pub slow_lane_ms: u64,
 }
 
 impl Default for Limits {
@@ -256,6 +262,7 @@ impl Default for Limits {
             max_fft_bytes: 2 << 30,
             compute_threads: 0,
             compute_nice: 10,
+            slow_lane_ms: 30_000,
         }
     }
 }

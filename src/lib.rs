@@ -69,6 +69,7 @@ pub mod frames;
 pub mod healthcheck;
 pub mod impacts;
 pub mod journal;
+pub mod lanes;
 pub mod memory;
 pub mod peers;
 pub mod scene;
@@ -384,6 +385,7 @@ impl Server {
             per_peer: state.limits.max_connections_per_peer,
             send_stall: state.limits.http_send_stall(),
             policy: state.peer_policy.clone(),
+            slow_lane: Arc::clone(&state.slow_lane),
             parser_max_headers: (4 * state.limits.max_headers).max(100),
         };
         let result = api::serve::serve(self.listener, app, limits, async move {

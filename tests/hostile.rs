@@ -12,6 +12,7 @@ use common::{TOKEN, TestServer, code, config, into_json};
 use futures_util::{SinkExt, StreamExt};
 use reqwest::Method;
 use serde_json::{Value, json};
+use swell::lanes::Lane;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpSocket, TcpStream};
 use tokio_tungstenite::tungstenite::Message;
@@ -90,6 +91,9 @@ async fn slow_bodies_neither_fill_the_slots_nor_delay_the_probes() {
     let answer = read_all(&mut slow[0], Duration::from_secs(6)).await;
     assert!(answer.starts_with("HTTP/1.1 408"), "{answer}");
     assert!(answer.contains("\"request_timeout\""), "{answer}");
+    // The trickler's address is demoted to the slow lane; the good client's is not.
+    assert_eq!(s.state.slow_lane.lane(v4([127, 0, 2, 1])), Lane::Slow);
+    assert_eq!(s.state.slow_lane.lane(v4([127, 0, 0, 1])), Lane::Fast);
     s.stop().await;
 }
 
@@ -195,6 +199,13 @@ async fn one_address_cannot_take_every_connection() {
     let answer = read_all(&mut extra, Duration::from_secs(3)).await;
     assert!(answer.starts_with("HTTP/1.1 429"), "{answer}");
     assert!(answer.contains("too_many_connections"), "{answer}");
+    // The address is demoted: its next refusal is written on the slow lane, the same answer.
+    assert_eq!(s.state.slow_lane.lane(v4([127, 0, 5, 1])), Lane::Slow);
+    let before = s.state.slow_lane.served();
+    let mut again = connect_from([127, 0, 5, 1], s.addr).await;
+    let answer = read_all(&mut again, Duration::from_secs(3)).await;
+    assert!(answer.starts_with("HTTP/1.1 429"), "{answer}");
+    assert_eq!(s.state.slow_lane.served(), before + 1);
     // Another address is served.
     let mut other = connect_from([127, 0, 5, 2], s.addr).await;
     other
@@ -258,6 +269,77 @@ async fn a_flood_from_one_address_is_rate_limited() {
         .await
         .unwrap();
     assert_eq!(r.status(), 429);
+    s.stop().await;
+}
+
+fn v4(ip: [u8; 4]) -> IpAddr {
+    IpAddr::V4(Ipv4Addr::from(ip))
+}
+
+/// Whether `ok` holds within 5 s.
+async fn eventually(ok: impl Fn() -> bool) -> bool {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while !ok() {
+        if Instant::now() > deadline {
+            return false;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    true
+}
+
+/// A peer over its request rate is demoted: its 429 closes the connection, its next
+/// connection is served on the slow lane (and answered, once its rate allows), other addresses
+/// stay on the fast lane, and the demotion ends after `slow_lane_ms`.
+#[tokio::test]
+async fn a_peer_over_its_rate_is_served_on_the_slow_lane_for_a_while() {
+    let mut c = hostile_config();
+    c.limits.peer_requests_per_s = 20.0;
+    c.limits.peer_requests_burst = 5.0;
+    c.limits.slow_lane_ms = 1500;
+    let s = TestServer::start(c).await;
+    let lane = &s.state.slow_lane;
+    let url = s.url("/v1/scenes/calm/height?x=1&z=1");
+    let flood = client_from([127, 0, 6, 1]);
+    let mut limited = None;
+    for _ in 0..40 {
+        let r = flood.get(&url).send().await.unwrap();
+        if r.status() == 429 {
+            limited = Some(r);
+            break;
+        }
+    }
+    let r = limited.expect("429 within 40 requests at a burst of 5");
+    assert_eq!(
+        r.headers().get("connection").map(|v| v.to_str().unwrap()),
+        Some("close"),
+        "the flooder's connection on the fast lane is closed after its 429"
+    );
+    let demoted_at = Instant::now();
+    assert_eq!(lane.lane(v4([127, 0, 6, 1])), Lane::Slow);
+    assert_eq!(lane.served(), 0);
+    // Its next connection is on the slow lane and answered there once the rate allows.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let r = flood.get(&url).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(lane.served(), 1);
+    // Another address is served on the fast lane.
+    assert_eq!(
+        client_from([127, 0, 6, 2])
+            .get(&url)
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        200
+    );
+    assert_eq!(lane.served(), 1);
+    // After the hold, a new connection of the flooder's is back on the fast lane.
+    tokio::time::sleep(Duration::from_millis(1600).saturating_sub(demoted_at.elapsed())).await;
+    assert_eq!(lane.lane(v4([127, 0, 6, 1])), Lane::Fast);
+    let r = client_from([127, 0, 6, 1]).get(&url).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(lane.served(), 1);
     s.stop().await;
 }
 
@@ -463,6 +545,11 @@ async fn a_websocket_flood_is_told_then_closed() {
     }
     assert!(saw_limited);
     assert_eq!(close, Some(1008));
+    // Once the session has ended, its address is demoted.
+    assert!(
+        eventually(|| s.state.slow_lane.lane(v4([127, 0, 0, 1])) == Lane::Slow).await,
+        "the flooding socket's address was not demoted"
+    );
     s.stop().await;
 }
 
@@ -601,6 +688,7 @@ async fn a_client_that_never_reads_is_cut_off_and_its_answer_freed() {
         common::metric(&page, "swell_http_send_stalls_total").unwrap_or(0.0) >= 1.0,
         "the stalled answer was not cut off"
     );
+    assert_eq!(s.state.slow_lane.lane(v4([127, 0, 3, 1])), Lane::Slow);
     drop(t);
     s.stop().await;
 }

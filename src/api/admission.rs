@@ -40,6 +40,7 @@ use tokio::sync::Semaphore;
 use crate::access::{Access, Presented, Role};
 use crate::config::Limits;
 use crate::error::{ApiError, ErrorCode};
+use crate::lanes::{Lane, Offence};
 use crate::peers::{Budget, Charge, OverBudget, PeerAddr, PeerPolicy, RateLimiter};
 use crate::state::AppState;
 
@@ -220,7 +221,19 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
     if let Some(c) = client
         && let Err(wait) = gate.per_peer.check(c, now)
     {
-        return rate_limited("address", wait);
+        let mut r = rate_limited("address", wait);
+        // The TCP peer itself over its rate (not a client behind a proxy): demoted to the slow
+        // lane, and this connection, if it is not there yet, closes after the answer so that
+        // the next request comes through the lane.
+        if let Some(p) = peer
+            && p == c
+            && gate.state.slow_lane.demote(p, Offence::Rate)
+            && req.extensions().get::<Lane>() == Some(&Lane::Fast)
+        {
+            r.headers_mut()
+                .insert(header::CONNECTION, HeaderValue::from_static("close"));
+        }
+        return r;
     }
     let route = req.extensions().get::<MatchedPath>().map(|m| m.as_str());
     let access = &gate.state.access;
@@ -256,7 +269,14 @@ pub async fn admit(State(gate): State<Arc<Gate>>, req: Request, next: Next) -> R
     let body = if has_body {
         match read_body(body, declared, limits, &mut charge).await {
             Ok(bytes) => Body::from(bytes),
-            Err(r) => return r,
+            Err(r) => {
+                if r.status() == axum::http::StatusCode::REQUEST_TIMEOUT
+                    && let Some(p) = peer
+                {
+                    gate.state.slow_lane.demote(p, Offence::SlowBody);
+                }
+                return r;
+            }
         }
     } else {
         body

@@ -48,6 +48,7 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
 use tokio::time::Sleep;
 
 use crate::error::ErrorCode;
+use crate::lanes::{Offence, SlowLane};
 use crate::peers::{ConnCounts, ConnGuard, PeerAddr, PeerPolicy};
 
 /// The limits of [`serve`].
@@ -65,6 +66,9 @@ pub struct ConnectionLimits {
     pub send_stall: Option<Duration>,
     /// Who is exempt from `per_peer`.
     pub policy: PeerPolicy,
+    /// Addresses demoted to the slow lane: their connections are served there, and offences
+    /// seen here (a refused connection, a slow head, an unread answer) demote.
+    pub slow_lane: Arc<SlowLane>,
     /// Most headers the HTTP parser reads ([`crate::Limits::max_headers`] answers below it
     /// with the JSON error; this is the backstop, answered bare).
     pub parser_max_headers: usize,
@@ -121,16 +125,24 @@ pub async fn serve(
                 Some(g) => Some(g),
                 None => {
                     metrics::counter!("swell_http_peer_connections_refused_total").increment(1);
-                    tokio::spawn(refuse(tcp, permit, limits.per_peer));
+                    limits.slow_lane.demote(remote.ip(), Offence::Connections);
+                    let per_peer = limits.per_peer;
+                    limits
+                        .slow_lane
+                        .spawn(limits.slow_lane.lane(remote.ip()), tcp, move |tcp| {
+                            refuse(tcp, permit, per_peer)
+                        });
                     continue;
                 }
             }
         };
+        let lane = limits.slow_lane.lane(remote.ip());
         let app = app.clone();
         let heads = Arc::new(Heads::default());
         let seen = Arc::clone(&heads);
         let service = hyper::service::service_fn(move |mut req: hyper::Request<Incoming>| {
             req.extensions_mut().insert(PeerAddr(remote));
+            req.extensions_mut().insert(lane);
             seen.start(req.headers().contains_key(hyper::header::UPGRADE));
             let seen = Arc::clone(&seen);
             let progress = Arc::new(BodyProgress::of(req.body()));
@@ -149,17 +161,24 @@ pub async fn serve(
         let (stop, done) = (stop_tx.clone(), done_rx.clone());
         let idle_timeout = limits.idle_timeout;
         let parser_max_headers = limits.parser_max_headers;
-        let tcp = Counted {
-            tcp,
-            _slot: Slot::take(permit, open.clone()),
-            _peer: peer_slot,
-            stall_after: limits.send_stall,
-            stall: None,
-            heads,
-            head_after: limits.head_timeout,
-            head: None,
+        let slot = Slot::take(permit, open.clone());
+        let (stall_after, head_after) = (limits.send_stall, limits.head_timeout);
+        let demote = Demote {
+            lane: Arc::clone(&limits.slow_lane),
+            peer: remote.ip(),
         };
-        tokio::spawn(async move {
+        limits.slow_lane.spawn(lane, tcp, move |tcp| async move {
+            let tcp = Counted {
+                tcp,
+                _slot: slot,
+                _peer: peer_slot,
+                stall_after,
+                stall: None,
+                heads,
+                head_after,
+                head: None,
+                demote,
+            };
             let mut builder = hyper::server::conn::http1::Builder::new();
             builder
                 .timer(TokioTimer::new())
@@ -407,6 +426,13 @@ struct Counted {
     /// is not the tail of the last one's body ([`Heads::starts_head`]), with the count of
     /// complete heads then; disarmed once that count moves. `Some((_, None))`: fired, answered.
     head: Option<(u64, Option<Pin<Box<Sleep>>>)>,
+    demote: Demote,
+}
+
+/// Where a connection's offences are reported: its peer, to the slow lane.
+struct Demote {
+    lane: Arc<SlowLane>,
+    peer: std::net::IpAddr,
 }
 
 impl Counted {
@@ -418,6 +444,9 @@ impl Counted {
             .get_or_insert_with(|| Box::pin(tokio::time::sleep(after)));
         if timer.as_mut().poll(cx).is_ready() {
             metrics::counter!("swell_http_send_stalls_total").increment(1);
+            self.demote
+                .lane
+                .demote(self.demote.peer, Offence::NotReading);
             return Some(std::io::Error::new(
                 std::io::ErrorKind::TimedOut,
                 "the client did not read its answer (http_send_stall_ms)",
@@ -480,6 +509,7 @@ impl Counted {
             && timer.as_mut().poll(cx).is_ready()
         {
             metrics::counter!("swell_http_head_timeouts_total").increment(1);
+            self.demote.lane.demote(self.demote.peer, Offence::SlowHead);
             // Best effort: a client that does not read cannot hold us here.
             let _ = self.tcp.try_write(&head_timeout_answer(after));
             self.head = Some((complete, None));

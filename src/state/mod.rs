@@ -84,6 +84,8 @@ pub struct Inner {
     /// memory and answers of large queries (HTTP and WebSocket), and WebSocket answers queued
     /// for a client that has not read them yet.
     pub buffers: Arc<crate::peers::Budget>,
+    /// Addresses demoted to the slow lane ([`Limits::slow_lane_ms`], [`crate::lanes`]).
+    pub slow_lane: Arc<crate::lanes::SlowLane>,
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     journal: Option<Journal>,
     admin_token: String,
@@ -133,6 +135,10 @@ impl AppState {
                 limits.max_buffered_bytes,
                 limits.max_buffered_bytes_per_peer,
             ),
+            slow_lane: Arc::new(crate::lanes::SlowLane::new(
+                std::time::Duration::from_millis(limits.slow_lane_ms),
+                limits.peer_policy().unwrap_or_default(),
+            )),
             frames: FrameCache::new(limits.frame_cache_entries),
             limits,
             metrics,

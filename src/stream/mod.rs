@@ -73,6 +73,7 @@ use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
 use crate::error::{ApiError, ErrorCode};
+use crate::lanes::Offence;
 use crate::peers::{Budget, Charge};
 use crate::service::error::QueryError;
 use crate::service::json::DECODE_OFF_REACTOR_BYTES;
@@ -156,6 +157,7 @@ pub async fn stream(
     let client = peer
         .map(|p| state.peer_policy.client(p.0.0.ip(), &headers))
         .filter(|c| !state.peer_policy.exempt.contains(*c));
+    let tcp_peer = peer.map(|p| p.0.0.ip());
     let ws = ws.map_err(|r| {
         ApiError::new(ErrorCode::WebsocketRequired, format!(
                 "this endpoint is a WebSocket (subprotocols {JSON_PROTOCOL}, {PROTOBUF_PROTOCOL}): {}",
@@ -185,8 +187,13 @@ pub async fn stream(
         tasks.track_future(async move {
             let (sink, stream) = socket.split();
             // Its large decodes take their turn on the compute pool as this client's.
-            crate::compute::for_client(client, session(state, id, codec, client, sink, stream))
-                .await;
+            let lane = Arc::clone(&state.slow_lane);
+            let offence =
+                crate::compute::for_client(client, session(state, id, codec, client, sink, stream))
+                    .await;
+            if let (Some(o), Some(p)) = (offence, tcp_peer) {
+                lane.demote(p, o);
+            }
         })
     }))
 }
@@ -503,6 +510,9 @@ async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<SharedTick>> {
 /// Runs one session over any message sink and stream (a real socket, or channels in tests).
 /// `client` is the client's address, `None` for an exempt one ([`crate::Limits::exempt_peers`]):
 /// no message rate limit, and its bytes count to the server's total budget only.
+///
+/// Returns the client's offence, if the session ended for one: Close 1008 for its message rate
+/// or for not reading (the caller demotes its peer to the slow lane).
 pub async fn session<W, R>(
     state: AppState,
     scene_id: String,
@@ -510,7 +520,8 @@ pub async fn session<W, R>(
     client: Option<IpAddr>,
     sink: W,
     mut stream: R,
-) where
+) -> Option<Offence>
+where
     W: Sink<Message> + Unpin + Send + 'static,
     R: Stream<Item = Result<Message, axum::Error>> + Unpin,
 {
@@ -624,6 +635,11 @@ pub async fn session<W, R>(
             }
         }
     };
+    let offence = match end {
+        End::SlowConsumer => Some(Offence::WsNotReading),
+        End::Flood => Some(Offence::WsRate),
+        _ => None,
+    };
     // Unsubscribe first, so the tick loop can stop if this was its last subscriber (a writer
     // still flushing its queue sends no more frames).
     if subscribed {
@@ -717,6 +733,7 @@ pub async fn session<W, R>(
         }
     }
     metrics::gauge!("swell_ws_sessions").decrement(1.0);
+    offence
 }
 
 /// Sleeps until `at`; forever without one.
