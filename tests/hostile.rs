@@ -343,6 +343,61 @@ async fn a_peer_over_its_rate_is_served_on_the_slow_lane_for_a_while() {
     s.stop().await;
 }
 
+/// A demoted address's WebSocket is upgraded and served on the slow lane: its queries are
+/// answered, the scene's tick frames (published on the server's runtime) reach it, and a
+/// graceful shutdown still closes it with 1001.
+#[tokio::test]
+async fn a_websocket_on_the_slow_lane_gets_answers_ticks_and_an_orderly_close() {
+    let s = TestServer::start(hostile_config()).await;
+    assert_eq!(s.put_scene("tick20", &common::small_spec()).await.0, 201);
+    let ip = [127, 0, 7, 1];
+    assert!(
+        s.state
+            .slow_lane
+            .demote(v4(ip), swell::lanes::Offence::Rate)
+    );
+    let tcp = connect_from(ip, s.addr).await;
+    let url = format!("ws://{}/v1/scenes/tick20/stream", s.addr);
+    let (mut ws, _) = tokio_tungstenite::client_async(url, tcp).await.unwrap();
+    assert_eq!(
+        s.state.slow_lane.served(),
+        1,
+        "the upgrade came through the slow lane"
+    );
+    let ask = json!({"type": "sample", "id": 7, "points": [[1.0, 2.0]], "fields": ["height"]});
+    ws.send(Message::text(ask.to_string())).await.unwrap();
+    ws.send(Message::text(
+        json!({"type": "subscribe", "ticks": true}).to_string(),
+    ))
+    .await
+    .unwrap();
+    let (mut answered, mut ticks) = (false, 0);
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while !(answered && ticks >= 3) && Instant::now() < deadline {
+        let Ok(Some(Ok(Message::Text(t)))) =
+            tokio::time::timeout(Duration::from_secs(2), ws.next()).await
+        else {
+            continue;
+        };
+        let v: Value = serde_json::from_str(&t).unwrap();
+        answered |= v["id"] == 7 && v["height"].is_array();
+        ticks += usize::from(v["type"] == "tick");
+    }
+    assert!(answered, "the sample was not answered");
+    assert!(ticks >= 3, "{ticks} tick frames");
+    let mut stopping = s;
+    let stop = stopping.begin_stop();
+    let mut close = None;
+    while let Ok(Some(Ok(m))) = tokio::time::timeout(Duration::from_secs(5), ws.next()).await {
+        if let Message::Close(f) = m {
+            close = f.map(|f| u16::from(f.code));
+            break;
+        }
+    }
+    assert_eq!(close, Some(1001));
+    stop.await.unwrap().unwrap();
+}
+
 /// Issue 27: 1,000 requests with made-up method names grew `/metrics` from 131 KiB to 21.5 MB.
 /// The method label now takes a fixed set of values.
 #[tokio::test]
