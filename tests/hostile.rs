@@ -235,15 +235,7 @@ async fn a_flood_from_one_address_is_rate_limited() {
     };
     let flood = client([127, 0, 4, 1]);
     let url = s.url("/v1/scenes/calm/height?x=1&z=1");
-    let mut limited = None;
-    for _ in 0..40 {
-        let r = flood.get(&url).send().await.unwrap();
-        if r.status() == 429 {
-            limited = Some(r);
-            break;
-        }
-    }
-    let r = limited.expect("429 within 40 requests at a burst of 10");
+    let r = first_429(&flood, &url).await;
     assert!(r.headers().contains_key("retry-after"));
     let (_, b) = into_json(r).await;
     assert_eq!(code(&b), "rate_limited");
@@ -270,6 +262,17 @@ async fn a_flood_from_one_address_is_rate_limited() {
         .unwrap();
     assert_eq!(r.status(), 429);
     s.stop().await;
+}
+
+/// GETs `url` until the answer is 429 (within 40 requests), and returns that answer.
+async fn first_429(client: &reqwest::Client, url: &str) -> reqwest::Response {
+    for _ in 0..40 {
+        let r = client.get(url).send().await.unwrap();
+        if r.status() == 429 {
+            return r;
+        }
+    }
+    panic!("no 429 within 40 requests");
 }
 
 fn v4(ip: [u8; 4]) -> IpAddr {
@@ -301,15 +304,7 @@ async fn a_peer_over_its_rate_is_served_on_the_slow_lane_for_a_while() {
     let lane = &s.state.slow_lane;
     let url = s.url("/v1/scenes/calm/height?x=1&z=1");
     let flood = client_from([127, 0, 6, 1]);
-    let mut limited = None;
-    for _ in 0..40 {
-        let r = flood.get(&url).send().await.unwrap();
-        if r.status() == 429 {
-            limited = Some(r);
-            break;
-        }
-    }
-    let r = limited.expect("429 within 40 requests at a burst of 5");
+    let r = first_429(&flood, &url).await;
     assert_eq!(
         r.headers().get("connection").map(|v| v.to_str().unwrap()),
         Some("close"),
@@ -324,15 +319,8 @@ async fn a_peer_over_its_rate_is_served_on_the_slow_lane_for_a_while() {
     assert_eq!(r.status(), 200);
     assert_eq!(lane.served(), 1);
     // Another address is served on the fast lane.
-    assert_eq!(
-        client_from([127, 0, 6, 2])
-            .get(&url)
-            .send()
-            .await
-            .unwrap()
-            .status(),
-        200
-    );
+    let other = client_from([127, 0, 6, 2]).get(&url).send().await.unwrap();
+    assert_eq!(other.status(), 200);
     assert_eq!(lane.served(), 1);
     // After the hold, a new connection of the flooder's is back on the fast lane.
     tokio::time::sleep(Duration::from_millis(1600).saturating_sub(demoted_at.elapsed())).await;
