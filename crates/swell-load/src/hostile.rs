@@ -190,8 +190,46 @@ pub struct HostileReport {
     pub rss_peak_mb: f64,
     /// Resident memory after the settle time, MiB.
     pub rss_after_mb: f64,
+    /// The server's slow lane after the attack, from its `/metrics`: addresses demoted
+    /// (`swell_peers_demoted_total`, every reason) and connections served there
+    /// (`swell_http_slow_lane_connections_total`). `None` where `/metrics` did not say (a
+    /// server without the lane, or whose `/metrics` needs a token).
+    pub slow_lane: Option<SlowLaneCounts>,
     /// Failed checks (with `--assert`).
     pub failures: Vec<String>,
+}
+
+/// What the server's `/metrics` says of its slow lane.
+#[derive(Debug, Default, Clone, Copy, Serialize)]
+pub struct SlowLaneCounts {
+    /// Demotions (an address demoted again after its demotion ended counts again).
+    pub demoted: u64,
+    /// Connections (and refusals) served on the slow lane.
+    pub connections: u64,
+}
+
+/// The slow-lane counters in a Prometheus text page; `None` when neither is there.
+fn slow_lane_counts(page: &str) -> Option<SlowLaneCounts> {
+    let mut seen = false;
+    let mut c = SlowLaneCounts::default();
+    for line in page.lines() {
+        let Some((name, value)) = line.rsplit_once(' ') else {
+            continue;
+        };
+        let Ok(v) = value.trim().parse::<f64>() else {
+            continue;
+        };
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let v = v as u64;
+        let metric = name.split('{').next().unwrap_or(name);
+        match metric {
+            "swell_peers_demoted_total" => c.demoted += v,
+            "swell_http_slow_lane_connections_total" => c.connections += v,
+            _ => continue,
+        }
+        seen = true;
+    }
+    seen.then_some(c)
 }
 
 fn rss_mb(pid: Option<u32>) -> f64 {
@@ -357,6 +395,15 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
     eprintln!("hostile: attackers gone; settling {} s", SETTLE.as_secs());
     tokio::time::sleep(SETTLE).await;
     report.rss_after_mb = rss_mb(args.server_pid);
+    report.slow_lane = match reqwest::Client::new()
+        .get(format!("{base}/metrics"))
+        .timeout(Duration::from_secs(5))
+        .send()
+        .await
+    {
+        Ok(r) if r.status().is_success() => r.text().await.ok().and_then(|p| slow_lane_counts(&p)),
+        _ => None,
+    };
     let c = &counters;
     report.slow_body_sockets = c.slow_sockets.load(Ordering::Relaxed);
     report.slow_body_408 = c.slow_408.load(Ordering::Relaxed);
@@ -804,6 +851,14 @@ impl std::fmt::Display for HostileReport {
             self.idle_refused,
             self.idle_held
         )?;
+        match self.slow_lane {
+            Some(c) => writeln!(
+                f,
+                "slow lane: {} demotions, {} connections served there",
+                c.demoted, c.connections
+            )?,
+            None => writeln!(f, "slow lane: not reported by /metrics")?,
+        }
         writeln!(
             f,
             "attackers at {} priority for {:.0} s",
@@ -818,5 +873,20 @@ impl std::fmt::Display for HostileReport {
             writeln!(f, "FAILED: {m}")?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn slow_lane_counts_sum_every_reason() {
+        let page = "# TYPE swell_peers_demoted_total counter\n\
+            swell_peers_demoted_total{why=\"rate\"} 1\n\
+            swell_peers_demoted_total{why=\"slow_body\"} 8\n\
+            swell_http_slow_lane_connections_total 16379\n\
+            swell_http_requests_total{route=\"x\"} 5\n";
+        let c = super::slow_lane_counts(page).unwrap();
+        assert_eq!((c.demoted, c.connections), (9, 16379));
+        assert!(super::slow_lane_counts("swell_http_requests_total 5\n").is_none());
     }
 }
