@@ -107,6 +107,10 @@ pub struct HostileArgs {
     /// whole server (every reactor thread busy at once) shows here before it moves the p99.
     #[arg(long, default_value_t = 0.0)]
     pub max_ms: f64,
+    /// With `--assert`: fail unless the server's `/metrics` shows its slow lane at work after
+    /// the attack (demotions and connections served there).
+    #[arg(long)]
+    pub expect_slow_lane: bool,
     /// See `--assert`, MiB.
     #[arg(long, default_value_t = 320.0)]
     pub rss_budget_mb: f64,
@@ -439,6 +443,16 @@ pub async fn run(args: &HostileArgs) -> anyhow::Result<HostileReport> {
                 "the good client's slowest answer took {:.1} ms (--max-ms {})",
                 r.during.max_ms, args.max_ms
             ));
+        }
+        if args.expect_slow_lane {
+            match r.slow_lane {
+                Some(c) if c.demoted > 0 && c.connections > 0 => {}
+                Some(c) => fail(format!(
+                    "the slow lane did not work: {} demotions, {} connections served there",
+                    c.demoted, c.connections
+                )),
+                None => fail("the server's /metrics says nothing of a slow lane".to_owned()),
+            }
         }
         if pid.is_some() {
             if r.rss_peak_mb > r.rss_start_mb + args.rss_budget_mb {
