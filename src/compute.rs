@@ -280,10 +280,66 @@ pub fn settings() -> Settings {
     pool().settings
 }
 
+/// Every compute thread held by a job that waits for [`Held::release`], so that work sent
+/// meanwhile queues: for tests of what the queue does. (Jobs queued before it may run first;
+/// none runs for long.)
+#[doc(hidden)]
+pub struct Held {
+    gate: std::sync::Arc<(Mutex<bool>, Condvar)>,
+    holds: Vec<tokio::task::JoinHandle<Result<(), Lost>>>,
+}
+
+impl Held {
+    /// Returns once every thread is held.
+    pub async fn every_thread() -> Held {
+        use std::sync::Arc;
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let threads = settings().threads;
+        let gate = Arc::new((Mutex::new(false), Condvar::new()));
+        let started = Arc::new(AtomicUsize::new(0));
+        let holds = (0..threads)
+            .map(|_| {
+                let (g, n) = (Arc::clone(&gate), Arc::clone(&started));
+                tokio::spawn(run(move || {
+                    n.fetch_add(1, Ordering::SeqCst);
+                    let (m, c) = &*g;
+                    let mut open = m.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                    while !*open {
+                        open = c
+                            .wait(open)
+                            .unwrap_or_else(std::sync::PoisonError::into_inner);
+                    }
+                }))
+            })
+            .collect();
+        while started.load(Ordering::SeqCst) < threads {
+            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+        }
+        Held { gate, holds }
+    }
+
+    /// Lets the threads go and waits until each holding job has ended.
+    ///
+    /// # Panics
+    /// If a holding job was lost.
+    pub async fn release(self) {
+        {
+            let (m, c) = &*self.gate;
+            *m.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = true;
+            c.notify_all();
+        }
+        for h in self.holds {
+            h.await
+                .expect("a holding job's task")
+                .expect("a holding job");
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::sync::Arc;
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::Ordering;
 
     use super::*;
 
@@ -356,24 +412,7 @@ mod tests {
         use std::sync::atomic::AtomicBool;
         // Fill every thread with a job that waits, so the next one queues.
         let threads = settings().threads;
-        let gate = Arc::new((Mutex::new(false), std::sync::Condvar::new()));
-        let started = Arc::new(AtomicUsize::new(0));
-        let mut holds = Vec::new();
-        for _ in 0..threads {
-            let (g, s) = (Arc::clone(&gate), Arc::clone(&started));
-            holds.push(tokio::spawn(run(move || {
-                s.fetch_add(1, Ordering::SeqCst);
-                let (m, c) = &*g;
-                let mut open = m.lock().unwrap();
-                while !*open {
-                    open = c.wait(open).unwrap();
-                }
-            })));
-        }
-        // (Other tests share the pool: their jobs may run first, never for long.)
-        while started.load(Ordering::SeqCst) < threads {
-            tokio::time::sleep(std::time::Duration::from_millis(1)).await;
-        }
+        let held = Held::every_thread().await;
         let ran = Arc::new(AtomicBool::new(false));
         let r = Arc::clone(&ran);
         let queued = run(move || r.store(true, Ordering::SeqCst));
@@ -385,14 +424,7 @@ mod tests {
             "the job ran while every thread was held"
         );
         drop(queued);
-        {
-            let (m, c) = &*gate;
-            *m.lock().unwrap() = true;
-            c.notify_all();
-        }
-        for h in holds {
-            h.await.unwrap().unwrap();
-        }
+        held.release().await;
         // Jobs sent after it run, so the skipped one was taken by then (first come, first
         // served), by a thread that has since taken another.
         for _ in 0..2 * threads {

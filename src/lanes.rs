@@ -225,20 +225,17 @@ where
 /// servers' graceful shutdown, which they watch like any other).
 pub fn runtime() -> &'static tokio::runtime::Handle {
     static RT: OnceLock<tokio::runtime::Runtime> = OnceLock::new();
-    static HANDLE: OnceLock<tokio::runtime::Handle> = OnceLock::new();
-    HANDLE.get_or_init(|| {
-        let rt = RT.get_or_init(|| {
-            let threads = std::thread::available_parallelism().map_or(1, usize::from);
-            tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(threads)
-                .thread_name("swell-slow-lane")
-                .on_thread_start(lower_thread_priority)
-                .enable_all()
-                .build()
-                .expect("the slow lane's runtime: threads and an epoll instance")
-        });
-        rt.handle().clone()
+    RT.get_or_init(|| {
+        let threads = std::thread::available_parallelism().map_or(1, usize::from);
+        tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(threads)
+            .thread_name("swell-slow-lane")
+            .on_thread_start(lower_thread_priority)
+            .enable_all()
+            .build()
+            .expect("the slow lane's runtime: threads and an epoll instance")
     })
+    .handle()
 }
 
 /// Puts the calling thread at `SCHED_IDLE`, or nice 19 where that is refused (the log says so

@@ -1185,28 +1185,10 @@ async fn large_bodies_decode_off_the_reactor_with_the_same_answers() {
 /// last: its decode and its query would each wait behind all eight of the other's).
 #[tokio::test]
 async fn one_address_with_many_batches_does_not_queue_out_another() {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::sync::{Arc, Condvar, Mutex};
+    use std::sync::{Arc, Mutex};
     let s = TestServer::start(hostile_config()).await;
     // Hold every compute thread (other tests' jobs queue meanwhile, a second at most).
-    let threads = swell::compute::settings().threads;
-    let gate = Arc::new((Mutex::new(false), Condvar::new()));
-    let started = Arc::new(AtomicUsize::new(0));
-    let mut holds = Vec::new();
-    for _ in 0..threads {
-        let (g, n) = (Arc::clone(&gate), Arc::clone(&started));
-        holds.push(tokio::spawn(swell::compute::run(move || {
-            n.fetch_add(1, Ordering::SeqCst);
-            let (m, c) = &*g;
-            let mut open = m.lock().unwrap();
-            while !*open {
-                open = c.wait(open).unwrap();
-            }
-        })));
-    }
-    while started.load(Ordering::SeqCst) < threads {
-        tokio::time::sleep(Duration::from_millis(1)).await;
-    }
+    let held = swell::compute::Held::every_thread().await;
     let points: Vec<[f64; 2]> = (0..6000)
         .map(|i| [f64::from(i % 100) * 0.5, f64::from(i / 100) * 0.5])
         .collect();
@@ -1251,14 +1233,7 @@ async fn one_address_with_many_batches_does_not_queue_out_another() {
     wait_queued(8).await;
     sent.push(send([127, 0, 9, 2], "b"));
     wait_queued(9).await;
-    {
-        let (m, c) = &*gate;
-        *m.lock().unwrap() = true;
-        c.notify_all();
-    }
-    for h in holds {
-        h.await.unwrap().unwrap();
-    }
+    held.release().await;
     for h in sent {
         h.await.unwrap();
     }
