@@ -657,73 +657,94 @@ impl FrameCache {
     /// at the next tick boundary want are computed on the step's own thread after the states
     /// went out, not at that boundary beside the next step.
     pub fn compute_through(&self, scene: &Scene, now: f64, rate: f64, lead: f64) -> usize {
+        let due = self.plan_through(scene, now, rate, lead);
+        for &(i, when, need) in &due {
+            if let Some(Layer::Fft(f)) = scene.surface.layers().get(i) {
+                self.frame(scene, i, f, when, need, now);
+            }
+        }
+        due.len()
+    }
+
+    /// Whether [`FrameCache::compute_ahead`] has a frame to compute for `scene` at `now`, doing
+    /// at once the rest of its work, which needs no FFT: near frames the clock has left behind
+    /// are dropped, and frames ahead that are already held (another scene of the same sea
+    /// computed them) are marked near for this scene. Cheap (one pass over the cache under its
+    /// lock): the ahead loop asks it on the reactor for every scene in use, every
+    /// [`AHEAD_PERIOD`], and hands the blocking pool only the scenes that have a frame due.
+    pub fn ahead_due(&self, scene: &Scene, now: f64, rate: f64) -> bool {
+        !self.plan_through(scene, now, rate, 0.0).is_empty()
+    }
+
+    /// The frames [`FrameCache::compute_through`] must compute, `(layer index, when, fields)`,
+    /// after dropping `scene`'s near frames the clock has left behind and marking the held
+    /// frames ahead near for `scene`. Computes nothing.
+    fn plan_through(&self, scene: &Scene, now: f64, rate: f64, lead: f64) -> Vec<Due> {
         let wanted = self.lock().activity.get_mut(&scene.uid).map(|a| {
             a.roll(Instant::now());
             *a
         });
         self.prune_near(scene, now);
-        let mut computed = 0;
+        // f64::signum(0.0) is 1: a paused clock stays where it is.
+        let direction = if rate > 0.0 {
+            1.0
+        } else if rate < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        let mut ahead: Vec<(Due, bool)> = Vec::new();
         for (i, layer) in scene.surface.layers().iter().enumerate() {
             let Layer::Fft(f) = layer else { continue };
             let need = wanted.map_or(FftFields::HEIGHT, |w| w.wanted(i).union(FftFields::HEIGHT));
-            // f64::signum(0.0) is 1: a paused clock stays where it is.
-            let direction = if rate > 0.0 {
-                1.0
-            } else if rate < 0.0 {
-                -1.0
-            } else {
-                0.0
-            };
             let step = f.time_step() * direction;
             // `max` drops a NaN lead; the layer's time step is positive (validated).
             let steps = (AHEAD_STEPS + lead.max(0.0) / f.time_step()).min(MAX_AHEAD_STEPS);
-            let mut whens = Vec::with_capacity(steps as usize + 2);
             // Grid times up to `steps` (and the reach itself: it may fall between two).
             let reads = (0..=steps.ceil() as u32).map(|k| f64::from(k).min(steps));
             for k in reads {
                 let (a, b) = Self::whens(f, now + step * k, TimeSampling::Grid);
                 for w in [Some(a), b].into_iter().flatten() {
-                    if !whens.contains(&w) {
-                        whens.push(w);
+                    if !ahead.iter().any(|((l, x, _), _)| *l == i && *x == w) {
+                        ahead.push(((i, w, need), Self::is_near(f, w, now)));
                     }
                 }
             }
-            for when in whens {
-                let near = Self::is_near(f, when, now);
-                let held = {
-                    let mut guard = self.lock();
-                    let g = &mut *guard;
-                    g.source(scene).is_some_and(|source| {
-                        let key = Key {
-                            source,
-                            layer: i,
-                            when,
-                        };
-                        match g.entries.get_mut(&key) {
-                            Some(e) if e.fields.contains(need) => {
-                                // Held (another scene of the same sea computed it): near for
-                                // this one too, so it stays while this clock needs it.
-                                if near && !e.near.contains(&scene.uid) {
-                                    if e.near.is_empty() {
-                                        g.far -= 1;
-                                    }
-                                    e.near.push(scene.uid);
-                                }
-                                true
-                            }
-                            _ => false,
+        }
+        let mut guard = self.lock();
+        let g = &mut *guard;
+        let Some(source) = g.source(scene) else {
+            // A scene forgotten meanwhile: nothing is held for it.
+            return ahead.into_iter().map(|(due, _)| due).collect();
+        };
+        let uid = scene.uid;
+        let mut due = Vec::new();
+        for ((layer, when, need), near) in ahead {
+            let key = Key {
+                source,
+                layer,
+                when,
+            };
+            match g.entries.get_mut(&key) {
+                Some(e) if e.fields.contains(need) => {
+                    // Held (another scene of the same sea computed it): near for this one
+                    // too, so it stays while this clock needs it.
+                    if near && !e.near.contains(&uid) {
+                        if e.near.is_empty() {
+                            g.far -= 1;
                         }
-                    })
-                };
-                if !held {
-                    self.frame(scene, i, f, when, need, now);
-                    computed += 1;
+                        e.near.push(uid);
+                    }
                 }
+                _ => due.push((layer, when, need)),
             }
         }
-        computed
+        due
     }
 }
+
+/// A frame to compute: layer index, grid time, fields.
+type Due = (usize, When, FftFields);
 
 /// Grid steps past the clock's now whose frames [`FrameCache::compute_ahead`] prepares.
 pub const AHEAD_STEPS: f64 = 2.0;
@@ -874,6 +895,46 @@ mod tests {
         cache.compute_ahead(&scene, far_later, 1.0);
         assert!(!cache.has_frames(&scene, now, QueryFields::HEIGHT, &o));
         assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
+    }
+
+    /// What the ahead loop asks on the reactor: whether a frame ahead is missing. Asking
+    /// computes nothing, drops the near frames the clock has left behind and marks frames
+    /// ahead that another scene of the same sea computed near for the asking scene, so they
+    /// stay while its clock needs them.
+    #[test]
+    fn ahead_due_computes_nothing_and_keeps_the_near_frames_right() {
+        let a = copy_of("storm", "storm-a", None);
+        let b = copy_of("storm", "storm-b", None);
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&a);
+        let dt = f.time_step();
+        let now = f.grid_time(500) + 0.25 * dt;
+        cache
+            .surface_at(&a, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        let held = cache.transforms();
+        assert!(cache.ahead_due(&a, now, 1.0), "502 and 503 are missing");
+        assert_eq!(cache.transforms(), held, "asking computed a frame");
+        assert_eq!(cache.compute_ahead(&a, now, 1.0), 2);
+        assert!(!cache.ahead_due(&a, now, 1.0));
+        assert!(
+            !cache.ahead_due(&a, now, 0.0),
+            "paused: only the frames at now"
+        );
+        // The copy finds a's frames: nothing due, and they become near for it.
+        assert!(!cache.ahead_due(&b, now, 1.0));
+        assert_eq!(cache.compute_ahead(&b, now, 1.0), 0);
+        // a's clock jumps far ahead; asking drops what a left behind, not what b reads.
+        let far = now + 40.0 * dt;
+        let computed = cache.transforms();
+        assert!(cache.ahead_due(&a, far, 1.0));
+        assert_eq!(cache.transforms(), computed);
+        assert!(cache.has_frames(&b, now + 2.0 * dt, QueryFields::HEIGHT, &o));
+        // Then b's moves on too, and nobody is near those frames any more.
+        assert!(cache.ahead_due(&b, far, 1.0));
+        assert!(!cache.has_frames(&b, now, QueryFields::HEIGHT, &o));
+        assert_eq!(cache.near_len(), 0);
     }
 
     /// The body loop's reach: the frames through one tick period past two grid steps, so the

@@ -1,0 +1,69 @@
+//! `storm`'s grid frames with the 6 grids a height query at now reads (height, displacement and
+//! the Jacobian terms of Newton inversion), computed back to back and then paced one every
+//! `gap` ms (17 ms: the default grid step, as the server's frame-ahead loop computes them for a
+//! scene in use), 300 frames each, in the same run. On a VM a frame that starts after its thread
+//! slept runs slower than one right after another (caches and the core given to others
+//! meanwhile), so the paced figure is the one a scene in use costs.
+//!
+//! Run: `cargo run --release -p swell-waves --example frame_paced [gap_ms]` (default 17).
+
+use std::time::{Duration, Instant};
+
+use swell_waves::fft::FftFields;
+use swell_waves::{Layer, Surface, SurfaceSpec};
+
+fn main() {
+    let gap_ms: u64 = std::env::args()
+        .nth(1)
+        .map_or(17, |s| s.parse().expect("a gap in ms"));
+    let spec: SurfaceSpec = serde_json::from_value(serde_json::json!({"seed": 1337, "layers": [
+        {"kind": "fft", "resolution": 256, "tile_size": 256, "choppiness": 2.6, "repeat_period": 300,
+         "wind_direction": [1, -0.2],
+         "spectrum": {"kind": "jonswap", "wind_speed": 20, "fetch": 300000, "gamma": 3.3},
+         "spreading": {"kind": "mitsuyasu"}}]}))
+    .expect("storm's spec");
+    let surface = Surface::new(&spec).expect("storm's surface");
+    let Some(Layer::Fft(layer)) = surface.layers().first() else {
+        unreachable!("storm is one FFT layer")
+    };
+    let fields = FftFields::HEIGHT
+        .union(FftFields::DISPLACEMENT)
+        .union(FftFields::JACOBIAN);
+    let mut index = 0;
+    let mut run = |gap: Duration| {
+        // The server holds a scene's near frames: dropped frames return their grids to the
+        // layer's pool, as there.
+        let mut kept = std::collections::VecDeque::new();
+        let mut ms: Vec<f64> = (0..300)
+            .map(|_| {
+                let start = Instant::now();
+                let frame = layer.grid_frame(index, fields);
+                let took = start.elapsed().as_secs_f64() * 1e3;
+                index += 1;
+                kept.push_back(frame);
+                if kept.len() > 6 {
+                    kept.pop_front();
+                }
+                if !gap.is_zero() {
+                    std::thread::sleep(gap);
+                }
+                took
+            })
+            .collect();
+        ms.sort_by(f64::total_cmp);
+        (ms.iter().sum::<f64>() / ms.len() as f64, ms[ms.len() / 2])
+    };
+    run(Duration::ZERO); // warm-up: the pools fill, the pages are touched
+    let (mean0, p50_0) = run(Duration::ZERO);
+    let (mean1, p50_1) = run(Duration::from_millis(gap_ms));
+    println!("storm 256², 6 grids, 300 frames each");
+    println!("  back to back      mean {mean0:.3} ms  p50 {p50_0:.3} ms");
+    println!(
+        "  one every {gap_ms:>2} ms  mean {mean1:.3} ms  p50 {p50_1:.3} ms  ({:.2}×)",
+        mean1 / mean0
+    );
+    println!(
+        "  60 paced frames a second: {:.1}% of a core",
+        60.0 * mean1 / 10.0
+    );
+}
