@@ -1,10 +1,9 @@
 //! The frame-ahead loop: FFT frames computed before the clock reaches them, for scenes being
 //! queried ([`crate::frames`] holds the cache and says which frames; this loop says when).
 
-use std::sync::Arc;
-
 use super::AppState;
 use crate::frames::AHEAD_PERIOD;
+use crate::scene::SceneEntry;
 
 /// The frame-ahead loop: every [`AHEAD_PERIOD`], for each FFT scene queried within
 /// [`ACTIVE_FOR`](crate::frames::ACTIVE_FOR), asks the cache whether a grid frame its clock
@@ -30,10 +29,9 @@ pub async fn run_ahead(state: AppState) {
             if !active.contains(&entry.scene.uid) || !entry.scene.has_fft() {
                 continue;
             }
-            let reading = state.read_clock(&entry);
-            let rate = if reading.paused { 0.0 } else { reading.rate };
-            if state.frames.ahead_due(&entry.scene, reading.t, rate) {
-                due.push((Arc::clone(&entry.scene), reading.t, rate));
+            let (now, rate) = clock_now(&state, &entry);
+            if state.frames.ahead_due(&entry.scene, now, rate) {
+                due.push(entry);
             }
         }
         if due.is_empty() {
@@ -41,8 +39,10 @@ pub async fn run_ahead(state: AppState) {
         }
         let st = state.clone();
         let done = tokio::task::spawn_blocking(move || {
-            for (scene, t, rate) in due {
-                st.frames.compute_ahead(&scene, t, rate);
+            for entry in due {
+                // Read again: the scenes before this one took their frames' time.
+                let (now, rate) = clock_now(&st, &entry);
+                st.frames.compute_ahead(&entry.scene, now, rate);
             }
         })
         .await;
@@ -50,4 +50,10 @@ pub async fn run_ahead(state: AppState) {
             tracing::error!(error = %e, "computing frames ahead failed");
         }
     }
+}
+
+/// A scene's clock now: its time, s, and its rate (0 while paused).
+fn clock_now(state: &AppState, entry: &SceneEntry) -> (f64, f64) {
+    let reading = state.read_clock(entry);
+    (reading.t, if reading.paused { 0.0 } else { reading.rate })
 }
