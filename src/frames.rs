@@ -175,6 +175,8 @@ struct Inner {
     next_source: u64,
     /// 2-D inverse transforms computed (one per grid of each frame): what the cache costs.
     transforms: u64,
+    /// Frames computed, by [`ComputedBy`].
+    computed: [u64; 4],
     clock: u64,
     far: usize,
     /// Scenes deleted or replaced ([`FrameCache::forget_scene`]), the newest
@@ -313,6 +315,11 @@ impl FrameCache {
     /// Number of near frames held.
     pub fn near_len(&self) -> usize {
         self.lock().entries.values().filter(|e| e.is_near()).count()
+    }
+
+    /// Frames computed so far by `by` (what `swell_fft_frames_total{by}` counts).
+    pub fn computed(&self, by: ComputedBy) -> u64 {
+        self.lock().computed[by.index()]
     }
 
     /// 2-D inverse transforms computed so far (one per grid of each frame, see
@@ -484,17 +491,24 @@ impl FrameCache {
         });
     }
 
-    /// One frame of `layer` (index `i` of `scene`) at `when`, from the cache or computed now.
+    /// One frame of `layer` (index `i` of `scene`'s layers) at `when`, from the cache or computed now
+    /// (counted as `by`; a query's frame as [`ComputedBy::QueryNear`] or
+    /// [`ComputedBy::QueryFar`] by where it falls).
     fn frame(
         &self,
         scene: &Scene,
-        i: usize,
-        layer: &FftLayer,
+        (i, layer): (usize, &FftLayer),
         when: When,
         need: FftFields,
         now: f64,
+        by: ComputedBy,
     ) -> Arc<FftFrame> {
         let near = Self::is_near(layer, when, now);
+        let by = match by {
+            ComputedBy::QueryNear | ComputedBy::QueryFar if near => ComputedBy::QueryNear,
+            ComputedBy::QueryNear | ComputedBy::QueryFar => ComputedBy::QueryFar,
+            other => other,
+        };
         let (slot, fields) = self.slot(scene, (i, when), need, near);
         slot.get_or_init(|| {
             let start = Instant::now();
@@ -502,8 +516,12 @@ impl FrameCache {
                 When::Grid(n) => layer.grid_frame(n, fields),
                 When::Exact(bits) => layer.frame(f64::from_bits(bits), fields),
             });
-            self.lock().transforms += frame.transforms() as u64;
-            metrics::counter!("swell_fft_frames_total").increment(1);
+            {
+                let mut g = self.lock();
+                g.transforms += frame.transforms() as u64;
+                g.computed[by.index()] += 1;
+            }
+            metrics::counter!("swell_fft_frames_total", "by" => by.label()).increment(1);
             metrics::histogram!("swell_fft_frame_seconds").record(start.elapsed().as_secs_f64());
             frame
         })
@@ -540,7 +558,7 @@ impl FrameCache {
     ) -> Result<SurfaceAt<'s>, SpecError> {
         scene
             .impacts
-            .apply(self.frames_at(scene, t, now, fields, options))
+            .apply(self.frames_at_by(scene, t, now, fields, options, ComputedBy::QueryFar))
     }
 
     /// [`FrameCache::surface_at`] without the scene's impacts: the surface of the spec alone,
@@ -556,6 +574,19 @@ impl FrameCache {
         now: f64,
         fields: QueryFields,
         options: &QueryOptions,
+    ) -> Result<SurfaceAt<'s>, SpecError> {
+        self.frames_at_by(scene, t, now, fields, options, ComputedBy::Bodies)
+    }
+
+    /// [`FrameCache::frames_at`], its frames counted as computed `by`.
+    fn frames_at_by<'s>(
+        &self,
+        scene: &'s Scene,
+        t: f64,
+        now: f64,
+        fields: QueryFields,
+        options: &QueryOptions,
+        by: ComputedBy,
     ) -> Result<SurfaceAt<'s>, SpecError> {
         let surface = &scene.surface;
         if !surface.has_fft() || options.reference {
@@ -580,8 +611,8 @@ impl FrameCache {
             .map(|(i, layer)| match layer {
                 Layer::Fft(f) => {
                     let (a, b) = Self::whens(f, t, options.time);
-                    let frame = self.frame(scene, i, f, a, needs[i], now);
-                    let next = b.map(|b| self.frame(scene, i, f, b, needs[i], now));
+                    let frame = self.frame(scene, (i, f), a, needs[i], now, by);
+                    let next = b.map(|b| self.frame(scene, (i, f), b, needs[i], now, by));
                     Some(LayerFrames { frame, next })
                 }
                 _ => None,
@@ -647,7 +678,7 @@ impl FrameCache {
     /// with the fields recent queries wanted (height, at least). Frames already held cost
     /// nothing. Blocking: call from `spawn_blocking`. Returns the number of frames computed.
     pub fn compute_ahead(&self, scene: &Scene, now: f64, rate: f64) -> usize {
-        self.compute_through(scene, now, rate, 0.0)
+        self.compute(scene, now, rate, 0.0, ComputedBy::Ahead)
     }
 
     /// [`FrameCache::compute_ahead`] reaching `lead` scene seconds further: every grid frame a
@@ -657,10 +688,15 @@ impl FrameCache {
     /// at the next tick boundary want are computed on the step's own thread after the states
     /// went out, not at that boundary beside the next step.
     pub fn compute_through(&self, scene: &Scene, now: f64, rate: f64, lead: f64) -> usize {
+        self.compute(scene, now, rate, lead, ComputedBy::Bodies)
+    }
+
+    /// The frames [`FrameCache::plan_through`] finds missing, computed and counted as `by`.
+    fn compute(&self, scene: &Scene, now: f64, rate: f64, lead: f64, by: ComputedBy) -> usize {
         let due = self.plan_through(scene, now, rate, lead);
         for &(i, when, need) in &due {
             if let Some(Layer::Fft(f)) = scene.surface.layers().get(i) {
-                self.frame(scene, i, f, when, need, now);
+                self.frame(scene, (i, f), when, need, now, by);
             }
         }
         due.len()
@@ -745,6 +781,46 @@ impl FrameCache {
 
 /// A frame to compute: layer index, grid time, fields.
 type Due = (usize, When, FftFields);
+
+/// Who computed a frame: the `by` label of `swell_fft_frames_total`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ComputedBy {
+    /// The frame-ahead loop ([`FrameCache::compute_ahead`]).
+    Ahead,
+    /// The body loop: its reach past each step ([`FrameCache::compute_through`]) or a frame its
+    /// step found missing ([`FrameCache::frames_at`]).
+    Bodies,
+    /// A query, for a frame near its scene's now: the ahead loop had not computed it (it is not
+    /// keeping up, or the scene had just become active). Growing steadily, this says the
+    /// server is out of FFT capacity for the scenes in use.
+    QueryNear,
+    /// A query, for a frame at a far-off or exact time: no loop computes those.
+    QueryFar,
+}
+
+impl ComputedBy {
+    /// Every value, in the order of [`ComputedBy::label`]'s indices.
+    pub const ALL: [ComputedBy; 4] = [
+        ComputedBy::Ahead,
+        ComputedBy::Bodies,
+        ComputedBy::QueryNear,
+        ComputedBy::QueryFar,
+    ];
+
+    /// The metric label.
+    pub fn label(self) -> &'static str {
+        match self {
+            ComputedBy::Ahead => "ahead",
+            ComputedBy::Bodies => "bodies",
+            ComputedBy::QueryNear => "query_near",
+            ComputedBy::QueryFar => "query_far",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+}
 
 /// Grid steps past the clock's now whose frames [`FrameCache::compute_ahead`] prepares.
 pub const AHEAD_STEPS: f64 = 2.0;
@@ -935,6 +1011,44 @@ mod tests {
         assert!(cache.ahead_due(&b, far, 1.0));
         assert!(!cache.has_frames(&b, now, QueryFields::HEIGHT, &o));
         assert_eq!(cache.near_len(), 0);
+    }
+
+    /// `swell_fft_frames_total{by}`: who computed each frame. A query at now with nothing
+    /// ahead computes its two frames itself (near); once the ahead loop has run, the next
+    /// grid step's query computes none; a far-off time is the query's own; the body loop's
+    /// reach counts as the body loop's.
+    #[test]
+    fn frames_are_counted_by_who_computed_them() {
+        let scene = builtin("storm");
+        let cache = FrameCache::new(4);
+        let o = QueryOptions::default();
+        let f = fft(&scene);
+        let dt = f.time_step();
+        let now = f.grid_time(500) + 0.25 * dt;
+        let counts = || ComputedBy::ALL.map(|by| cache.computed(by));
+        cache
+            .surface_at(&scene, now, now, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(
+            counts(),
+            [0, 0, 2, 0],
+            "[ahead, bodies, query_near, query_far]"
+        );
+        assert_eq!(cache.compute_ahead(&scene, now, 1.0), 2);
+        let later = now + dt;
+        cache
+            .surface_at(&scene, later, later, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(counts(), [2, 0, 2, 0]);
+        cache
+            .surface_at(&scene, now + 60.0, later, QueryFields::HEIGHT, &o)
+            .unwrap();
+        assert_eq!(counts(), [2, 0, 2, 2]);
+        // Through later + 4Δ (index 505.25): 504 to 506 are new.
+        assert_eq!(cache.compute_through(&scene, later, 1.0, 2.0 * dt), 3);
+        assert_eq!(counts(), [2, 3, 2, 2]);
+        let labels = ComputedBy::ALL.map(ComputedBy::label);
+        assert_eq!(labels, ["ahead", "bodies", "query_near", "query_far"]);
     }
 
     /// The body loop's reach: the frames through one tick period past two grid steps, so the

@@ -217,6 +217,11 @@ async fn ops_endpoints() {
         assert!(text.contains(name), "{name} missing from /metrics:\n{text}");
     }
     assert!(text.contains(r#"route="/v1/scenes/{id}/sample""#));
+    // The sample at t = 12 s, far from open-sea's now, computed its own frames.
+    assert!(
+        text.contains(r#"swell_fft_frames_total{by="query_far"}"#),
+        "{text}"
+    );
 
     let (st, doc) = s.get_json("/openapi.json").await;
     assert_eq!(st, 200);
