@@ -491,9 +491,8 @@ impl FrameCache {
         });
     }
 
-    /// One frame of `layer` (index `i` of `scene`'s layers) at `when`, from the cache or computed now
-    /// (counted as `by`; a query's frame as [`ComputedBy::QueryNear`] or
-    /// [`ComputedBy::QueryFar`] by where it falls).
+    /// One frame of `layer` (index `i` of `scene`'s layers) at `when`, from the cache or
+    /// computed now for `caller` (and counted, see [`ComputedBy`]).
     fn frame(
         &self,
         scene: &Scene,
@@ -501,13 +500,14 @@ impl FrameCache {
         when: When,
         need: FftFields,
         now: f64,
-        by: ComputedBy,
+        caller: Caller,
     ) -> Arc<FftFrame> {
         let near = Self::is_near(layer, when, now);
-        let by = match by {
-            ComputedBy::QueryNear | ComputedBy::QueryFar if near => ComputedBy::QueryNear,
-            ComputedBy::QueryNear | ComputedBy::QueryFar => ComputedBy::QueryFar,
-            other => other,
+        let by = match caller {
+            Caller::Ahead => ComputedBy::Ahead,
+            Caller::Bodies => ComputedBy::Bodies,
+            Caller::Query if near => ComputedBy::QueryNear,
+            Caller::Query => ComputedBy::QueryFar,
         };
         let (slot, fields) = self.slot(scene, (i, when), need, near);
         slot.get_or_init(|| {
@@ -558,7 +558,7 @@ impl FrameCache {
     ) -> Result<SurfaceAt<'s>, SpecError> {
         scene
             .impacts
-            .apply(self.frames_at_by(scene, t, now, fields, options, ComputedBy::QueryFar))
+            .apply(self.frames_at_by(scene, t, now, fields, options, Caller::Query))
     }
 
     /// [`FrameCache::surface_at`] without the scene's impacts: the surface of the spec alone,
@@ -575,10 +575,10 @@ impl FrameCache {
         fields: QueryFields,
         options: &QueryOptions,
     ) -> Result<SurfaceAt<'s>, SpecError> {
-        self.frames_at_by(scene, t, now, fields, options, ComputedBy::Bodies)
+        self.frames_at_by(scene, t, now, fields, options, Caller::Bodies)
     }
 
-    /// [`FrameCache::frames_at`], its frames counted as computed `by`.
+    /// [`FrameCache::frames_at`] for `caller`.
     fn frames_at_by<'s>(
         &self,
         scene: &'s Scene,
@@ -586,7 +586,7 @@ impl FrameCache {
         now: f64,
         fields: QueryFields,
         options: &QueryOptions,
-        by: ComputedBy,
+        caller: Caller,
     ) -> Result<SurfaceAt<'s>, SpecError> {
         let surface = &scene.surface;
         if !surface.has_fft() || options.reference {
@@ -611,8 +611,8 @@ impl FrameCache {
             .map(|(i, layer)| match layer {
                 Layer::Fft(f) => {
                     let (a, b) = Self::whens(f, t, options.time);
-                    let frame = self.frame(scene, (i, f), a, needs[i], now, by);
-                    let next = b.map(|b| self.frame(scene, (i, f), b, needs[i], now, by));
+                    let frame = self.frame(scene, (i, f), a, needs[i], now, caller);
+                    let next = b.map(|b| self.frame(scene, (i, f), b, needs[i], now, caller));
                     Some(LayerFrames { frame, next })
                 }
                 _ => None,
@@ -678,7 +678,7 @@ impl FrameCache {
     /// with the fields recent queries wanted (height, at least). Frames already held cost
     /// nothing. Blocking: call from `spawn_blocking`. Returns the number of frames computed.
     pub fn compute_ahead(&self, scene: &Scene, now: f64, rate: f64) -> usize {
-        self.compute(scene, now, rate, 0.0, ComputedBy::Ahead)
+        self.compute(scene, now, rate, 0.0, Caller::Ahead)
     }
 
     /// [`FrameCache::compute_ahead`] reaching `lead` scene seconds further: every grid frame a
@@ -688,15 +688,15 @@ impl FrameCache {
     /// at the next tick boundary want are computed on the step's own thread after the states
     /// went out, not at that boundary beside the next step.
     pub fn compute_through(&self, scene: &Scene, now: f64, rate: f64, lead: f64) -> usize {
-        self.compute(scene, now, rate, lead, ComputedBy::Bodies)
+        self.compute(scene, now, rate, lead, Caller::Bodies)
     }
 
-    /// The frames [`FrameCache::plan_through`] finds missing, computed and counted as `by`.
-    fn compute(&self, scene: &Scene, now: f64, rate: f64, lead: f64, by: ComputedBy) -> usize {
+    /// The frames [`FrameCache::plan_through`] finds missing, computed for `caller`.
+    fn compute(&self, scene: &Scene, now: f64, rate: f64, lead: f64, caller: Caller) -> usize {
         let due = self.plan_through(scene, now, rate, lead);
         for &(i, when, need) in &due {
             if let Some(Layer::Fft(f)) = scene.surface.layers().get(i) {
-                self.frame(scene, (i, f), when, need, now, by);
+                self.frame(scene, (i, f), when, need, now, caller);
             }
         }
         due.len()
@@ -782,6 +782,14 @@ impl FrameCache {
 /// A frame to compute: layer index, grid time, fields.
 type Due = (usize, When, FftFields);
 
+/// Who asks [`FrameCache::frame`] for a frame.
+#[derive(Debug, Clone, Copy)]
+enum Caller {
+    Ahead,
+    Bodies,
+    Query,
+}
+
 /// Who computed a frame: the `by` label of `swell_fft_frames_total`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ComputedBy {
@@ -799,7 +807,7 @@ pub enum ComputedBy {
 }
 
 impl ComputedBy {
-    /// Every value, in the order of [`ComputedBy::label`]'s indices.
+    /// Every value, in declaration order.
     pub const ALL: [ComputedBy; 4] = [
         ComputedBy::Ahead,
         ComputedBy::Bodies,
