@@ -128,17 +128,18 @@ impl AppState {
         access: crate::access::Access,
         metrics: PrometheusHandle,
     ) -> AppState {
+        let peer_policy = limits.peer_policy().unwrap_or_default();
         AppState(Arc::new(Inner {
             access,
-            peer_policy: limits.peer_policy().unwrap_or_default(),
             buffers: crate::peers::Budget::new(
                 limits.max_buffered_bytes,
                 limits.max_buffered_bytes_per_peer,
             ),
             slow_lane: Arc::new(crate::lanes::SlowLane::new(
                 std::time::Duration::from_millis(limits.slow_lane_ms),
-                limits.peer_policy().unwrap_or_default(),
+                peer_policy.clone(),
             )),
+            peer_policy,
             frames: FrameCache::new(limits.frame_cache_entries),
             limits,
             metrics,
