@@ -58,7 +58,12 @@ export class Browser {
     await page.send('Log.enable');
     await page.send('Page.enable');
     await page.send('Emulation.setDeviceMetricsOverride', { width, height, deviceScaleFactor: 1, mobile: false });
-    await page.send('Page.navigate', { url });
+    // Wait for the page's load: an evaluation sent while about:blank is being replaced dies with
+    // "Inspected target navigated or closed".
+    const loaded = page.nextLoad();
+    const nav = await page.send('Page.navigate', { url });
+    if (nav.errorText) throw new Error(`navigating to ${url}: ${nav.errorText}`);
+    await loaded;
     return page;
   }
 
@@ -70,10 +75,19 @@ export class Browser {
 }
 
 export class Page {
-  constructor(browser, sessionId) { this.browser = browser; this.sessionId = sessionId; this.errors = []; this.console = []; }
+  constructor(browser, sessionId) { this.browser = browser; this.sessionId = sessionId; this.errors = []; this.console = []; this.onLoad = []; }
   send(method, params) { return this.browser.send(method, params, this.sessionId); }
+  /** Resolves at the page's next `load` event; rejects after `timeoutMs`. */
+  nextLoad(timeoutMs = 30000) {
+    return new Promise((resolve, reject) => {
+      const timer = setTimeout(() => reject(new Error(`the page did not load in ${timeoutMs} ms`)), timeoutMs);
+      this.onLoad.push(() => { clearTimeout(timer); resolve(); });
+    });
+  }
   _event(m) {
-    if (m.method === 'Runtime.consoleAPICalled') {
+    if (m.method === 'Page.loadEventFired') {
+      for (const f of this.onLoad.splice(0)) f();
+    } else if (m.method === 'Runtime.consoleAPICalled') {
       const text = m.params.args.map((a) => a.value ?? a.description ?? '').join(' ');
       this.console.push(`${m.params.type}: ${text}`);
       if (m.params.type === 'error') this.errors.push(`console.error: ${text}`);
@@ -90,10 +104,18 @@ export class Page {
     if (r.exceptionDetails) throw new Error(`in page: ${r.exceptionDetails.exception?.description ?? r.exceptionDetails.text}`);
     return r.result.value;
   }
+  /** Polls `expr` every 100 ms until it is truthy. A page may replace itself meanwhile (the viewer
+   *  reloads on WebGL2 when WebGPU cannot draw): an evaluation cut off by that navigation is
+   *  retried, not fatal. */
   async waitFor(expr, timeoutMs = 60000) {
     const end = Date.now() + timeoutMs;
     for (;;) {
-      const v = await this.eval(expr);
+      let v;
+      try {
+        v = await this.eval(expr);
+      } catch (e) {
+        if (!/navigated or closed|context was destroyed|Cannot find context/.test(e.message) || Date.now() > end) throw e;
+      }
       if (v) return v;
       if (Date.now() > end) throw new Error(`timed out waiting for ${expr}; errors: ${this.errors.join('\n')}`);
       await new Promise((r) => setTimeout(r, 100));

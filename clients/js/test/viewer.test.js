@@ -60,6 +60,17 @@ describe('viewer in headless chromium', { skip }, () => {
     assert.equal((await fetch(`${srv.url}/viewer/assets/client/nope.js`)).status, 404);
   });
 
+  // The harness itself: the viewer replaces itself on WebGL2 when WebGPU cannot draw, and an
+  // evaluation in flight across that navigation died with "Inspected target navigated or closed"
+  // (a CI run failed so). `open` waits for the load; `waitFor` retries through a navigation.
+  test('harness: waitFor rides through a page that replaces itself mid-evaluation', async () => {
+    const page = await browser.open(`${srv.url}/healthz`);
+    assert.equal(await page.eval('location.search'), '', 'open returns after the page loaded');
+    await page.eval(`setTimeout(() => location.replace(location.href + '?moved'), 50), 0`);
+    // Each evaluation waits 300 ms, so the first is cut off by the navigation at 50 ms.
+    assert.equal(await page.waitFor(`new Promise((r) => setTimeout(() => r(location.search === '?moved'), 300))`, 10000), true);
+  });
+
   test('lake: renders, streams bodies at their hull sizes, probes within the parity bound', async () => {
     const spawned = await admin.spawnBody('lake', { mass: 3000, hull: hull(8, 3, 1.5), position: [6, 0.5, -4], yaw: 0.4 });
     const dinghy = await admin.spawnBody('lake', { mass: 150, hull: hull(2.5, 1.2, 0.6), position: [-5, 0.3, 3], yaw: -1.1 });
