@@ -1137,25 +1137,26 @@ mod tests {
         cache
             .surface_at(&a, now, now, QueryFields::HEIGHT, &o)
             .unwrap();
-        // Two frames of height, displacement and the Jacobian terms (Newton inversion): 6 grids.
-        assert_eq!(cache.transforms(), 2 * 6);
+        // Two frames of height and displacement (Newton takes its Jacobian from the
+        // displacement grids' interpolant): 3 grids.
+        assert_eq!(cache.transforms(), 2 * 3);
         cache
             .surface_at(&b, now, now, QueryFields::HEIGHT, &o)
             .unwrap();
         assert_eq!(
             cache.transforms(),
-            2 * 6,
+            2 * 3,
             "the copy computed its own frames"
         );
         assert_eq!(cache.compute_ahead(&a, now, 1.0), 2);
         assert_eq!(cache.compute_ahead(&b, now, 1.0), 0);
-        assert_eq!(cache.transforms(), 4 * 6);
+        assert_eq!(cache.transforms(), 4 * 3);
         cache
             .surface_at(&other, now, now, QueryFields::HEIGHT, &o)
             .unwrap();
         assert_eq!(
             cache.transforms(),
-            6 * 6,
+            6 * 3,
             "another sea has frames of its own"
         );
         // A later normal query on the copy: exact bits (the frames widen on demand).
@@ -1193,8 +1194,8 @@ mod tests {
         assert!(cache.near_len() <= 2 * NEAR_STEPS as usize + 1);
     }
 
-    /// A height-only workload at now computes height, displacement and the Jacobian terms (what
-    /// Newton inversion reads): 6 of the 8 grids, never the slopes; a normal query asked later
+    /// A height-only workload at now computes height and displacement (what Newton inversion
+    /// reads): 3 of the 8 grids, never the slopes or Jacobian terms; a normal query asked later
     /// still gets the exact bits, and once nobody has asked for normals for 2·ACTIVE_FOR the
     /// frames ahead drop the slopes again.
     #[test]
@@ -1208,16 +1209,16 @@ mod tests {
             .surface_at(&scene, now, now, QueryFields::HEIGHT, &o)
             .unwrap();
         assert_eq!(cache.compute_ahead(&scene, now, 1.0), 2);
-        assert_eq!(cache.transforms(), 4 * 6, "4 frames of 6 grids");
+        assert_eq!(cache.transforms(), 4 * 3, "4 frames of 3 grids");
         // A normal query: its two frames widen to all 8 grids, with the exact bits.
         let (cached, direct) = cached_and_direct(&cache, &scene, now, now);
         assert_eq!(cached, direct);
-        assert_eq!(cache.transforms(), 4 * 6 + 2 * 8);
+        assert_eq!(cache.transforms(), 4 * 3 + 2 * 8);
         // The frames ahead now carry slopes too.
         let later = now + f.time_step();
         // 902 and 903 widen, 904 is new.
         assert_eq!(cache.compute_ahead(&scene, later, 1.0), 3);
-        assert_eq!(cache.transforms(), 4 * 6 + 2 * 8 + 3 * 8);
+        assert_eq!(cache.transforms(), 4 * 3 + 2 * 8 + 3 * 8);
         // Nobody has asked for normals for 2·ACTIVE_FOR: height queries alone again.
         {
             let mut g = cache.lock();
@@ -1234,7 +1235,7 @@ mod tests {
         assert!(computed > 0);
         assert_eq!(
             cache.transforms() - before,
-            computed * 6,
+            computed * 3,
             "slopes still computed ahead"
         );
         // And a normal query there is still exact.

@@ -74,7 +74,7 @@ namespace Swell.Tests
         internal static void Run(string vectors)
         {
             object doc = Json.Parse(File.ReadAllText(Path.Combine(vectors, "surface_v1.json")));
-            Runner.T("golden vectors: model version 2", () => Runner.Equal(2.0, Json.Num(doc, "model_version"), "model_version"));
+            Runner.T("golden vectors: model version 3", () => Runner.Equal(3.0, Json.Num(doc, "model_version"), "model_version"));
             foreach (var name in new[] { "calm_sine", "steep_gerstner_s095" })
             {
                 Runner.T("golden " + name + ": every field bit for bit", () =>

@@ -83,6 +83,13 @@ export function ifft2(re, im, n, tw = twiddles(n)) {
 
 const GRIDS = ['h', 'dx', 'dz', 'sx', 'sz', 'jxx', 'jzz', 'jxz'];
 
+/** Catmull–Rom weights for nodes −1, 0, 1, 2 at fraction t (sample.rs `catmull_rom`). */
+const catmullRom = (t) => [0.5 * (((-t + 2.0) * t - 1.0) * t), 0.5 * ((3.0 * t - 5.0) * t * t + 2.0),
+  0.5 * (((-3.0 * t + 4.0) * t + 1.0) * t), 0.5 * ((t - 1.0) * t * t)];
+/** Their derivatives dw/dt (sample.rs `catmull_rom_slope`). */
+const catmullRomSlope = (t) => [0.5 * ((-3.0 * t + 4.0) * t - 1.0), 0.5 * ((9.0 * t - 10.0) * t),
+  0.5 * ((-9.0 * t + 8.0) * t + 1.0), 0.5 * ((3.0 * t - 2.0) * t)];
+
 /**
  * One FFT layer, evaluated on the CPU. `new FftLayer(parseSpectrum(bytes))`; `frame(t)` gives the
  * grids at t; `sample(x0, z0, t, derivatives)` reads the layer at an undisplaced point as the
@@ -203,9 +210,7 @@ export class FftLayer {
     };
     const [i, fx] = coord(x0);
     const [j, fz] = coord(z0);
-    const cr = (t) => [0.5 * (((-t + 2.0) * t - 1.0) * t), 0.5 * ((3.0 * t - 5.0) * t * t + 2.0),
-      0.5 * (((-3.0 * t + 4.0) * t + 1.0) * t), 0.5 * ((t - 1.0) * t * t)];
-    const wx = cr(fx), wz = cr(fz);
+    const wx = catmullRom(fx), wz = catmullRom(fz);
     const m = n - 1;
     const cols = [(i - 1) & m, i, (i + 1) & m, (i + 2) & m];
     const out = {};
@@ -223,12 +228,63 @@ export class FftLayer {
     return out;
   }
 
-  /** The layer at undisplaced (x0, z0), time t: `{d, dx, dz}` as `Surface.sample` sums it. */
+  /**
+   * The horizontal Jacobian a Newton step uses at (x0, z0) (sample.rs
+   * `FftFrame::newton_jacobian`): the derivatives of the Catmull–Rom interpolant of the
+   * frame's dx and dz grids, `{jxx, jzz, jxz}` with jxz the mean of the two cross terms.
+   */
+  readNewton(frame, x0, z0) {
+    const { n, L } = this;
+    const coord = (x) => {
+      const u = Math.abs(x) < L ? (x < 0 ? x + L : x) : ((x % L) + L) % L;
+      const g = (u * n) / L;
+      const t = Math.floor(g);
+      return [t & (n - 1), (g - t) + 0];
+    };
+    const [i, fx] = coord(x0);
+    const [j, fz] = coord(z0);
+    const wx = catmullRom(fx), wz = catmullRom(fz);
+    const dwx = catmullRomSlope(fx), dwz = catmullRomSlope(fz);
+    const m = n - 1;
+    const cols = [(i - 1) & m, i, (i + 1) & m, (i + 2) & m];
+    const grad = (g) => {
+      let gx = 0, gz = 0;
+      for (let b = 0; b < 4; b++) {
+        const row = ((j + b - 1) & m) * n;
+        let rv = 0, rd = 0;
+        for (let a = 0; a < 4; a++) {
+          const v = g[row + cols[a]];
+          rv += wx[a] * v;
+          rd += dwx[a] * v;
+        }
+        gx += wz[b] * rd;
+        gz += dwz[b] * rv;
+      }
+      return [gx, gz];
+    };
+    const s = n / L;
+    const [xx, xz] = grad(frame.dx);
+    const [zx, zz] = grad(frame.dz);
+    return { jxx: xx * s, jzz: zz * s, jxz: 0.5 * (xz * s + zx * s) };
+  }
+
+  /**
+   * The layer at undisplaced (x0, z0), time t: `{d, dx, dz}` as `Surface.sample` sums it.
+   * `derivatives`: false (displacement only), true (the Jacobian and slope grids) or
+   * `'newton'` (an inversion round: the Jacobian of `readNewton`, no slopes).
+   */
   sample(x0, z0, t, derivatives = false) {
     const p = this.gridPosition(t);
-    let v = this.read(this.frame(p.time), x0, z0);
+    const newton = derivatives === 'newton';
+    const readAt = (time) => {
+      const f = this.frame(time);
+      const v = this.read(f, x0, z0);
+      if (newton) Object.assign(v, this.readNewton(f, x0, z0), { sx: 0, sz: 0 });
+      return v;
+    };
+    let v = readAt(p.time);
     if (p.weight > 0) {
-      const b = this.read(this.frame(p.nextTime), x0, z0);
+      const b = readAt(p.nextTime);
       const w = p.weight;
       const lerp = {};
       for (const k of GRIDS) lerp[k] = v[k] + (b[k] - v[k]) * w;

@@ -52,7 +52,7 @@ export class Surface {
    *   built waves `{amplitude, wavenumber, omega, direction: [x, z], phase, steepness}`.
    * @param {{fft?: Array<object|null>, impacts?: ImpactSet, gravity?: number, depth?: number|null}} [options]
    *   `fft`: per layer index, an FFT evaluator with `sample(x0, z0, t, derivatives)` returning
-   *   `{d, dx, dz}` (see fft.js); `impacts`: the scene's impacts (default an empty set, filled
+   *   `{d, dx, dz}`, derivatives false, true or 'newton' (see fft.js `FftLayer.sample`); `impacts`: the scene's impacts (default an empty set, filled
    *   by the caller: `surface.impacts.addAll(...)`); `gravity`, `depth`: the surface's
    *   dispersion, for the speed of impact rings (`fromDerived` passes the scene's).
    */
@@ -155,7 +155,8 @@ export class Surface {
 
   /**
    * Sum of every layer's displacement (Dx, y, Dz) at the undisplaced point (x0, z0), time t,
-   * and its derivatives when `derivatives` (else those stay 0). `surface.rs sample_lanes`.
+   * and its derivatives when `derivatives` (else those stay 0); `'newton'` gives an inversion
+   * round's (FFT layers' Jacobian from their displacement interpolant). `surface.rs sample_lanes`.
    */
   sample(x0, z0, t, derivatives = false, out = emptySample()) {
     const sc = this._sc;
@@ -219,12 +220,16 @@ export class Surface {
       return { source: [x, z], sample: this.sample(x, z, t, derivatives), residual: 0, iterations: 0 };
     }
     const newton = inversion.method !== 'fixed_point';
-    const needD = newton || derivatives;
+    const fft = this.layers.some((L) => L.kind === 'fft');
+    // What a round reads (query.rs `invert_lanes_v`): Newton's Jacobian (an FFT layer's from
+    // its displacement grids' interpolant); the Jacobian and slope grids of an FFT layer only
+    // in one more evaluation at the point kept, for a caller that wants derivatives.
+    const rounds = newton ? 'newton' : derivatives && !fft;
     let px = x;
     let pz = z;
     let best = null;
     for (let it = 0; ; it++) {
-      const s = this.sample(px, pz, t, needD);
+      const s = this.sample(px, pz, t, rounds);
       const fx = (px + s.d[0]) - x;
       const fz = (pz + s.d[2]) - z;
       const r = Math.sqrt(fx * fx + fz * fz);
@@ -248,6 +253,7 @@ export class Surface {
       px -= sx;
       pz -= sz;
     }
+    if (derivatives && fft) best.sample = this.sample(best.source[0], best.source[1], t, true);
     return best;
   }
 

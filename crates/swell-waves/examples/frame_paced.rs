@@ -1,5 +1,5 @@
-//! `storm`'s grid frames with the 6 grids a height query at now reads (height, displacement and
-//! the Jacobian terms of Newton inversion), computed back to back and then paced one every
+//! `storm`'s grid frames with the grids a height query at now reads (`Surface::fft_fields_for`:
+//! height and displacement, 3 of 8), computed back to back and then paced one every
 //! `gap` ms (17 ms: the default grid step, as the server's frame-ahead loop computes them for a
 //! scene in use), 300 frames each, in the same run. On a VM a frame that starts after its thread
 //! slept runs slower than one right after another (caches and the core given to others
@@ -9,8 +9,7 @@
 
 use std::time::{Duration, Instant};
 
-use swell_waves::fft::FftFields;
-use swell_waves::{Layer, Surface, SurfaceSpec};
+use swell_waves::{Layer, QueryFields, QueryOptions, Surface, SurfaceSpec};
 
 fn main() {
     let gap_ms: u64 = std::env::args()
@@ -26,9 +25,8 @@ fn main() {
     let Some(Layer::Fft(layer)) = surface.layers().first() else {
         unreachable!("storm is one FFT layer")
     };
-    let fields = FftFields::HEIGHT
-        .union(FftFields::DISPLACEMENT)
-        .union(FftFields::JACOBIAN);
+    let fields = surface.fft_fields_for(layer, QueryFields::HEIGHT, &QueryOptions::default());
+    let grids = fields.grid_count();
     let mut index = 0;
     let mut run = |gap: Duration| {
         // The server holds a scene's near frames: dropped frames return their grids to the
@@ -56,7 +54,7 @@ fn main() {
     run(Duration::ZERO); // warm-up: the pools fill, the pages are touched
     let (mean0, p50_0) = run(Duration::ZERO);
     let (mean1, p50_1) = run(Duration::from_millis(gap_ms));
-    println!("storm 256², 6 grids, 300 frames each");
+    println!("storm 256², {grids} grids, 300 frames each");
     println!("  back to back      mean {mean0:.3} ms  p50 {p50_0:.3} ms");
     println!(
         "  one every {gap_ms:>2} ms  mean {mean1:.3} ms  p50 {p50_1:.3} ms  ({:.2}×)",

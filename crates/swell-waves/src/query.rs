@@ -269,12 +269,16 @@ impl SurfaceAt<'_> {
     ) -> [Inverted; B] {
         let inv = self.options.inversion;
         let newton = inv.method == InversionMethod::Newton;
-        // FFT grids read per round: slopes only for a caller that wants derivatives (normals),
-        // the horizontal Jacobian for Newton's step, the displacement always.
-        let reads = if derivatives {
+        let fft = self.surface.has_fft();
+        // What a round reads: the displacement, and for Newton's step the horizontal Jacobian
+        // (an FFT layer's from the interpolant of its displacement grids, `FftReads::Newton`).
+        // A caller that wants derivatives gets them from one more evaluation at the point kept
+        // when the surface has an FFT layer (its Jacobian and slope grids); without one, the
+        // rounds compute them (the analytic layers' derivatives are the same either way).
+        let rounds = if newton {
+            FftReads::Newton
+        } else if derivatives && !fft {
             FftReads::All
-        } else if newton {
-            FftReads::Jacobian
         } else {
             FftReads::Displacement
         };
@@ -312,7 +316,7 @@ impl SurfaceAt<'_> {
             let mut round = [[0.0; B]; 3];
             // Lanes that have converged keep their best round: only the others read the FFT
             // frames again (the analytic kernel does all lanes at once either way).
-            let lanes = self.round_lanes::<B, V>(&p, reads, &active, &mut round, !later);
+            let lanes = self.round_lanes::<B, V>(&p, rounds, &active, &mut round, !later);
             for l in 0..B {
                 if !active[l] {
                     continue;
@@ -344,9 +348,10 @@ impl SurfaceAt<'_> {
             }
             it += 1;
         }
-        if later {
+        if later || (derivatives && fft) {
             let kept: [DVec2; B] = std::array::from_fn(|l| best[l].source);
             let mut round = [[0.0; B]; 3];
+            let reads = if derivatives { FftReads::All } else { rounds };
             let full = self.round_lanes::<B, V>(&kept, reads, &[true; B], &mut round, true);
             for (l, b) in best.iter_mut().enumerate() {
                 b.sample = full.get(l);
@@ -373,8 +378,7 @@ impl SurfaceAt<'_> {
         if V || self.options.precision == crate::Precision::F64 {
             self.sample_lanes_f64::<B, V>(p, reads, wanted, velocity, particles)
         } else {
-            self.lanes_f32_with(p, reads != FftReads::Displacement, particles)
-                .widen()
+            self.lanes_f32_with(p, reads, particles).widen()
         }
     }
 

@@ -238,22 +238,22 @@ impl Surface {
     }
 
     /// The FFT fields that queries for `fields` with `options` need from layer `layer`: height
-    /// always; horizontal displacement when the layer is choppy (to invert); the Jacobian terms
-    /// for Newton inversion, normals and Jacobians of a choppy layer; slopes for normals.
+    /// always; horizontal displacement when the layer is choppy (to invert, by either method);
+    /// the Jacobian terms for normals and Jacobians of a choppy layer; slopes for normals.
+    /// The inversion settings no longer change the answer (Newton reads no Jacobian grid).
     pub fn fft_fields_for(
         &self,
         layer: &FftLayer,
         fields: QueryFields,
-        options: &QueryOptions,
+        _options: &QueryOptions,
     ) -> FftFields {
         let choppy = layer.choppiness() > 0.0;
         let mut f = FftFields::HEIGHT;
         if choppy {
+            // Newton's steps take their Jacobian from the displacement grids' interpolant
+            // (`FftFrame::newton_jacobian`): the Jacobian grids are for the fields that report it.
             f = f.union(FftFields::DISPLACEMENT);
-            if options.inversion.method == crate::query::InversionMethod::Newton
-                || fields.normal
-                || fields.jacobian
-            {
+            if fields.normal || fields.jacobian {
                 f = f.union(FftFields::JACOBIAN);
             }
         }
@@ -774,18 +774,20 @@ impl SurfaceAt<'_> {
     /// only on `points[l]`.
     #[inline(always)]
     pub fn lanes_f32<const B: usize>(&self, points: &[DVec2; B], derivatives: bool) -> LanesF32<B> {
-        self.lanes_f32_with(points, derivatives, true)
+        self.lanes_f32_with(points, FftReads::every(derivatives), true)
     }
 
-    /// [`SurfaceAt::lanes_f32`], leaving particle layers out unless `particles` (see
+    /// [`SurfaceAt::lanes_f32`] reading FFT layers' grids as `reads` says (derivatives unless
+    /// `Displacement`), leaving particle layers out unless `particles` (see
     /// [`SurfaceAt::sample_lanes_f64`]).
     #[inline(always)]
     pub(crate) fn lanes_f32_with<const B: usize>(
         &self,
         points: &[DVec2; B],
-        derivatives: bool,
+        reads: FftReads,
         particles: bool,
     ) -> LanesF32<B> {
+        let derivatives = reads != FftReads::Displacement;
         let x: [f64; B] = std::array::from_fn(|l| points[l].x);
         let z: [f64; B] = std::array::from_fn(|l| points[l].y);
         let mut out = LanesF32::<B>::default();
@@ -805,7 +807,6 @@ impl SurfaceAt<'_> {
                 (Layer::Fft(f), _) => {
                     for (l, &p0) in points.iter().enumerate() {
                         let mut one = Lanes::<1>::default();
-                        let reads = FftReads::every(derivatives);
                         add_fft(
                             &mut one,
                             0,

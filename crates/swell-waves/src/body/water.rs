@@ -56,6 +56,19 @@ impl SurfaceAt<'_> {
         derivatives: bool,
         min_wavelength: f64,
     ) -> SurfaceSample {
+        let reads = crate::fft::FftReads::every(derivatives);
+        self.sample_filtered_reads(p0, reads, min_wavelength)
+    }
+
+    /// [`SurfaceAt::sample_filtered`] reading FFT layers as `reads` says (derivatives unless
+    /// `Displacement`; an inversion round reads `Newton`).
+    fn sample_filtered_reads(
+        &self,
+        p0: DVec2,
+        reads: crate::fft::FftReads,
+        min_wavelength: f64,
+    ) -> SurfaceSample {
+        let derivatives = reads != crate::fft::FftReads::Displacement;
         let mut out = SurfaceSample::default();
         for (i, (layer, frame)) in self.surface.layers().iter().zip(&self.frames).enumerate() {
             match layer {
@@ -77,7 +90,6 @@ impl SurfaceAt<'_> {
                     }
                 }
                 Layer::Fft(f) => {
-                    let reads = crate::fft::FftReads::every(derivatives);
                     let s = self.fft_sample(f, frame, p0, reads);
                     out.displacement += s.displacement;
                     if derivatives {
@@ -136,8 +148,13 @@ impl SurfaceAt<'_> {
         let mut p = start;
         let (mut best, mut best_s, mut best_r) = (start, SurfaceSample::default(), f64::INFINITY);
         let mut it = 0;
+        let reads = if newton {
+            crate::fft::FftReads::Newton
+        } else {
+            crate::fft::FftReads::Displacement
+        };
         loop {
-            let s = self.sample_filtered(p, newton, min_wavelength);
+            let s = self.sample_filtered_reads(p, reads, min_wavelength);
             let f = p + DVec2::new(s.displacement.x, s.displacement.z) - target;
             let r = f.length();
             if it == 0 || r < best_r {

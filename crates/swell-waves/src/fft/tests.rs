@@ -712,15 +712,21 @@ fn sample_height_and_sample_grid_equal_sample_bit_for_bit() {
                 for (g, v) in FftGrid::ALL.into_iter().zip(all) {
                     assert_eq!(frame.sample_grid(g, p0, filter).to_bits(), v.to_bits());
                 }
-                for (reads, kept) in [
-                    (FftReads::Displacement, &[0, 1, 2][..]),
-                    (FftReads::Jacobian, &[0, 1, 2, 5, 6, 7][..]),
-                    (FftReads::All, &[0, 1, 2, 3, 4, 5, 6, 7][..]),
+                // Newton's read: the displacement grids' bits, and in the Jacobian slots the
+                // interpolant's derivatives (`newton_jacobian`), never the Jacobian grids.
+                let nj = frame.newton_jacobian(p0);
+                let newton = [all[0], all[1], all[2], 0.0, 0.0, nj.x, nj.y, nj.z];
+                for (reads, want) in [
+                    (
+                        FftReads::Displacement,
+                        [all[0], all[1], all[2], 0.0, 0.0, 0.0, 0.0, 0.0],
+                    ),
+                    (FftReads::Newton, newton),
+                    (FftReads::All, all),
                 ] {
                     let some = values(&frame.sample_some(p0, filter, reads));
-                    for (g, (v, w)) in all.iter().zip(some).enumerate() {
-                        let want = if kept.contains(&g) { *v } else { 0.0 };
-                        assert_eq!(w.to_bits(), want.to_bits(), "{reads:?} grid {g}");
+                    for (g, (w, v)) in want.iter().zip(some).enumerate() {
+                        assert_eq!(v.to_bits(), w.to_bits(), "{reads:?} grid {g}");
                     }
                 }
             }
@@ -798,4 +804,61 @@ fn column_multiplier_pass_equals_the_per_mode_formula_bit_for_bit() {
             }
         }
     }
+}
+
+/// `FftFrame::newton_jacobian` against its slow reference: central differences of the bicubic
+/// read itself (`sample` with `Bicubic`, ±1e-4 of a grid step), on seeded random points, wrapped
+/// ones included. It is the derivative of the function Newton solves. And it is the sea's
+/// Jacobian: within a few per cent of the spectral Jacobian grids on a spectrum resolved by the
+/// grid (peak 12 m on a 50/64 m grid).
+#[test]
+fn the_newton_jacobian_is_the_derivative_of_the_bicubic_read() {
+    let layer = layer_with(&spec(64, 50.0), 5, bump(12.0, 1.5));
+    let frame = layer.frame(7.25, FftFields::ALL);
+    let h = 1e-4 * 50.0 / 64.0;
+    let d = |p: DVec2| frame.sample(p, SampleFilter::Bicubic).displacement;
+    let mut rng = SwellRng::new(21, 1);
+    let (mut worst_fd, mut worst_sea, mut scale): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    for k in 0..400 {
+        let (a, b) = rng.gaussian_pair();
+        // Every tenth point on the tile's wrapping edge.
+        let p0 = if k % 10 == 0 {
+            DVec2::new(50.0 * (k / 10) as f64 - 1e-3, b * 30.0)
+        } else {
+            DVec2::new(a * 60.0, b * 60.0)
+        };
+        let j = frame.newton_jacobian(p0);
+        let ddx = (d(p0 + DVec2::X * h) - d(p0 - DVec2::X * h)) / (2.0 * h);
+        let ddz = (d(p0 + DVec2::Y * h) - d(p0 - DVec2::Y * h)) / (2.0 * h);
+        let fd = [ddx.x, ddz.z, 0.5 * (ddz.x + ddx.z)];
+        let sea = frame.sample(p0, SampleFilter::Bicubic).jacobian;
+        for (got, (want, grid)) in [j.x, j.y, j.z]
+            .into_iter()
+            .zip(fd.into_iter().zip([sea.x, sea.y, sea.z]))
+        {
+            assert!(got.is_finite());
+            worst_fd = worst_fd.max((got - want).abs());
+            worst_sea = worst_sea.max((got - grid).abs());
+            scale = scale.max(grid.abs());
+        }
+    }
+    assert!(
+        scale > 0.1,
+        "the test sea is too flat to tell: max |J| {scale}"
+    );
+    assert!(
+        worst_fd < 1e-6,
+        "against central differences of the read: {worst_fd}"
+    );
+    assert!(
+        worst_sea < 0.05 * scale,
+        "against the Jacobian grids: {worst_sea} (max |J| {scale})"
+    );
+    // No displacement grids (a height-only frame): zero.
+    assert_eq!(
+        layer
+            .frame(7.25, FftFields::HEIGHT)
+            .newton_jacobian(DVec2::new(3.0, 4.0)),
+        glam::DVec3::ZERO
+    );
 }

@@ -42,8 +42,9 @@ fn a_height_only_request_runs_only_the_height_transform() {
         1,
         "height only, no choppiness: one inverse FFT"
     );
-    // A choppy layer must invert the horizontal displacement: height + Dx + Dz, plus the three
-    // Jacobian terms for Newton; fixed-point inversion needs no Jacobian.
+    // A choppy layer must invert the horizontal displacement: height + Dx + Dz, by either
+    // method (Newton takes its Jacobian from the displacement grids' interpolant); the three
+    // Jacobian grids only for fields that report them.
     let choppy = fft(
         64,
         200.0,
@@ -56,7 +57,7 @@ fn a_height_only_request_runs_only_the_height_transform() {
             .at(3.0, QueryFields::HEIGHT, &QueryOptions::default())
             .unwrap()
             .transforms(),
-        6
+        3
     );
     let fp = QueryOptions {
         inversion: Inversion {
@@ -371,6 +372,56 @@ fn a_repeat_period_out_of_range_is_an_error_naming_it() {
             .unwrap();
         for p in [(0.0, 0.0), (-401.5, 3.0)] {
             assert!(at.height(p.0, p.1).is_finite(), "t {t} at {p:?}");
+        }
+    }
+}
+
+/// Newton's steps read the displacement grids' interpolant, never the Jacobian grids, so a
+/// height does not depend on what else was asked: the same bits from a height-only snapshot (3
+/// grids), one for every field (8 grids), a batch, and a body's water query, in f64 and f32, on a
+/// choppy FFT sea under a Gerstner swell. And Newton still converges: every residual within the
+/// tolerance, in at most 5 steps.
+#[test]
+fn a_height_has_the_same_bits_whatever_else_is_asked() {
+    let sea = surface(json!({"seed": 11, "layers": [
+        {"kind": "fft", "resolution": 64, "tile_size": 120.0, "choppiness": 1.0,
+         "wind_direction": [1.0, 0.3], "spectrum": {"kind": "jonswap", "wind_speed": 14.0, "fetch": 80000.0},
+         "spreading": {"kind": "cos2s", "s": 4.0}},
+        {"kind": "gerstner", "waves": [{"amplitude": 0.4, "wavelength": 60, "direction": [0.2, 1], "steepness": 0.4}]}]}));
+    for precision in [swell_waves::Precision::F64, swell_waves::Precision::F32] {
+        let options = QueryOptions {
+            precision,
+            ..Default::default()
+        };
+        for t in [0.0, 13.37, 1.0e6 + 0.01] {
+            let h = sea.at(t, QueryFields::HEIGHT, &options).unwrap();
+            let all = sea.at(t, QueryFields::ALL, &options).unwrap();
+            let pts = points(5, 300, (0.0, 0.0), 70.0);
+            let batch = all.query_batch(&pts, QueryFields::ALL);
+            for (p, b) in pts.iter().zip(&batch) {
+                let one = h.query(*p, QueryFields::HEIGHT);
+                let every = all.query(*p, QueryFields::ALL);
+                assert_eq!(
+                    one.height.to_bits(),
+                    every.height.to_bits(),
+                    "{precision:?} t={t} {p}"
+                );
+                assert_eq!(
+                    b.height.to_bits(),
+                    every.height.to_bits(),
+                    "batch {precision:?} t={t} {p}"
+                );
+                assert!(every.residual <= options.inversion.tolerance, "{every:?}");
+                if precision == swell_waves::Precision::F64 {
+                    assert_eq!(h.water_at(*p, 0.0).height.to_bits(), one.height.to_bits());
+                }
+            }
+            let steps = pts
+                .iter()
+                .map(|p| h.invert(*p, false).iterations)
+                .max()
+                .unwrap();
+            assert!(steps <= 5, "Newton took {steps} steps at t={t}");
         }
     }
 }
