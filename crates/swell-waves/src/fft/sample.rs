@@ -223,6 +223,57 @@ impl Stencil {
         (gx, gz)
     }
 
+    /// A Newton round's read in one pass over the 16 nodes: the bicubic values of Dx, h and Dz
+    /// (the bits of [`Stencil::read_many`]: the same row sums in the same order) and the
+    /// interpolant gradients `(gx, gz)` of Dx and Dz (the bits of
+    /// [`Stencil::interpolant_gradient`]). Bicubic stencils only.
+    #[inline(always)]
+    fn read_newton(&self, dx: &[f64], h: &[f64], dz: &[f64]) -> ([f64; 3], [(f64, f64); 2]) {
+        debug_assert_eq!(self.filter, SampleFilter::Bicubic);
+        let Self {
+            n, i, j, fx, fz, ..
+        } = *self;
+        let (wx, dwx) = (catmull_rom(fx), catmull_rom_slope(fx));
+        let (wz, dwz) = (catmull_rom(fz), catmull_rom_slope(fz));
+        let mut acc = [0.0; 3];
+        let mut grad = [(0.0, 0.0); 2];
+        let mut row = |b: usize, run: [[f64; 4]; 3]| {
+            let mut rv = [0.0; 3];
+            let mut rd = [0.0; 2];
+            for a in 0..4 {
+                for (r, g) in rv.iter_mut().zip(&run) {
+                    *r += wx[a] * g[a];
+                }
+                rd[0] += dwx[a] * run[0][a];
+                rd[1] += dwx[a] * run[2][a];
+            }
+            for (acc, r) in acc.iter_mut().zip(rv) {
+                *acc += wz[b] * r;
+            }
+            for (k, g) in grad.iter_mut().enumerate() {
+                g.0 += wz[b] * rd[k];
+                g.1 += dwz[b] * rv[2 * k];
+            }
+        };
+        if i >= 1 && i + 2 < n && j >= 1 && j + 2 < n {
+            // No node wraps: four runs of four per grid (see `read_many`).
+            let first = (j - 1) * n + (i - 1);
+            for b in 0..4 {
+                let at = first + b * n;
+                let run = |g: &[f64]| -> [f64; 4] { g[at..at + 4].try_into().unwrap_or([0.0; 4]) };
+                row(b, [run(dx), run(h), run(dz)]);
+            }
+        } else {
+            let cols = [self.wrap(i, -1), i, self.wrap(i, 1), self.wrap(i, 2)];
+            for b in 0..4 {
+                let at = self.wrap(j, b as isize - 1) * n;
+                let run = |g: &[f64]| cols.map(|c| g[at + c]);
+                row(b, [run(dx), run(h), run(dz)]);
+            }
+        }
+        (acc, grad)
+    }
+
     /// The filtered value of one N×N grid (see [`FftFrame::sample`] for the formulas).
     #[inline]
     fn read(&self, g: &[f64]) -> f64 {
@@ -299,6 +350,21 @@ impl FftFrame {
                 }
             }
             FftReads::Newton => {
+                if filter == SampleFilter::Bicubic
+                    && let (Some(dx), Some(h), Some(dz)) = (
+                        self.grid(DisplacementX),
+                        self.grid(Height),
+                        self.grid(DisplacementZ),
+                    )
+                {
+                    // The common case in one pass: the bits of the two reads below.
+                    let ([x, h, z], [(xx, xz), (zx, zz)]) = at.read_newton(dx, h, dz);
+                    return FftSample {
+                        displacement: DVec3::new(x, h, z),
+                        slope: DVec2::ZERO,
+                        jacobian: self.newton_terms(xx, xz, zx, zz),
+                    };
+                }
                 let [x, h, z] = self.read_fields(&at, [DisplacementX, Height, DisplacementZ]);
                 FftSample {
                     displacement: DVec3::new(x, h, z),
@@ -355,9 +421,15 @@ impl FftFrame {
         ) else {
             return DVec3::ZERO;
         };
-        let s = self.n as f64 / self.tile_size;
         let (xx, xz) = at.interpolant_gradient(dx);
         let (zx, zz) = at.interpolant_gradient(dz);
+        self.newton_terms(xx, xz, zx, zz)
+    }
+
+    /// `(∂Dx/∂x, ∂Dz/∂z, ∂Dx/∂z)` per metre from the interpolant gradients per node spacing.
+    #[inline(always)]
+    fn newton_terms(&self, xx: f64, xz: f64, zx: f64, zz: f64) -> DVec3 {
+        let s = self.n as f64 / self.tile_size;
         DVec3::new(xx * s, zz * s, 0.5 * (xz * s + zx * s))
     }
 
