@@ -100,6 +100,7 @@ fn main() {
     let started = Instant::now();
     let knobs = vec![
         inversion(size),
+        fft_inversion(size),
         fft_resolution(size),
         filter(size),
         time_grid(size),
@@ -310,6 +311,138 @@ fn inversion(size: Size) -> Knob {
                  points, so it costs about 3 steps. Skipping inversion (reading the height at the \
                  undisplaced point) is off by metres on these seas: never do it for a choppy sea."
             .into(),
+    }
+}
+
+/// Height inversion on the built-in FFT seas: the error of each setting against the root of the
+/// same function (the frames' bicubic read) converged by 64 Newton steps; and, for the advice,
+/// Newton with the Jacobian grids' Jacobian (model version 2) against the same root.
+fn fft_inversion(size: Size) -> Knob {
+    let mut rows = Vec::new();
+    let t = 321.0;
+    let pts = points(3, size.points.min(1024), 128.0);
+    let mut grids_vs_interp = Vec::new();
+    for name in ["open-sea", "storm"] {
+        let s = builtin_fft(name, 1.0 / 60.0);
+        let options = |method, iterations, tolerance| QueryOptions {
+            inversion: Inversion {
+                method,
+                iterations,
+                tolerance,
+            },
+            ..Default::default()
+        };
+        let root = sea(&s, t, options(InversionMethod::Newton, 64, 0.0));
+        let want: Vec<f64> = root
+            .query_batch(&pts, QueryFields::HEIGHT)
+            .iter()
+            .map(|r| r.height)
+            .collect();
+        let err = |got: &[f64]| -> Vec<f64> {
+            got.iter()
+                .zip(&want)
+                .map(|(g, w)| (g - w).abs() * 1e3)
+                .collect()
+        };
+        let mut settings = vec![
+            (InversionMethod::FixedPoint, 4, 0.0),
+            (InversionMethod::FixedPoint, 8, 0.0),
+        ];
+        for it in [1, 2, 3, 4] {
+            settings.push((InversionMethod::Newton, it, 0.0));
+        }
+        settings.push((InversionMethod::Newton, 8, 1e-5));
+        for (method, iterations, tolerance) in settings {
+            let at = sea(&s, t, options(method, iterations, tolerance));
+            let got: Vec<f64> = at
+                .query_batch(&pts, QueryFields::HEIGHT)
+                .iter()
+                .map(|r| r.height)
+                .collect();
+            let time = best_of(size.reps, || {
+                std::hint::black_box(at.query_batch(&pts, QueryFields::HEIGHT));
+            });
+            let m = match method {
+                InversionMethod::FixedPoint => "fixed-point",
+                InversionMethod::Newton => "Newton",
+            };
+            let (setting, label) = if tolerance > 0.0 {
+                (
+                    format!("{name}: {m} ≤{iterations} steps, stop at 0.01 mm (default)"),
+                    format!("{name} N≤8"),
+                )
+            } else {
+                (
+                    format!("{name}: {m} × {iterations}"),
+                    format!("{name} {}{iterations}", &m[..1]),
+                )
+            };
+            rows.push(row(
+                setting,
+                label,
+                &err(&got),
+                time * 1e9 / pts.len() as f64,
+            ));
+        }
+        // Model version 2's steps: the Jacobian read from the Jacobian grids (a snapshot with
+        // every field: `sample` with derivatives reads them), the same root.
+        let every = sea(&s, t, QueryOptions::default());
+        for steps in [2, 3] {
+            let got: Vec<f64> = pts
+                .iter()
+                .map(|&target| {
+                    let mut p = target;
+                    for _ in 0..steps {
+                        let d = every.sample(p, true);
+                        let f = p + DVec2::new(d.displacement.x, d.displacement.z) - target;
+                        let (a, b) = (1.0 + d.d_dx.x, d.d_dz.x);
+                        let (c, e) = (d.d_dx.z, 1.0 + d.d_dz.z);
+                        let det = a * e - b * c;
+                        p -= if det > 1e-9 {
+                            DVec2::new((e * f.x - b * f.y) / det, (a * f.y - c * f.x) / det)
+                        } else {
+                            f
+                        };
+                    }
+                    every.sample(p, false).displacement.y
+                })
+                .collect();
+            let (max, rms) = stats(&err(&got));
+            let (mine, mine_rms) = rows
+                .iter()
+                .find(|r| r.setting == format!("{name}: Newton × {steps}"))
+                .map_or((f64::NAN, f64::NAN), |r| (r.max, r.rms));
+            grids_vs_interp.push(format!(
+                "{name} × {steps}: {} / {} mm (grids) against {} / {} mm",
+                fmt_num(max),
+                fmt_num(rms),
+                fmt_num(mine),
+                fmt_num(mine_rms)
+            ));
+        }
+    }
+    Knob {
+        title: "FFT height inversion (built-in open-sea and storm, 256²)",
+        error_unit: "mm",
+        cost_unit: "ns/point",
+        method: "Height at world points on the built-in FFT seas (storm: choppiness 2.6, its \
+                 sharpest crests just fold) against the root of the same function, the frames' \
+                 bicubic read, converged by 64 Newton steps: the inversion's own error, none of \
+                 the grid's (see the next tables). Newton's FFT Jacobian is the derivative of the \
+                 displacement grids' interpolant (`FftFrame::newton_jacobian`). Frames are \
+                 computed beforehand (not charged). Fixed step counts use tolerance 0."
+            .into(),
+        rows,
+        advice: format!(
+            "Newton with the default settings is within 0.01 mm of the root on both seas; \
+             fixed-point inversion needs many more steps on storm. Newton with the Jacobian \
+             read from three more transformed grids (model version 2, twice the transforms a \
+             frame) against the interpolant's derivative, max / RMS error: {}. Both \
+             converge to the same root: on open-sea the interpolant's derivative (the exact \
+             derivative of the function solved) is ahead; near storm's folds the two are close, \
+             neither ahead at every step; the default stops within 0.01 mm either way.",
+            grids_vs_interp.join("; ")
+        ),
     }
 }
 
