@@ -235,13 +235,35 @@ impl Stencil {
         } = *self;
         let (wx, dwx) = (catmull_rom(fx), catmull_rom_slope(fx));
         let (wz, dwz) = (catmull_rom(fz), catmull_rom_slope(fz));
+        // The 4×4 nodes of each grid first (rows j − 1 … j + 2, columns i − 1 … i + 2), then
+        // the sums: one loop, no closure (a closure here was not inlined, and ran out of line in
+        // baseline code outside the AVX2 body kernel).
+        let mut nodes = [[[0.0; 4]; 3]; 4];
+        if i >= 1 && i + 2 < n && j >= 1 && j + 2 < n {
+            // No node wraps: four runs of four per grid (see `read_many`).
+            let first = (j - 1) * n + (i - 1);
+            for (b, rows) in nodes.iter_mut().enumerate() {
+                let at = first + b * n;
+                for (run, g) in rows.iter_mut().zip([dx, h, dz]) {
+                    *run = g[at..at + 4].try_into().unwrap_or([0.0; 4]);
+                }
+            }
+        } else {
+            let cols = [self.wrap(i, -1), i, self.wrap(i, 1), self.wrap(i, 2)];
+            for (b, rows) in nodes.iter_mut().enumerate() {
+                let at = self.wrap(j, b as isize - 1) * n;
+                for (run, g) in rows.iter_mut().zip([dx, h, dz]) {
+                    *run = cols.map(|c| g[at + c]);
+                }
+            }
+        }
         let mut acc = [0.0; 3];
         let mut grad = [(0.0, 0.0); 2];
-        let mut row = |b: usize, run: [[f64; 4]; 3]| {
+        for (b, run) in nodes.iter().enumerate() {
             let mut rv = [0.0; 3];
             let mut rd = [0.0; 2];
             for a in 0..4 {
-                for (r, g) in rv.iter_mut().zip(&run) {
+                for (r, g) in rv.iter_mut().zip(run) {
                     *r += wx[a] * g[a];
                 }
                 rd[0] += dwx[a] * run[0][a];
@@ -253,22 +275,6 @@ impl Stencil {
             for (k, g) in grad.iter_mut().enumerate() {
                 g.0 += wz[b] * rd[k];
                 g.1 += dwz[b] * rv[2 * k];
-            }
-        };
-        if i >= 1 && i + 2 < n && j >= 1 && j + 2 < n {
-            // No node wraps: four runs of four per grid (see `read_many`).
-            let first = (j - 1) * n + (i - 1);
-            for b in 0..4 {
-                let at = first + b * n;
-                let run = |g: &[f64]| -> [f64; 4] { g[at..at + 4].try_into().unwrap_or([0.0; 4]) };
-                row(b, [run(dx), run(h), run(dz)]);
-            }
-        } else {
-            let cols = [self.wrap(i, -1), i, self.wrap(i, 1), self.wrap(i, 2)];
-            for b in 0..4 {
-                let at = self.wrap(j, b as isize - 1) * n;
-                let run = |g: &[f64]| cols.map(|c| g[at + c]);
-                row(b, [run(dx), run(h), run(dz)]);
             }
         }
         (acc, grad)
