@@ -199,8 +199,11 @@ export class FftLayer {
     return { index, next: index + 1 === M ? 0 : index + 1, weight, time: gt(index), nextTime: gt(index + 1 === M ? 0 : index + 1) };
   }
 
-  /** Catmull–Rom (bicubic) read of every grid of `frame` at (x0, z0), the server's default filter. */
-  read(frame, x0, z0) {
+  /**
+   * Where (x0, z0) falls on the grid (sample.rs `grid_coord` and `Stencil`): node row j and
+   * fractions fx, fz; the four columns i − 1 … i + 2, wrapped (mask m = n − 1).
+   */
+  stencil(x0, z0) {
     const { n, L } = this;
     const coord = (x) => {
       const u = Math.abs(x) < L ? (x < 0 ? x + L : x) : ((x % L) + L) % L;
@@ -210,9 +213,14 @@ export class FftLayer {
     };
     const [i, fx] = coord(x0);
     const [j, fz] = coord(z0);
-    const wx = catmullRom(fx), wz = catmullRom(fz);
     const m = n - 1;
-    const cols = [(i - 1) & m, i, (i + 1) & m, (i + 2) & m];
+    return { n, j, fx, fz, m, cols: [(i - 1) & m, i, (i + 1) & m, (i + 2) & m] };
+  }
+
+  /** Catmull–Rom (bicubic) read of every grid of `frame` at (x0, z0), the server's default filter. */
+  read(frame, x0, z0) {
+    const { n, j, fx, fz, m, cols } = this.stencil(x0, z0);
+    const wx = catmullRom(fx), wz = catmullRom(fz);
     const out = {};
     for (const name of GRIDS) {
       const g = frame[name];
@@ -234,19 +242,9 @@ export class FftLayer {
    * frame's dx and dz grids, `{jxx, jzz, jxz}` with jxz the mean of the two cross terms.
    */
   readNewton(frame, x0, z0) {
-    const { n, L } = this;
-    const coord = (x) => {
-      const u = Math.abs(x) < L ? (x < 0 ? x + L : x) : ((x % L) + L) % L;
-      const g = (u * n) / L;
-      const t = Math.floor(g);
-      return [t & (n - 1), (g - t) + 0];
-    };
-    const [i, fx] = coord(x0);
-    const [j, fz] = coord(z0);
+    const { n, j, fx, fz, m, cols } = this.stencil(x0, z0);
     const wx = catmullRom(fx), wz = catmullRom(fz);
     const dwx = catmullRomSlope(fx), dwz = catmullRomSlope(fz);
-    const m = n - 1;
-    const cols = [(i - 1) & m, i, (i + 1) & m, (i + 2) & m];
     const grad = (g) => {
       let gx = 0, gz = 0;
       for (let b = 0; b < 4; b++) {
@@ -262,7 +260,7 @@ export class FftLayer {
       }
       return [gx, gz];
     };
-    const s = n / L;
+    const s = n / this.L;
     const [xx, xz] = grad(frame.dx);
     const [zx, zz] = grad(frame.dz);
     return { jxx: xx * s, jzz: zz * s, jxz: 0.5 * (xz * s + zx * s) };

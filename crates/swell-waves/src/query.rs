@@ -25,8 +25,10 @@ pub enum InversionMethod {
     /// `p0 ← target − D(p0)`: one evaluation per step, no derivatives; converges linearly with
     /// rate up to the fold number S, so slowly for steep seas.
     FixedPoint,
-    /// Newton on `F(p0) = p0 + D(p0) − target` with the analytic 2×2 Jacobian: quadratic
-    /// convergence; falls back to a fixed-point step where the Jacobian is singular. The default.
+    /// Newton on `F(p0) = p0 + D(p0) − target` with the 2×2 Jacobian of D (sine and Gerstner
+    /// layers' analytic one; an FFT layer's the derivative of the interpolant of its
+    /// displacement grids, [`crate::fft::FftFrame::newton_jacobian`]): quadratic convergence;
+    /// falls back to a fixed-point step where the Jacobian is singular. The default.
     #[default]
     Newton,
 }
