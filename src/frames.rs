@@ -528,14 +528,14 @@ impl FrameCache {
         .clone()
     }
 
-    /// The FFT fields queries of `fields` with `options` need from every layer.
-    fn needs(scene: &Scene, fields: QueryFields, options: &QueryOptions) -> Vec<FftFields> {
+    /// The FFT fields queries of `fields` need from every layer.
+    fn needs(scene: &Scene, fields: QueryFields) -> Vec<FftFields> {
         scene
             .surface
             .layers()
             .iter()
             .map(|l| match l {
-                Layer::Fft(f) => scene.surface.fft_fields_for(f, fields, options),
+                Layer::Fft(f) => scene.surface.fft_fields_for(f, fields),
                 _ => FftFields::NONE,
             })
             .collect()
@@ -597,7 +597,7 @@ impl FrameCache {
             return surface.at_with_frames(t, Vec::new(), options);
         }
         options.validate()?;
-        let needs = Self::needs(scene, fields, options);
+        let needs = Self::needs(scene, fields);
         // Only a query near the clock's now keeps the scene's frames computed ahead: the frames
         // the clock reaches next are of no use to one at a far-off (or exact) time, and
         // computing them costs ~15% of a core per FFT scene (60 frames a second).
@@ -636,7 +636,7 @@ impl FrameCache {
         if !t.is_finite() || options.reference {
             return false;
         }
-        let needs = Self::needs(scene, fields, options);
+        let needs = Self::needs(scene, fields);
         let g = self.lock();
         let Some(&source) = g.scene_source.get(&scene.uid) else {
             return false;

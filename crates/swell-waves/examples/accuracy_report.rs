@@ -225,6 +225,32 @@ fn sea<'s>(s: &'s Surface, t: f64, options: QueryOptions) -> SurfaceAt<'s> {
 // ---------------------------------------------------------------------------------------------
 // The knobs
 
+/// A row's setting and chart label for an inversion setting: `"{prefix}: Newton × 3"` and
+/// `"{short} N3"`, or the default's (a tolerance) `"… ≤8 steps, stop at 0.01 mm (default)"`.
+fn inversion_setting(
+    prefix: &str,
+    short: &str,
+    method: InversionMethod,
+    iterations: u32,
+    tolerance: f64,
+) -> (String, String) {
+    let m = match method {
+        InversionMethod::FixedPoint => "fixed-point",
+        InversionMethod::Newton => "Newton",
+    };
+    if tolerance > 0.0 {
+        (
+            format!("{prefix}: {m} ≤{iterations} steps, stop at 0.01 mm (default)"),
+            format!("{short} N≤{iterations} default"),
+        )
+    } else {
+        (
+            format!("{prefix}: {m} × {iterations}"),
+            format!("{short} {}{iterations}", &m[..1]),
+        )
+    }
+}
+
 fn inversion(size: Size) -> Knob {
     let mut rows = Vec::new();
     let t = 321.0;
@@ -278,21 +304,13 @@ fn inversion(size: Size) -> Knob {
             let time = best_of(size.reps, || {
                 std::hint::black_box(sea.query_batch(&pts, QueryFields::HEIGHT));
             });
-            let m = match method {
-                InversionMethod::FixedPoint => "fixed-point",
-                InversionMethod::Newton => "Newton",
-            };
-            let (setting, label) = if tolerance > 0.0 {
-                (
-                    format!("S={fold}: {m} ≤{iterations} steps, stop at 0.01 mm (default)"),
-                    format!("{fold} N≤8 default"),
-                )
-            } else {
-                (
-                    format!("S={fold}: {m} × {iterations}"),
-                    format!("{fold} {}{iterations}", &m[..1]),
-                )
-            };
+            let (setting, label) = inversion_setting(
+                &format!("S={fold}"),
+                &fold.to_string(),
+                method,
+                iterations,
+                tolerance,
+            );
             rows.push(row(setting, label, &e, time * 1e9 / pts.len() as f64));
         }
     }
@@ -362,21 +380,7 @@ fn fft_inversion(size: Size) -> Knob {
             let time = best_of(size.reps, || {
                 std::hint::black_box(at.query_batch(&pts, QueryFields::HEIGHT));
             });
-            let m = match method {
-                InversionMethod::FixedPoint => "fixed-point",
-                InversionMethod::Newton => "Newton",
-            };
-            let (setting, label) = if tolerance > 0.0 {
-                (
-                    format!("{name}: {m} ≤{iterations} steps, stop at 0.01 mm (default)"),
-                    format!("{name} N≤8"),
-                )
-            } else {
-                (
-                    format!("{name}: {m} × {iterations}"),
-                    format!("{name} {}{iterations}", &m[..1]),
-                )
-            };
+            let (setting, label) = inversion_setting(name, name, method, iterations, tolerance);
             rows.push(row(
                 setting,
                 label,

@@ -9,7 +9,7 @@
 
 use std::time::{Duration, Instant};
 
-use swell_waves::{Layer, QueryFields, QueryOptions, Surface, SurfaceSpec};
+use swell_waves::{Layer, QueryFields, Surface, SurfaceSpec};
 
 fn main() {
     let gap_ms: u64 = std::env::args()
@@ -25,7 +25,7 @@ fn main() {
     let Some(Layer::Fft(layer)) = surface.layers().first() else {
         unreachable!("storm is one FFT layer")
     };
-    let fields = surface.fft_fields_for(layer, QueryFields::HEIGHT, &QueryOptions::default());
+    let fields = surface.fft_fields_for(layer, QueryFields::HEIGHT);
     let grids = fields.grid_count();
     let mut index = 0;
     // `per` frames back to back, then a sleep of `gap` (`per` grid steps' worth when paced).

@@ -237,16 +237,11 @@ impl Surface {
         })
     }
 
-    /// The FFT fields that queries for `fields` with `options` need from layer `layer`: height
-    /// always; horizontal displacement when the layer is choppy (to invert, by either method);
-    /// the Jacobian terms for normals and Jacobians of a choppy layer; slopes for normals.
-    /// The inversion settings no longer change the answer (Newton reads no Jacobian grid).
-    pub fn fft_fields_for(
-        &self,
-        layer: &FftLayer,
-        fields: QueryFields,
-        _options: &QueryOptions,
-    ) -> FftFields {
+    /// The FFT fields that queries for `fields` need from layer `layer`: height always;
+    /// horizontal displacement when the layer is choppy (to invert, by either method: Newton
+    /// reads no Jacobian grid); the Jacobian terms for normals and Jacobians of a choppy layer;
+    /// slopes for normals.
+    pub fn fft_fields_for(&self, layer: &FftLayer, fields: QueryFields) -> FftFields {
         let choppy = layer.choppiness() > 0.0;
         let mut f = FftFields::HEIGHT;
         if choppy {
@@ -327,7 +322,7 @@ impl Surface {
                 .enumerate()
                 .map(|(i, l)| match l {
                     Layer::Fft(f) => {
-                        let need = self.fft_fields_for(f, fields, options);
+                        let need = self.fft_fields_for(f, fields);
                         let mut frame = |t| compute(i, f, t, need);
                         Some(match options.time {
                             TimeSampling::Exact => LayerFrames::exact(frame(t)),

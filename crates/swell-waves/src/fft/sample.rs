@@ -196,40 +196,20 @@ impl Stencil {
         acc
     }
 
-    /// `(∂/∂x, ∂/∂z)` of the Catmull–Rom interpolant of grid `g` in grid units (per node
-    /// spacing), whatever the stencil's filter: `gx = Σ_b wz_b·(Σ_a w'x_a·v(i+a, j+b))`,
-    /// `gz = Σ_b w'z_b·(Σ_a wx_a·v(i+a, j+b))`, a and b running −1, 0, 1, 2 in that order, both
-    /// row sums accumulated side by side from 0 (see [`FftFrame::newton_jacobian`]).
-    #[inline(always)]
-    fn interpolant_gradient(&self, g: &[f64]) -> (f64, f64) {
-        let Self {
-            n, i, j, fx, fz, ..
-        } = *self;
-        let (wx, dwx) = (catmull_rom(fx), catmull_rom_slope(fx));
-        let (wz, dwz) = (catmull_rom(fz), catmull_rom_slope(fz));
-        let cols = [self.wrap(i, -1), i, self.wrap(i, 1), self.wrap(i, 2)];
-        let (mut gx, mut gz) = (0.0, 0.0);
-        for b in 0..4 {
-            let row = self.wrap(j, b as isize - 1) * n;
-            let (mut rv, mut rd) = (0.0, 0.0);
-            for a in 0..4 {
-                let v = g[row + cols[a]];
-                rv += wx[a] * v;
-                rd += dwx[a] * v;
-            }
-            gx += wz[b] * rd;
-            gz += dwz[b] * rv;
-        }
-        (gx, gz)
-    }
-
     /// A Newton round's read in one pass over the 16 nodes: the bicubic values of Dx, h and Dz
-    /// (the bits of [`Stencil::read_many`]: the same row sums in the same order) and the
-    /// interpolant gradients `(gx, gz)` of Dx and Dz (the bits of
-    /// [`Stencil::interpolant_gradient`]). Bicubic stencils only.
+    /// (the bits of [`Stencil::read_many`]: the same row sums in the same order; h reads 0 when
+    /// the frame has no height grid) and the gradients `(gx, gz)` of the Catmull–Rom interpolant
+    /// of Dx and Dz in grid units (per node spacing), whatever the stencil's filter:
+    /// `gx = Σ_b wz_b·(Σ_a w'x_a·v(i+a, j+b))`, `gz = Σ_b w'z_b·(Σ_a wx_a·v(i+a, j+b))`, a and b
+    /// running −1, 0, 1, 2 in that order, the row sums accumulated side by side from 0 (see
+    /// [`FftFrame::newton_jacobian`]).
     #[inline(always)]
-    fn read_newton(&self, dx: &[f64], h: &[f64], dz: &[f64]) -> ([f64; 3], [(f64, f64); 2]) {
-        debug_assert_eq!(self.filter, SampleFilter::Bicubic);
+    fn read_newton(
+        &self,
+        dx: &[f64],
+        h: Option<&[f64]>,
+        dz: &[f64],
+    ) -> ([f64; 3], [(f64, f64); 2]) {
         let Self {
             n, i, j, fx, fz, ..
         } = *self;
@@ -244,16 +224,20 @@ impl Stencil {
             let first = (j - 1) * n + (i - 1);
             for (b, rows) in nodes.iter_mut().enumerate() {
                 let at = first + b * n;
-                for (run, g) in rows.iter_mut().zip([dx, h, dz]) {
-                    *run = g[at..at + 4].try_into().unwrap_or([0.0; 4]);
+                for (run, g) in rows.iter_mut().zip([Some(dx), h, Some(dz)]) {
+                    if let Some(g) = g {
+                        *run = g[at..at + 4].try_into().unwrap_or([0.0; 4]);
+                    }
                 }
             }
         } else {
             let cols = [self.wrap(i, -1), i, self.wrap(i, 1), self.wrap(i, 2)];
             for (b, rows) in nodes.iter_mut().enumerate() {
                 let at = self.wrap(j, b as isize - 1) * n;
-                for (run, g) in rows.iter_mut().zip([dx, h, dz]) {
-                    *run = cols.map(|c| g[at + c]);
+                for (run, g) in rows.iter_mut().zip([Some(dx), h, Some(dz)]) {
+                    if let Some(g) = g {
+                        *run = cols.map(|c| g[at + c]);
+                    }
                 }
             }
         }
@@ -356,26 +340,26 @@ impl FftFrame {
                 }
             }
             FftReads::Newton => {
-                if filter == SampleFilter::Bicubic
-                    && let (Some(dx), Some(h), Some(dz)) = (
-                        self.grid(DisplacementX),
-                        self.grid(Height),
-                        self.grid(DisplacementZ),
-                    )
-                {
-                    // The common case in one pass: the bits of the two reads below.
-                    let ([x, h, z], [(xx, xz), (zx, zz)]) = at.read_newton(dx, h, dz);
+                let (Some(dx), Some(dz)) = (self.grid(DisplacementX), self.grid(DisplacementZ))
+                else {
+                    // No displacement grids: nothing to invert, a zero Jacobian.
+                    let [x, h, z] = self.read_fields(&at, [DisplacementX, Height, DisplacementZ]);
                     return FftSample {
                         displacement: DVec3::new(x, h, z),
-                        slope: DVec2::ZERO,
-                        jacobian: self.newton_terms(xx, xz, zx, zz),
+                        ..FftSample::default()
                     };
-                }
-                let [x, h, z] = self.read_fields(&at, [DisplacementX, Height, DisplacementZ]);
+                };
+                let (values, [(xx, xz), (zx, zz)]) = at.read_newton(dx, self.grid(Height), dz);
+                // The bicubic values come with the gradients; another filter reads its own.
+                let [x, h, z] = if filter == SampleFilter::Bicubic {
+                    values
+                } else {
+                    self.read_fields(&at, [DisplacementX, Height, DisplacementZ])
+                };
                 FftSample {
                     displacement: DVec3::new(x, h, z),
                     slope: DVec2::ZERO,
-                    jacobian: self.newton_jacobian_at(&at),
+                    jacobian: self.newton_terms(xx, xz, zx, zz),
                 }
             }
             FftReads::All => {
@@ -416,20 +400,8 @@ impl FftFrame {
     /// 6 (`Surface::fft_fields_for`): about 40% less transform work per frame. Zero when the
     /// frame has no displacement grids.
     pub fn newton_jacobian(&self, p0: DVec2) -> DVec3 {
-        self.newton_jacobian_at(&Stencil::new(self, p0, SampleFilter::Bicubic))
-    }
-
-    #[inline(always)]
-    fn newton_jacobian_at(&self, at: &Stencil) -> DVec3 {
-        let (Some(dx), Some(dz)) = (
-            self.grid(FftGrid::DisplacementX),
-            self.grid(FftGrid::DisplacementZ),
-        ) else {
-            return DVec3::ZERO;
-        };
-        let (xx, xz) = at.interpolant_gradient(dx);
-        let (zx, zz) = at.interpolant_gradient(dz);
-        self.newton_terms(xx, xz, zx, zz)
+        self.sample_some(p0, SampleFilter::Bicubic, FftReads::Newton)
+            .jacobian
     }
 
     /// `(∂Dx/∂x, ∂Dz/∂z, ∂Dx/∂z)` per metre from the interpolant gradients per node spacing.

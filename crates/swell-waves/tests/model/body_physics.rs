@@ -662,7 +662,7 @@ fn fft_velocity_grids_are_the_ticks_for_every_substep() {
             .iter()
             .map(|l| match l {
                 swell_waves::Layer::Fft(f) => {
-                    let fields = sea.fft_fields_for(f, QueryFields::HEIGHT, &o);
+                    let fields = sea.fft_fields_for(f, QueryFields::HEIGHT);
                     let frame = |k| Some(std::sync::Arc::new(f.grid_frame(k, fields)));
                     Some(std::sync::Arc::new(
                         f.grid_velocity_frame(t, frame).unwrap(),
