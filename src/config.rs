@@ -185,6 +185,14 @@ pub struct Limits {
     /// A WebSocket that sends nothing for this long, ms, is pinged at half of it and closed
     /// (1001) at the end. 0: never.
     pub ws_idle_timeout_ms: u64,
+    /// How far behind a WebSocket client may fall in reading what it is sent, ms. Every session
+    /// is pinged at half of this with a payload the client cannot guess; a client whose pong has
+    /// not come back this long after the ping was queued is not reading (or is this far behind)
+    /// and is closed (1008), as for `ws_send_stall_ms`. The kernel's socket buffers on the way
+    /// hold megabytes, so without this a client that stops reading a slow stream is noticed only
+    /// once they fill, minutes later. Every WebSocket client library answers pings as it reads.
+    /// 0: never.
+    pub ws_read_check_ms: u64,
     /// Proxies (`addr/prefix`) whose `X-Forwarded-For` names the client. Default: loopback, where
     /// the shipped nginx runs. Clear it when the server faces clients directly on loopback.
     pub trusted_proxies: Vec<String>,
@@ -255,6 +263,7 @@ impl Default for Limits {
             ws_messages_per_s: 100.0,
             ws_messages_burst: 200.0,
             ws_idle_timeout_ms: 60_000,
+            ws_read_check_ms: 30_000,
             trusted_proxies: vec!["127.0.0.0/8".into(), "::1".into()],
             exempt_peers: vec!["127.0.0.0/8".into(), "::1".into()],
             metrics_public: true,
@@ -347,6 +356,11 @@ impl Limits {
     /// [`Limits::ws_idle_timeout_ms`] as a duration; `None` when it is 0.
     pub fn ws_idle_timeout(&self) -> Option<Duration> {
         (self.ws_idle_timeout_ms > 0).then(|| Duration::from_millis(self.ws_idle_timeout_ms))
+    }
+
+    /// [`Limits::ws_read_check_ms`] as a duration; `None` when it is 0.
+    pub fn ws_read_check(&self) -> Option<Duration> {
+        (self.ws_read_check_ms > 0).then(|| Duration::from_millis(self.ws_read_check_ms))
     }
 
     /// The trusted proxies and exempt peers, parsed.

@@ -1017,6 +1017,102 @@ async fn a_websocket_client_that_stops_reading_gets_an_orderly_end() {
     s.stop().await;
 }
 
+/// Issue 27: a WebSocket client that asked and read nothing was noticed only once the kernel's
+/// socket buffers between it and the server were full (megabytes: minutes at the tens of KB/s
+/// such a client gets back; never within the hostile battery's 15 s). Now every session is
+/// pinged at half of `ws_read_check_ms` with a payload only a reader can echo, and a client
+/// whose pong is that late is closed (1008) — pongs sent blind do not count. A client that
+/// reads but says nothing stays.
+#[tokio::test]
+async fn a_websocket_client_that_reads_nothing_is_closed_within_the_read_check() {
+    let mut c = hostile_config();
+    c.limits.ws_read_check_ms = 600;
+    let s = TestServer::start(c).await;
+    let url = format!("ws://{}/v1/scenes/calm/stream", s.addr);
+    // The kernel's default buffers: they take everything sent here without filling.
+    let tcp = connect_from([127, 0, 13, 1], s.addr).await;
+    let (mut deaf, _) = tokio_tungstenite::client_async(url.clone(), tcp)
+        .await
+        .unwrap();
+    let tcp = connect_from([127, 0, 13, 2], s.addr).await;
+    let (quiet, _) = tokio_tungstenite::client_async(url, tcp).await.unwrap();
+    let (mut quiet_tx, mut quiet_rx) = quiet.split();
+    // The quiet client reads (tungstenite answers each ping as it reads it), sends nothing.
+    let (seen_tx, mut seen) = tokio::sync::mpsc::unbounded_channel();
+    let reader = tokio::spawn(async move {
+        while let Some(Ok(m)) = quiet_rx.next().await {
+            let _ = seen_tx.send(m);
+        }
+    });
+    let sample = json!({"type": "sample", "id": 1, "points": [[0, 0], [1, 1], [2, 2]],
+                        "fields": ["height", "normal"]})
+    .to_string();
+    let start = Instant::now();
+    // For 1.2 s: a query and a guessed pong every 50 ms, nothing read.
+    let mut guess = 0u64;
+    while start.elapsed() < Duration::from_millis(1200) {
+        guess += 1;
+        let pong = Message::Pong(guess.to_le_bytes().to_vec().into());
+        if deaf.send(Message::text(sample.clone())).await.is_err() || deaf.send(pong).await.is_err()
+        {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    tokio::time::sleep_until((start + Duration::from_millis(2500)).into()).await;
+    // Its answers, then the server's Close; without the check the stream would still be open.
+    let (mut answers, mut end) = (0, String::new());
+    let read = tokio::time::timeout(Duration::from_secs(3), async {
+        while let Some(m) = deaf.next().await {
+            match m {
+                Ok(Message::Text(_)) => answers += 1,
+                Ok(Message::Close(f)) => {
+                    end = format!("{:?}", f.map(|f| (u16::from(f.code), f.reason.to_string())));
+                    return;
+                }
+                Ok(_) => {}
+                Err(e) => {
+                    end = format!("error {e:?}");
+                    return;
+                }
+            }
+        }
+    })
+    .await;
+    assert!(
+        read.is_ok(),
+        "still open after {answers} answers: the non-reader was kept"
+    );
+    assert_eq!(
+        end, "Some((1008, \"not reading what the server sends\"))",
+        "after {answers} answers"
+    );
+    assert!(answers >= 5, "{answers} answers before the close");
+    // The quiet reader is still served, and was pinged all along (every ~0.3 s).
+    quiet_tx.send(Message::text(sample)).await.unwrap();
+    let answered = tokio::time::timeout(Duration::from_secs(2), async {
+        let mut pings = 0;
+        while let Some(m) = seen.recv().await {
+            match m {
+                Message::Ping(p) => {
+                    assert_eq!(p.len(), 8, "a read check's ping");
+                    pings += 1;
+                }
+                Message::Text(t) if t.contains("\"sample\"") || t.contains("\"id\":1") => {
+                    return pings;
+                }
+                other => panic!("the quiet client got {other:?}"),
+            }
+        }
+        panic!("the quiet client's stream ended");
+    })
+    .await
+    .expect("the quiet client is answered");
+    assert!(answered >= 4, "{answered} pings in 2.5 s");
+    reader.abort();
+    s.stop().await;
+}
+
 /// Issue 27: answers a WebSocket client has not read were held without limit (queue entries
 /// were counted, not bytes: 64 answers of several MB each). Now a query reserves what its answer
 /// holds before it runs and keeps it until the writer has sent it: a client that asks faster

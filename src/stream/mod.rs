@@ -468,7 +468,7 @@ impl Writer {
         self.slow.cancel();
         let close = Message::Close(Some(CloseFrame {
             code: close_code::POLICY,
-            reason: "not reading: answers are waiting to be sent".into(),
+            reason: "not reading what the server sends".into(),
         }));
         let _ = tokio::time::timeout(SLOW_CLOSE_TRY, sink.send(close)).await;
     }
@@ -552,6 +552,7 @@ where
     let idle = state.limits.ws_idle_timeout();
     let mut last_heard = tokio::time::Instant::now();
     let mut pinged = false;
+    let mut check = ReadCheck::new(state.limits.ws_read_check(), last_heard);
     let mut rate = MessageRate::new(
         if client.is_none() {
             0.0
@@ -564,8 +565,13 @@ where
     // its client about its own scene's, once per change it sees.
     let mut clock_changes = state.clock_changes.subscribe();
     let end = loop {
-        // Pinged at half the idle timeout, closed at the end of it.
-        let wake = idle.map(|d| last_heard + if pinged { d } else { d / 2 });
+        // Pinged at half the idle timeout, closed at the end of it; and the read check's
+        // pings and deadlines.
+        let idle_wake = idle.map(|d| last_heard + if pinged { d } else { d / 2 });
+        let wake = match (idle_wake, check.wake()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         // Biased: shutdown and overflow win over more work. (Ticks are the writer's: see
         // `Writer::run`.)
         tokio::select! {
@@ -573,11 +579,23 @@ where
             () = shutdown.cancelled() => break End::Shutdown,
             () = slow.cancelled() => break End::SlowConsumer,
             () = sleep_until(wake) => {
-                if pinged {
-                    break End::Idle;
+                let now = tokio::time::Instant::now();
+                match check.poll(now) {
+                    Err(Behind) => {
+                        // The writer says why (Close 1008) before the session drops the client.
+                        queue.slow.cancel();
+                        break End::SlowConsumer;
+                    }
+                    Ok(Some(ping)) => queue.push_out(Out::Message(ping)),
+                    Ok(None) => {}
                 }
-                pinged = true;
-                queue.push_out(Out::Message(Message::Ping(Bytes::from_static(b"swell"))));
+                if idle_wake.is_some_and(|at| at <= now) {
+                    if pinged {
+                        break End::Idle;
+                    }
+                    pinged = true;
+                    queue.push_out(Out::Message(Message::Ping(Bytes::from_static(b"swell"))));
+                }
             }
             changed = clock_changes.recv() => match changed {
                 Ok(scene) if *scene == *scene_id => clock_event(&state, &scene_id, &queue),
@@ -597,7 +615,11 @@ where
                     }
                     None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break End::Client,
                     // Control frames: tungstenite answers pings itself.
-                    Some(Ok(Message::Ping(_) | Message::Pong(_))) => continue,
+                    Some(Ok(Message::Ping(_))) => continue,
+                    Some(Ok(Message::Pong(p))) => {
+                        check.pong(&p, tokio::time::Instant::now());
+                        continue;
+                    }
                     Some(Ok(_)) if !rate.allow(std::time::Instant::now()) => {
                         if rate.flooding() {
                             break End::Flood;
@@ -741,6 +763,78 @@ async fn sleep_until(at: Option<tokio::time::Instant>) {
     match at {
         Some(at) => tokio::time::sleep_until(at).await,
         None => std::future::pending().await,
+    }
+}
+
+/// The check that a client reads what it is sent ([`crate::Limits::ws_read_check_ms`]).
+///
+/// Every half of the limit the session queues a ping whose 8-byte payload is a keyed hash of a
+/// counter (SipHash with this session's random keys), so only a client that has read the ping
+/// can answer it; the pong must come back within the limit of the ping being queued. The
+/// writer's other checks (a full queue, one message stalled `ws_send_stall_ms`) see a
+/// non-reader only once the kernel's socket buffers on the way are full: megabytes, minutes for
+/// a client that reads nothing of a few tens of KB/s. A late pong after the deadline no longer
+/// matters: the session has ended.
+struct ReadCheck {
+    limit: Option<Duration>,
+    keys: std::hash::RandomState,
+    /// Pings sent so far (the hashed counter).
+    sent: u64,
+    /// The payload of the ping waiting for its pong, and when its pong is due.
+    waiting: Option<([u8; 8], tokio::time::Instant)>,
+    /// When the next ping goes out (with none waiting).
+    next: tokio::time::Instant,
+}
+
+/// A pong overdue: the client has not read for [`crate::Limits::ws_read_check_ms`].
+#[derive(Debug, PartialEq, Eq)]
+struct Behind;
+
+impl ReadCheck {
+    fn new(limit: Option<Duration>, now: tokio::time::Instant) -> Self {
+        Self {
+            limit,
+            keys: std::hash::RandomState::new(),
+            sent: 0,
+            waiting: None,
+            next: now + limit.unwrap_or_default() / 2,
+        }
+    }
+
+    /// When the check next needs the session: a pong's deadline, or the next ping.
+    fn wake(&self) -> Option<tokio::time::Instant> {
+        self.limit?;
+        Some(self.waiting.map_or(self.next, |(_, due)| due))
+    }
+
+    /// At `now`: [`Behind`] when a pong is overdue, else the ping to queue if one is due.
+    fn poll(&mut self, now: tokio::time::Instant) -> Result<Option<Message>, Behind> {
+        let Some(limit) = self.limit else {
+            return Ok(None);
+        };
+        match self.waiting {
+            Some((_, due)) if due <= now => Err(Behind),
+            Some(_) => Ok(None),
+            None if self.next <= now => {
+                use std::hash::BuildHasher as _;
+                let payload = self.keys.hash_one(self.sent).to_le_bytes();
+                self.sent += 1;
+                self.waiting = Some((payload, now + limit));
+                Ok(Some(Message::Ping(Bytes::copy_from_slice(&payload))))
+            }
+            None => Ok(None),
+        }
+    }
+
+    /// A pong arrived at `now`: if it answers the waiting ping, the next one goes out in half
+    /// the limit. Other pongs (unsolicited ones, the idle check's) change nothing.
+    fn pong(&mut self, payload: &[u8], now: tokio::time::Instant) {
+        if let (Some(limit), Some((want, _))) = (self.limit, self.waiting)
+            && payload == want
+        {
+            self.waiting = None;
+            self.next = now + limit / 2;
+        }
     }
 }
 
@@ -1015,4 +1109,65 @@ fn query(
             Err(e) => queue.error(id, e.into()),
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn payload(m: Option<Message>) -> Bytes {
+        match m {
+            Some(Message::Ping(p)) => p,
+            other => panic!("not a ping: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_read_check_pings_at_half_its_limit_and_wants_that_ping_back_in_time() {
+        let limit = Duration::from_secs(10);
+        let t0 = tokio::time::Instant::now();
+        let mut c = ReadCheck::new(Some(limit), t0);
+        assert_eq!(c.wake(), Some(t0 + limit / 2));
+        assert_eq!(c.poll(t0 + Duration::from_secs(1)), Ok(None));
+        let at = t0 + limit / 2;
+        let first = payload(c.poll(at).unwrap());
+        assert_eq!(first.len(), 8);
+        // Waiting: no second ping, the deadline is the next wake.
+        assert_eq!(c.poll(at + Duration::from_secs(1)), Ok(None));
+        assert_eq!(c.wake(), Some(at + limit));
+        // A pong that does not echo the ping (unsolicited, or guessed) changes nothing.
+        c.pong(b"swell", at + Duration::from_secs(2));
+        c.pong(&[0; 8], at + Duration::from_secs(2));
+        assert_eq!(c.wake(), Some(at + limit));
+        // The right one: the next ping in half the limit, with another payload.
+        let back = at + Duration::from_secs(3);
+        c.pong(&first, back);
+        assert_eq!(c.wake(), Some(back + limit / 2));
+        let second = payload(c.poll(back + limit / 2).unwrap());
+        assert_ne!(first, second);
+        // Unanswered: behind at the deadline, not before.
+        let due = back + limit / 2 + limit;
+        assert_eq!(c.poll(due - Duration::from_millis(1)), Ok(None));
+        assert_eq!(c.poll(due), Err(Behind));
+    }
+
+    #[test]
+    fn two_sessions_ping_with_payloads_a_client_cannot_predict() {
+        let t0 = tokio::time::Instant::now();
+        let limit = Duration::from_millis(2);
+        let mut a = ReadCheck::new(Some(limit), t0);
+        let mut b = ReadCheck::new(Some(limit), t0);
+        assert_ne!(
+            payload(a.poll(t0 + limit).unwrap()),
+            payload(b.poll(t0 + limit).unwrap())
+        );
+    }
+
+    #[test]
+    fn a_zero_read_check_never_pings() {
+        let t0 = tokio::time::Instant::now();
+        let mut c = ReadCheck::new(None, t0);
+        assert_eq!(c.wake(), None);
+        assert_eq!(c.poll(t0 + Duration::from_secs(3600)), Ok(None));
+    }
 }

@@ -2,7 +2,7 @@
 // token. The binary is $SWELL_BIN or target/debug/swell of this repository (`cargo build --bin
 // swell`); `available()` is false when neither exists, and the live tests then skip.
 import { spawn } from 'node:child_process';
-import { existsSync, mkdtempSync, rmSync } from 'node:fs';
+import { existsSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
 import { createServer } from 'node:net';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
@@ -40,8 +40,13 @@ export class SwellProcess {
   async start() {
     this.port ??= await freePort();
     this.url = `http://127.0.0.1:${this.port}`;
+    // A short read check: the server closes (1008) a session whose pong is 2 s late, so every
+    // session the tests hold open for longer proves the client answers pings as it reads.
+    const config = join(this.dataDir, 'test-limits.toml');
+    writeFileSync(config, '[limits]\nws_read_check_ms = 2000\n');
     this.child = spawn(SWELL_BIN, ['serve', '--bind', `127.0.0.1:${this.port}`, '--data-dir', this.dataDir,
-      '--admin-token', this.token, '--shutdown-timeout', '2', ...this.args], { stdio: ['ignore', 'pipe', 'pipe'] });
+      '--admin-token', this.token, '--shutdown-timeout', '2', '--config', config, ...this.args],
+    { stdio: ['ignore', 'pipe', 'pipe'] });
     const keep = (d) => { this.log = (this.log + d).slice(-20000); };
     this.child.stdout.on('data', keep);
     this.child.stderr.on('data', keep);
