@@ -242,10 +242,34 @@ impl Drop for Nginx {
 }
 
 impl Nginx {
+    /// nginx with docker/nginx.conf, its upstream servers and listen address replaced.
     pub async fn start(upstreams: &[u16], client: &reqwest::Client) -> Nginx {
+        Self::start_conf(upstreams, client, false).await
+    }
+
+    /// [`Nginx::start`] without the config's loopback exemption from its per-client limits
+    /// (the lines marked `# loopback exempt`), so that clients bound to 127.0.x.y addresses
+    /// meet them as clients elsewhere would.
+    pub async fn start_limiting_loopback(upstreams: &[u16], client: &reqwest::Client) -> Nginx {
+        Self::start_conf(upstreams, client, true).await
+    }
+
+    async fn start_conf(
+        upstreams: &[u16],
+        client: &reqwest::Client,
+        limit_loopback: bool,
+    ) -> Nginx {
         let conf =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docker/nginx.conf"))
                 .expect("docker/nginx.conf");
+        let exempt_lines = conf
+            .lines()
+            .filter(|l| l.ends_with("# loopback exempt"))
+            .count();
+        assert!(
+            exempt_lines >= 1,
+            "docker/nginx.conf marks no loopback exemption"
+        );
         let mut next = upstreams.iter();
         let mut out = String::new();
         let port = free_port();
@@ -261,6 +285,8 @@ impl Nginx {
                 servers += 1;
             } else if t.starts_with("listen ") {
                 out.push_str(&format!("{indent}listen 127.0.0.1:{port};\n"));
+            } else if limit_loopback && t.ends_with("# loopback exempt") {
+                continue;
             } else {
                 out.push_str(line);
                 out.push('\n');
