@@ -1088,6 +1088,11 @@ async fn a_websocket_client_that_reads_nothing_is_closed_within_the_read_check()
         "after {answers} answers"
     );
     assert!(answers >= 5, "{answers} answers before the close");
+    let page = s.get("/metrics").await.text().await.unwrap();
+    assert!(
+        common::metric(&page, "swell_ws_read_check_disconnects_total").unwrap_or(0.0) >= 1.0,
+        "the read check's disconnect is not counted"
+    );
     // The quiet reader is still served, and was pinged all along (every ~0.3 s).
     quiet_tx.send(Message::text(sample)).await.unwrap();
     let answered = tokio::time::timeout(Duration::from_secs(2), async {

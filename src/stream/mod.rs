@@ -582,7 +582,9 @@ where
                 let now = tokio::time::Instant::now();
                 match check.poll(now) {
                     Err(Behind) => {
-                        // The writer says why (Close 1008) before the session drops the client.
+                        // The writer says why (Close 1008) before the session drops the client;
+                        // counted as a slow consumer too.
+                        metrics::counter!("swell_ws_read_check_disconnects_total").increment(1);
                         queue.slow.cancel();
                         break End::SlowConsumer;
                     }
