@@ -3,9 +3,10 @@
 // Every operation is a correctly rounded IEEE double operation in the model's order; the golden
 // vectors (proto/vectors/surface_v1.json) check it bit for bit (Tests/).
 //
-// FFT and particle layers are not evaluated here: a surface with either refuses to evaluate
-// (ask the server's /sample for those scenes), and its uniforms carry only what this port
-// computes (see Uniforms).
+// FFT layers are evaluated with an FftLayer per layer (FftLayer.cs: from the exported spectrum,
+// within 1e-9 m of the server, not bit for bit), given to FromDerived; a surface with an FFT
+// layer and no evaluator for it, or with a particle layer, refuses to evaluate (ask the
+// server's /sample), and its uniforms carry only what this port computes (see Uniforms).
 using System;
 using System.Collections.Generic;
 
@@ -95,6 +96,7 @@ namespace Swell
             public string Kind;
             public Wave[] Waves;
             public double TileSize, Resolution, Choppiness;
+            public FftLayer Fft;
             // The factors WaveSoA::new forms, each rounded as the model rounds it.
             public double[] K, Om, Ph, Dxs, Dzs, A, QaDx, QaDz, Ak, Qak;
         }
@@ -102,8 +104,13 @@ namespace Swell
         readonly List<Layer> layers = new List<Layer>();
         readonly bool horizontal;
 
-        /// <summary>Whether every layer is sine or Gerstner (else Sample refuses).</summary>
+        /// <summary>Whether every layer is sine or Gerstner.</summary>
         public bool Analytic { get; private set; }
+
+        /// <summary>Whether Sample, Height and Query evaluate locally: no particle layer, and an FftLayer for every FFT layer.</summary>
+        public bool CanSample { get; private set; }
+
+        readonly bool hasFft;
 
         /// <summary>Whether any layer is a particle layer (its uniforms come from the server).</summary>
         public bool HasParticles { get; private set; }
@@ -113,10 +120,18 @@ namespace Swell
             if (ls.Count == 0) throw new ArgumentException("a surface needs at least one layer");
             layers = ls;
             Analytic = true;
+            CanSample = true;
             foreach (var l in ls)
             {
-                if (l.Kind == "fft") { Analytic = false; if (l.Choppiness > 0) horizontal = true; continue; }
-                if (l.Kind == "particles") { Analytic = false; HasParticles = true; continue; }
+                if (l.Kind == "fft")
+                {
+                    Analytic = false;
+                    hasFft = true;
+                    if (l.Fft == null) CanSample = false;
+                    if (l.Choppiness > 0) horizontal = true;
+                    continue;
+                }
+                if (l.Kind == "particles") { Analytic = false; CanSample = false; HasParticles = true; continue; }
                 int n = l.Waves.Length;
                 l.K = new double[n]; l.Om = new double[n]; l.Ph = new double[n]; l.Dxs = new double[n]; l.Dzs = new double[n];
                 l.A = new double[n]; l.QaDx = new double[n]; l.QaDz = new double[n]; l.Ak = new double[n]; l.Qak = new double[n];
@@ -150,6 +165,17 @@ namespace Swell
         /// <exception cref="FormatException">derived.layers missing or malformed.</exception>
         public static Surface FromDerived(object derived)
         {
+            return FromDerived(derived, null);
+        }
+
+        /// <summary>
+        /// <see cref="FromDerived(object)"/> with an evaluator per FFT layer: <paramref name="fft"/>[i]
+        /// for layer i (null for the others), each from that layer's exported spectrum
+        /// (<see cref="SwellClient.Spectrum"/>).
+        /// </summary>
+        /// <exception cref="ArgumentException">An evaluator whose grid is not the layer's.</exception>
+        public static Surface FromDerived(object derived, IList<FftLayer> fft)
+        {
             var ls = new List<Layer>();
             var list = Json.Get(derived, "layers") as List<object>;
             if (list == null) throw new FormatException("derived.layers is missing: pass scene[\"derived\"] from GET /v1/scenes/{id}");
@@ -181,6 +207,13 @@ namespace Swell
                     l.TileSize = Json.Num(lo, "tile_size");
                     l.Resolution = Json.Num(lo, "resolution");
                     l.Choppiness = Json.Num(lo, "choppiness", 0);
+                    int at = ls.Count;
+                    if (fft != null && at < fft.Count && fft[at] != null)
+                    {
+                        if (fft[at].Resolution != (int)l.Resolution || fft[at].TileSize != l.TileSize)
+                            throw new ArgumentException("the FFT evaluator for layer " + at + " is not that layer's (resolution, tile size)");
+                        l.Fft = fft[at];
+                    }
                 }
                 else if (kind != "particles") throw new FormatException("unknown layer kind " + kind);
                 ls.Add(l);
@@ -245,14 +278,34 @@ namespace Swell
         /// Sum of every layer's displacement at the undisplaced point (x0, z0), time t, and its
         /// derivatives when asked (surface.rs sample_lanes).
         /// </summary>
-        /// <exception cref="NotSupportedException">The surface has FFT or particle layers.</exception>
+        /// <exception cref="NotSupportedException">The surface has a particle layer, or an FFT layer without an evaluator.</exception>
         public SurfaceSample Sample(double x0, double z0, double t, bool derivatives)
         {
-            if (!Analytic) throw new NotSupportedException("FFT and particle layers are not evaluated locally by this client: ask the server's /sample");
+            return Sample(x0, z0, t, derivatives ? FftRead.Derivatives : FftRead.Displacement);
+        }
+
+        /// <summary>
+        /// <see cref="Sample(double, double, double, bool)"/> reading FFT layers as
+        /// <paramref name="read"/> says (<see cref="FftRead.Newton"/>: an inversion round's
+        /// Jacobian, from the displacement interpolant); sine and Gerstner layers give their
+        /// derivatives for any read but <see cref="FftRead.Displacement"/>.
+        /// </summary>
+        public SurfaceSample Sample(double x0, double z0, double t, FftRead read)
+        {
+            if (!CanSample)
+                throw new NotSupportedException(HasParticles
+                    ? "particle layers are not evaluated locally by this client: ask the server's /sample"
+                    : "this surface has an FFT layer and no FftLayer for it: build it with FromDerived(derived, fft)");
+            bool derivatives = read != FftRead.Displacement;
             var o = new SurfaceSample();
             double[] d = o.D, ddx = o.Dx, ddz = o.Dz;
             foreach (var L in layers)
             {
+                if (L.Fft != null)
+                {
+                    L.Fft.Sample(x0, z0, t, read, o);
+                    continue;
+                }
                 int n = L.Waves.Length;
                 for (int w = 0; w < n; w++)
                 {
@@ -292,17 +345,21 @@ namespace Swell
                 residual = 0;
                 return Sample(x, z, t, derivatives);
             }
-            bool needD = inv.Newton || derivatives;
+            // What a round reads (query.rs invert_lanes_v): Newton's Jacobian (an FFT layer's from
+            // its displacement grids' interpolant); the Jacobian and slope grids of an FFT layer
+            // only in one more evaluation at the point kept, for a caller that wants derivatives.
+            FftRead rounds = inv.Newton ? FftRead.Newton
+                : derivatives && !hasFft ? FftRead.Derivatives : FftRead.Displacement;
             double px = x, pz = z;
             SurfaceSample best = null;
-            double bestR = 0;
+            double bestR = 0, bestX = x, bestZ = z;
             for (int it = 0; ; it++)
             {
-                var s = Sample(px, pz, t, needD);
+                var s = Sample(px, pz, t, rounds);
                 double fx = (px + s.D[0]) - x;
                 double fz = (pz + s.D[2]) - z;
                 double r = Math.Sqrt(fx * fx + fz * fz);
-                if (best == null || r < bestR) { best = s; bestR = r; }
+                if (best == null || r < bestR) { best = s; bestR = r; bestX = px; bestZ = pz; }
                 if (r <= inv.Tolerance || it >= inv.Iterations || double.IsNaN(r) || double.IsInfinity(r)) break;
                 double sx = fx, sz = fz;
                 if (inv.Newton)
@@ -321,6 +378,7 @@ namespace Swell
                 px -= sx;
                 pz -= sz;
             }
+            if (derivatives && hasFft) best = Sample(bestX, bestZ, t, FftRead.Derivatives);
             residual = bestR;
             return best;
         }

@@ -108,6 +108,29 @@ namespace Swell
             string text = await resp.Content.ReadAsStringAsync().ConfigureAwait(false);
             int status = (int)resp.StatusCode;
             if (status >= 200 && status < 300) return text;
+            throw ErrorOf(status, text);
+        }
+
+        /// <summary>
+        /// GET /v1/scenes/{id}/spectrum?layer=N: an FFT layer's exported spectrum
+        /// (`swell-spectrum/1`), for <see cref="FftSpectrum.Parse"/> and <see cref="FftLayer"/>.
+        /// </summary>
+        /// <exception cref="SwellException">An error answer (not an FFT layer: 400) or no answer.</exception>
+        public async Task<byte[]> Spectrum(string id, int layer)
+        {
+            string path = "/v1/scenes/" + CheckId(id) + "/spectrum?layer=" + layer.ToString(System.Globalization.CultureInfo.InvariantCulture);
+            HttpResponseMessage resp;
+            try { resp = await http.GetAsync(baseUrl + path).ConfigureAwait(false); }
+            catch (Exception e) { throw new SwellException(0, "transport", "GET " + path + ": " + e.Message, null); }
+            byte[] bytes = await resp.Content.ReadAsByteArrayAsync().ConfigureAwait(false);
+            int status = (int)resp.StatusCode;
+            if (status >= 200 && status < 300) return bytes;
+            throw ErrorOf(status, Encoding.UTF8.GetString(bytes));
+        }
+
+        /// <summary>The exception for an error answer: its JSON error's code, message and field, or the status and text.</summary>
+        static SwellException ErrorOf(int status, string text)
+        {
             string code = "http_" + status, message = text, field = null;
             try
             {
@@ -115,7 +138,7 @@ namespace Swell
                 if (err != null) { code = Json.Str(err, "code"); message = Json.Str(err, "message"); field = Json.Str(err, "field"); }
             }
             catch (FormatException) { }
-            throw new SwellException(status, code, message, field);
+            return new SwellException(status, code, message, field);
         }
 
         /// <summary>Sends a request; the parsed JSON answer.</summary>

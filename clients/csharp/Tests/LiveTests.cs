@@ -112,6 +112,84 @@ namespace Swell.Tests
                 }
             });
 
+            // FFT layers evaluated here (FftLayer.cs, from the exported spectrum): within
+            // FftTolerance of the server (other butterflies, so not bit for bit).
+            Runner.TA("open-sea and storm: without an FftLayer the surface refuses; with one, local queries within 1e-9 m of /sample", async () =>
+            {
+                foreach (var scene in new[] { "open-sea", "storm" })
+                {
+                    var derived = Json.Get(await http.Scene(scene), "derived");
+                    var bare = Surface.FromDerived(derived);
+                    Runner.Assert(!bare.CanSample, scene + ": no evaluator, no local sampling");
+                    try { bare.Height(0, 0, 0); Runner.Assert(false, "no exception"); }
+                    catch (NotSupportedException e) { Runner.Assert(e.Message.Contains("FftLayer"), e.Message); }
+                    var surface = await WithFft(http, scene, derived);
+                    Runner.Assert(surface.CanSample, scene + ": evaluates locally");
+                    var c = await http.Clock(scene);
+                    // The first query computes the two grid frames around its time.
+                    var watch = System.Diagnostics.Stopwatch.StartNew();
+                    surface.Height(3.5, -2.25, 1000.01);
+                    double cold = watch.Elapsed.TotalMilliseconds;
+                    watch.Restart();
+                    surface.Height(-7.5, 4.75, 1000.01);
+                    Console.WriteLine("     " + scene + ": first height (two frames) " + cold.ToString("f1") + " ms, the next " + watch.Elapsed.TotalMilliseconds.ToString("f3") + " ms");
+                    double worst = 0;
+                    foreach (var t in new[] { c.T, c.T + 0.37, 12.345, 86400.25 })
+                    {
+                        var server = await http.Sample(scene, points, t, new[] { "height", "normal", "displacement", "jacobian", "residual" });
+                        for (int i = 0; i < points.Count; i++)
+                            worst = Math.Max(worst, Differs(surface.Query(points[i][0], points[i][1], t), server, i, scene + " t=" + t + " point " + i));
+                    }
+                    Console.WriteLine("     " + scene + ": largest difference to /sample " + worst.ToString("e2"));
+                }
+            });
+
+            Runner.TA("golden FFT cases: every field within 1e-9 m of the vector, with the spectrum the server exports", async () =>
+            {
+                object doc = Json.Parse(File.ReadAllText(Path.Combine(vectors, "surface_v1.json")));
+                int cases = 0;
+                foreach (var c in Json.List(doc, "cases"))
+                {
+                    var spec = (Dictionary<string, object>)Json.Get(c, "spec");
+                    if (!Json.List(spec, "layers").Any(l => Json.Str(l, "kind") == "fft")) continue;
+                    spec["description"] = "golden";
+                    string name = Json.Str(c, "name");
+                    string id = ("golden-cs-" + name.Replace('_', '-'));
+                    if (id.Length > 64) id = id.Substring(0, 64);
+                    var detail = await http.PutScene(id, spec);
+                    var surface = await WithFft(http, id, Json.Get(detail, "derived"));
+                    double worst = 0;
+                    int n = 0;
+                    foreach (var e in Json.List(c, "expected"))
+                    {
+                        var pt = Json.Nums(Json.Get(e, "point"));
+                        double t = Json.Num(e, "t");
+                        var q = surface.Query(pt[0], pt[1], t);
+                        var bits = Json.Get(e, "bits");
+                        string where = name + " t=" + t + " point=" + pt[0] + "," + pt[1];
+                        Func<object, double> v = b => SwellMath.FromBitsHex((string)b);
+                        double d = Math.Abs(q.Height - v(Json.Get(bits, "height")));
+                        var nb = Json.List(bits, "normal");
+                        var db = Json.List(bits, "displacement");
+                        for (int k = 0; k < 3; k++)
+                        {
+                            d = Math.Max(d, Math.Abs(q.Normal[k] - v(nb[k])));
+                            d = Math.Max(d, Math.Abs(q.Displacement[k] - v(db[k])));
+                        }
+                        d = Math.Max(d, Math.Abs(q.Jacobian - v(Json.Get(bits, "jacobian"))));
+                        d = Math.Max(d, Math.Abs(q.Residual - v(Json.Get(bits, "residual"))));
+                        Runner.Assert(d <= FftTolerance, where + ": " + d);
+                        Runner.Equal(Json.Bool(bits, "folded", false), q.Folded, where + " folded");
+                        worst = Math.Max(worst, d);
+                        n++;
+                    }
+                    Runner.Assert(n > 0, name + ": no points");
+                    Console.WriteLine("     golden " + name + ": " + n + " time x point, largest difference " + worst.ToString("e2"));
+                    cases++;
+                }
+                Runner.Assert(cases >= 2, "FFT cases in the vectors: " + cases);
+            });
+
             Runner.TA("golden lake_gerstner_cascade bit for bit from the server-built cascade waves", async () =>
             {
                 object doc = Json.Parse(File.ReadAllText(Path.Combine(vectors, "surface_v1.json")));
@@ -265,6 +343,36 @@ namespace Swell.Tests
         }
 
         static string Bits(object v) { return SwellMath.BitsHex((double)v); }
+
+        /// <summary>How far the managed FFT evaluation may be from the server (docs/clients.md): measured ~1e-15 to ~1e-14 m.</summary>
+        const double FftTolerance = 1e-9;
+
+        /// <summary>The scene's surface with an FftLayer for each FFT layer, from its exported spectrum.</summary>
+        static async Task<Surface> WithFft(SwellClient http, string scene, object derived)
+        {
+            var layers = Json.List(derived, "layers");
+            var fft = new FftLayer[layers.Count];
+            for (int i = 0; i < layers.Count; i++)
+                if (Json.Str(layers[i], "kind") == "fft") fft[i] = new FftLayer(FftSpectrum.Parse(await http.Spectrum(scene, i)));
+            return Surface.FromDerived(derived, fft);
+        }
+
+        /// <summary>The largest difference between a local query and point i of a /sample answer; each field within FftTolerance.</summary>
+        static double Differs(SurfaceQuery q, object server, int i, string where)
+        {
+            double d = Math.Abs(q.Height - (double)Json.List(server, "height")[i]);
+            var n = Json.Nums(Json.List(server, "normal")[i]);
+            var disp = Json.Nums(Json.List(server, "displacement")[i]);
+            for (int k = 0; k < 3; k++)
+            {
+                d = Math.Max(d, Math.Abs(q.Normal[k] - n[k]));
+                d = Math.Max(d, Math.Abs(q.Displacement[k] - disp[k]));
+            }
+            d = Math.Max(d, Math.Abs(q.Jacobian - (double)Json.List(server, "jacobian")[i]));
+            d = Math.Max(d, Math.Abs(q.Residual - (double)Json.List(server, "residual")[i]));
+            Runner.Assert(d <= FftTolerance, where + ": " + d);
+            return d;
+        }
 
         static async Task<TickFrame> Next(List<TickFrame> frames, Func<TickFrame, bool> pred)
         {

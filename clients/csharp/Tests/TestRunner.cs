@@ -8,6 +8,7 @@ using System;
 using System.Collections.Generic;
 using System.IO;
 using System.Linq;
+using System.Text;
 using System.Threading;
 using System.Threading.Tasks;
 
@@ -84,6 +85,41 @@ namespace Swell.Tests
                     Runner.Equal(Json.List(c, "times").Count * Json.List(c, "points").Count, n, "points checked");
                 });
             }
+
+            Runner.T("FftLayer.InverseFft2 equals a direct inverse DFT", () =>
+            {
+                int n = 16;
+                var re = new double[n * n];
+                var im = new double[n * n];
+                for (int i = 0; i < n * n; i++) { re[i] = Math.Sin(i * 1.37) * 0.3; im[i] = Math.Cos(i * 0.71) * 0.2; }
+                var r0 = (double[])re.Clone();
+                var i0 = (double[])im.Clone();
+                FftLayer.InverseFft2(re, im, n);
+                double err = 0;
+                for (int q = 0; q < n; q++)
+                    for (int p = 0; p < n; p++)
+                    {
+                        double sr = 0, si = 0;
+                        for (int j = 0; j < n; j++)
+                            for (int i = 0; i < n; i++)
+                            {
+                                double a = 2 * Math.PI * (i * p + j * q) / n;
+                                sr += r0[j * n + i] * Math.Cos(a) - i0[j * n + i] * Math.Sin(a);
+                                si += r0[j * n + i] * Math.Sin(a) + i0[j * n + i] * Math.Cos(a);
+                            }
+                        err = Math.Max(err, Math.Max(Math.Abs(sr - re[q * n + p]), Math.Abs(si - im[q * n + p])));
+                    }
+                Runner.Assert(err < 1e-12, "largest difference " + err);
+            });
+
+            Runner.T("FftSpectrum.Parse refuses what is not a spectrum export", () =>
+            {
+                foreach (var bad in new[] { new byte[0], Encoding.ASCII.GetBytes("NOPE\u0002\0\0\0{}"), Encoding.ASCII.GetBytes("SWSP\u00ff\0\0\0{}") })
+                {
+                    try { FftSpectrum.Parse(bad); Runner.Assert(false, "parsed " + bad.Length + " bytes"); }
+                    catch (FormatException) { }
+                }
+            });
 
             Runner.T("sin/cos kernel: known values and odd/even symmetry", () =>
             {
