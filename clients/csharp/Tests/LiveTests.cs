@@ -158,31 +158,8 @@ namespace Swell.Tests
                     if (id.Length > 64) id = id.Substring(0, 64);
                     var detail = await http.PutScene(id, spec);
                     var surface = await WithFft(http, id, Json.Get(detail, "derived"));
-                    double worst = 0;
-                    int n = 0;
-                    foreach (var e in Json.List(c, "expected"))
-                    {
-                        var pt = Json.Nums(Json.Get(e, "point"));
-                        double t = Json.Num(e, "t");
-                        var q = surface.Query(pt[0], pt[1], t);
-                        var bits = Json.Get(e, "bits");
-                        string where = name + " t=" + t + " point=" + pt[0] + "," + pt[1];
-                        Func<object, double> v = b => SwellMath.FromBitsHex((string)b);
-                        double d = Math.Abs(q.Height - v(Json.Get(bits, "height")));
-                        var nb = Json.List(bits, "normal");
-                        var db = Json.List(bits, "displacement");
-                        for (int k = 0; k < 3; k++)
-                        {
-                            d = Math.Max(d, Math.Abs(q.Normal[k] - v(nb[k])));
-                            d = Math.Max(d, Math.Abs(q.Displacement[k] - v(db[k])));
-                        }
-                        d = Math.Max(d, Math.Abs(q.Jacobian - v(Json.Get(bits, "jacobian"))));
-                        d = Math.Max(d, Math.Abs(q.Residual - v(Json.Get(bits, "residual"))));
-                        Runner.Assert(d <= FftTolerance, where + ": " + d);
-                        Runner.Equal(Json.Bool(bits, "folded", false), q.Folded, where + " folded");
-                        worst = Math.Max(worst, d);
-                        n++;
-                    }
+                    double worst;
+                    int n = Offline.CheckCase(surface, c, FftTolerance, out worst);
                     Runner.Assert(n > 0, name + ": no points");
                     Console.WriteLine("     golden " + name + ": " + n + " time x point, largest difference " + worst.ToString("e2"));
                     cases++;
