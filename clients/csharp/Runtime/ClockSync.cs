@@ -79,8 +79,13 @@ namespace Swell
             Rtt = rtt;
             var sorted = new List<S>(samples);
             sorted.Sort((a, b) => a.Rtt.CompareTo(b.Rtt));
-            int nGood = Math.Min(best, sorted.Count);
             double minRtt = sorted[0].Rtt;
+            // The lowest-RTT samples, leaving out any over twice the best round trip (+ 1 ms): a
+            // round trip held up on one side carries up to all of its extra delay into its
+            // offset, and just after a clock change, with a handful of samples, one such would
+            // be averaged in.
+            int nGood = 0;
+            while (nGood < Math.Min(best, sorted.Count) && sorted[nGood].Rtt <= 2 * minRtt + 1e-3) nGood++;
             // Drift: slope of offset against time over the samples within twice the best RTT
             // (a spread of at least a second; none while paused).
             var within = samples.FindAll(s => s.Rtt <= 2 * minRtt + 1e-3);

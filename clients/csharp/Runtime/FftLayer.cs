@@ -363,8 +363,10 @@ namespace Swell
         /// displacement, and its derivatives unless <paramref name="read"/> is
         /// <see cref="FftRead.Displacement"/> (fft.js FftLayer.sample).
         /// </summary>
+        /// <exception cref="ArgumentException">t is not finite (a point that is not gives NaN, as the analytic layers do).</exception>
         public void Sample(double x0, double z0, double t, FftRead read, SurfaceSample into)
         {
+            if (double.IsNaN(t) || double.IsInfinity(t)) throw new ArgumentException("t must be finite", "t");
             double time, nextTime, w;
             GridPosition(t, out time, out nextTime, out w);
             bool newton = read == FftRead.Newton;

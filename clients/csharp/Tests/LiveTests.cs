@@ -125,6 +125,9 @@ namespace Swell.Tests
                     catch (NotSupportedException e) { Runner.Assert(e.Message.Contains("FftLayer"), e.Message); }
                     var surface = await WithFft(http, scene, derived);
                     Runner.Assert(surface.CanSample, scene + ": evaluates locally");
+                    try { surface.Height(0, 0, double.NaN); Runner.Assert(false, "a NaN time was taken"); }
+                    catch (ArgumentException) { }
+                    Runner.Assert(double.IsNaN(surface.Height(double.NaN, 0, 1)), "a NaN point gives NaN");
                     var c = await http.Clock(scene);
                     // The first query computes the two grid frames around its time.
                     var watch = System.Diagnostics.Stopwatch.StartNew();

@@ -187,6 +187,18 @@ namespace Swell.Tests
                 Runner.Assert(Math.Abs(d.SceneTime(30) - (500 + (1 + drift) * 30)) < 1e-3, "at 30 s");
             });
 
+            Runner.T("ClockSync leaves a held-up round trip out of the offset, even with only a few samples", () =>
+            {
+                // Just after a change to rate 2: three samples, the third held up 30 ms on its way
+                // back, so its midpoint is 15 ms after the server read the clock.
+                Func<double, double> scene = x => 1000 + 2 * x;
+                var c = new ClockSync(new ClockState { Rate = 2, Generation = 1 });
+                c.Add(10.0, 10.0002, scene(10.0001));
+                c.Add(10.1, 10.1002, scene(10.1001));
+                c.Add(10.2, 10.2302, scene(10.2001));
+                Runner.Assert(Math.Abs(c.SceneTime(11) - scene(11)) < 1e-9, "off by " + (c.SceneTime(11) - scene(11)));
+            });
+
             Runner.T("BodyInterpolator: interpolates, extrapolates, holds, resets on a jump back", () =>
             {
                 var ip = new BodyInterpolator(0.1, 64, 0.25);

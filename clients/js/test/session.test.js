@@ -5,6 +5,18 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { ClockSync, SwellSession } from '../src/session.js';
 
+test('ClockSync leaves a held-up round trip out of the offset, even with only a few samples', () => {
+  // Just after a change to rate 2: three samples, the third held up 30 ms on its way back (a
+  // control frame or a busy receive loop ahead of it), so its midpoint is 15 ms after the
+  // server read the clock: averaged in, it would put the estimate ~10 ms (scene) off.
+  const scene = (c) => 1000 + 2 * c;
+  const c = new ClockSync({}, { rate: 2, generation: 1 });
+  c.add(10.0, 10.0002, scene(10.0001));
+  c.add(10.1, 10.1002, scene(10.1001));
+  c.add(10.2, 10.2302, scene(10.2001));
+  assert.ok(Math.abs(c.sceneTime(11) - scene(11)) < 1e-9, `off by ${c.sceneTime(11) - scene(11)} s`);
+});
+
 test('ClockSync tracks drift: the slope of offset against time, from the low-RTT samples', () => {
   // Scene clock = 1000 + (1 + 2e-4)·client clock; one-way delays 1–6 ms, asymmetric noise.
   const drift = 2e-4;

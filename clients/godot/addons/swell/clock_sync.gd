@@ -68,7 +68,13 @@ func add(sent: float, received: float, scene_time: float, at: float = NAN) -> vo
 	sorted.sort_custom(func(a, b): return a[0].rtt < b[0].rtt or (a[0].rtt == b[0].rtt and a[1] < b[1]))
 	for i in range(sorted.size()):
 		sorted[i] = sorted[i][0]
-	var good := sorted.slice(0, mini(best, sorted.size()))
+	# The lowest-RTT samples, leaving out any over twice the best round trip (+ 1 ms): a round
+	# trip held up on one side carries up to all of its extra delay into its offset, and just
+	# after a clock change, with a handful of samples, one such would be averaged in.
+	var good: Array = []
+	for s in sorted.slice(0, mini(best, sorted.size())):
+		if s.rtt <= 2.0 * sorted[0].rtt + 1e-3:
+			good.append(s)
 	# Drift: slope of offset against time over the samples within twice the best RTT (needs a
 	# spread of at least a second to mean anything; none while paused: the clock stands still).
 	var within: Array = []
