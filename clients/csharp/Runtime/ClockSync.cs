@@ -84,7 +84,7 @@ namespace Swell
             // round trip held up on one side carries up to all of its extra delay into its
             // offset, and just after a clock change, with a handful of samples, one such would
             // be averaged in.
-            int nGood = 0;
+            int nGood = 1;
             while (nGood < Math.Min(best, sorted.Count) && sorted[nGood].Rtt <= 2 * minRtt + 1e-3) nGood++;
             // Drift: slope of offset against time over the samples within twice the best RTT
             // (a spread of at least a second; none while paused).

@@ -72,7 +72,7 @@ export class ClockSync {
     // trip held up on one side carries up to all of its extra delay into its offset, and just
     // after a clock change, with a handful of samples, one such would be averaged in.
     const good = sorted.slice(0, Math.min(this.best, sorted.length))
-      .filter((s) => s.rtt <= 2 * sorted[0].rtt + 1e-3);
+      .filter((s, i) => i === 0 || s.rtt <= 2 * sorted[0].rtt + 1e-3);
     // Drift: slope of offset against time over the samples within twice the best RTT (needs a
     // spread of at least a second to mean anything; none while paused: the clock stands still).
     const within = this.samples.filter((s) => s.rtt <= 2 * sorted[0].rtt + 1e-3);

@@ -71,8 +71,8 @@ func add(sent: float, received: float, scene_time: float, at: float = NAN) -> vo
 	# The lowest-RTT samples, leaving out any over twice the best round trip (+ 1 ms): a round
 	# trip held up on one side carries up to all of its extra delay into its offset, and just
 	# after a clock change, with a handful of samples, one such would be averaged in.
-	var good: Array = []
-	for s in sorted.slice(0, mini(best, sorted.size())):
+	var good: Array = [sorted[0]]
+	for s in sorted.slice(1, mini(best, sorted.size())):
 		if s.rtt <= 2.0 * sorted[0].rtt + 1e-3:
 			good.append(s)
 	# Drift: slope of offset against time over the samples within twice the best RTT (needs a
