@@ -91,6 +91,11 @@ namespace Swell
         readonly int cacheFrames;
         readonly Dictionary<double, FftFrame> cache = new Dictionary<double, FftFrame>();
         readonly Queue<double> order = new Queue<double>();
+        // A read's working values, reused (the class is not thread-safe anyway): a probe's
+        // Newton rounds read the layer several times, and a game's GC should not see them.
+        readonly int[] cols = new int[4];
+        readonly double[] wx = new double[4], wz = new double[4], dwx = new double[4], dwz = new double[4];
+        readonly double[] va = new double[8], vb = new double[8];
 
         /// <summary>The layer of a parsed spectrum; keeps the last <paramref name="cacheFrames"/> frames.</summary>
         public FftLayer(FftSpectrum spectrum, int cacheFrames = 4)
@@ -306,9 +311,7 @@ namespace Swell
             Coord(x0, out i, out fx);
             Coord(z0, out j, out fz);
             int m = n - 1;
-            int[] cols = { (i - 1) & m, i, (i + 1) & m, (i + 2) & m };
-            var wx = new double[4];
-            var wz = new double[4];
+            cols[0] = (i - 1) & m; cols[1] = i; cols[2] = (i + 1) & m; cols[3] = (i + 2) & m;
             CatmullRom(fx, wx);
             CatmullRom(fz, wz);
             for (int q = 0; q < 8; q++)
@@ -325,13 +328,11 @@ namespace Swell
                 v[q] = acc;
             }
             if (!newton) return;
-            var dwx = new double[4];
-            var dwz = new double[4];
             CatmullRomSlope(fx, dwx);
             CatmullRomSlope(fz, dwz);
             double xx, xz, zx, zz;
-            Gradient(f.Grids[DX], j, m, cols, wx, wz, dwx, dwz, out xx, out xz);
-            Gradient(f.Grids[DZ], j, m, cols, wx, wz, dwx, dwz, out zx, out zz);
+            Gradient(f.Grids[DX], j, m, out xx, out xz);
+            Gradient(f.Grids[DZ], j, m, out zx, out zz);
             double s = n / tile;
             v[JXX] = xx * s;
             v[JZZ] = zz * s;
@@ -340,7 +341,8 @@ namespace Swell
             v[SZ] = 0;
         }
 
-        void Gradient(double[] g, int j, int m, int[] cols, double[] wx, double[] wz, double[] dwx, double[] dwz, out double gx, out double gz)
+        /// <summary>The Catmull–Rom interpolant's gradient of grid g at the stencil Read set up (per node step).</summary>
+        void Gradient(double[] g, int j, int m, out double gx, out double gz)
         {
             gx = 0; gz = 0;
             for (int bb = 0; bb < 4; bb++)
@@ -370,11 +372,10 @@ namespace Swell
             double time, nextTime, w;
             GridPosition(t, out time, out nextTime, out w);
             bool newton = read == FftRead.Newton;
-            var v = new double[8];
+            double[] v = va, b = vb;
             Read(Frame(time), x0, z0, newton, v);
             if (w > 0)
             {
-                var b = new double[8];
                 Read(Frame(nextTime), x0, z0, newton, b);
                 for (int q = 0; q < 8; q++) v[q] = v[q] + (b[q] - v[q]) * w;
             }

@@ -97,7 +97,7 @@ namespace Swell.Tests
             Runner.TA("open-sea (FFT + Gerstner): local uniforms equal GET /uniforms, FFT grid offsets included", async () =>
             {
                 var surface = Surface.FromDerived(Json.Get(await http.Scene("open-sea"), "derived"));
-                Runner.Assert(!surface.Analytic, "FFT layers: not evaluated locally");
+                Runner.Assert(!surface.Analytic, "FFT layers are not analytic");
                 var c = await http.Clock("open-sea");
                 foreach (var o in new[] { new[] { 0.0, 0 }, new[] { -1234.75, 98765.5 } })
                 {
@@ -134,8 +134,8 @@ namespace Swell.Tests
                     surface.Height(3.5, -2.25, 1000.01);
                     double cold = watch.Elapsed.TotalMilliseconds;
                     watch.Restart();
-                    surface.Height(-7.5, 4.75, 1000.01);
-                    Console.WriteLine("     " + scene + ": first height (two frames) " + cold.ToString("f1") + " ms, the next " + watch.Elapsed.TotalMilliseconds.ToString("f3") + " ms");
+                    for (int i = 0; i < 10000; i++) surface.Height(-7.5 + 0.01 * i, 4.75, 1000.01);
+                    Console.WriteLine("     " + scene + ": first height (two frames) " + cold.ToString("f1") + " ms, then " + (watch.Elapsed.TotalMilliseconds * 0.1).ToString("f2") + " us a height (10,000 at that time)");
                     double worst = 0;
                     foreach (var t in new[] { c.T, c.T + 0.37, 12.345, 86400.25 })
                     {
