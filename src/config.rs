@@ -301,7 +301,7 @@ impl Default for SnapshotPolicy {
 /// A time from a client that is not finite or is beyond [`Limits::max_time`]
 /// ([`Limits::check_time`]). The `Display` text is the whole message for people.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{field} = {t} is out of range: a finite time with |t| <= {max}")]
+#[error("{field} = {} is out of range: a finite time with |t| <= {max}", swell_waves::error::Num(*t))]
 pub struct TimeOutOfRange {
     /// Path of the offending field (`t`, `impacts[0].t`).
     pub field: String,

@@ -328,6 +328,23 @@ fn near_in(events: &[Impact], t: f64, window: f64) -> usize {
 }
 
 fn room(g: &Inner, impact: &Impact, window: f64) -> Result<(), AddError> {
+    // An impact the set would expire at once (more than a lifetime older than its newest, as
+    // after a clock seek backwards past the scene's splashes) is refused, not dropped unseen.
+    if let Some(lifetime) = g.lifetime
+        && let Some(newest) = g.api.events().iter().map(|e| e.t).reduce(f64::max)
+        && impact.t < newest - lifetime
+    {
+        return Err(AddError::Invalid(SpecError::OutOfRange {
+            field: "t".into(),
+            value: impact.t,
+            allowed: format!(
+                ">= {}: the scene's newest impact is at t = {newest}, and impacts more than a \
+                 ring lifetime ({lifetime} s) older than the newest have expired (replace the \
+                 scene to start its impacts afresh)",
+                newest - lifetime
+            ),
+        }));
+    }
     let near = near_in(g.set.events(), impact.t, window);
     if near >= MAX_NEAR_IMPACTS {
         return Err(AddError::Full(format!(

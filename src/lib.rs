@@ -114,6 +114,31 @@ const LATENCY_BUCKETS: &[f64] = &[
     2.5, 10.0,
 ];
 
+/// Counters of events that may not happen for a long time (limits hit, peers cut off), shown
+/// as 0 from the start: an alert on their rate then sees a series, not a gap, and an operator
+/// reading `/metrics` sees that the counter exists (docs/api.md lists them).
+const ZERO_FROM_START: &[&str] = &[
+    "swell_body_impacts_dropped_total",
+    "swell_body_reanchors_total",
+    "swell_http_body_timeouts_total",
+    "swell_http_buffer_budget_refused_total",
+    "swell_http_head_timeouts_total",
+    "swell_http_peer_connections_refused_total",
+    "swell_http_send_stalls_total",
+    "swell_http_shed_total",
+    "swell_http_slow_lane_connections_total",
+    "swell_queries_abandoned_total",
+    "swell_tick_body_lag_total",
+    "swell_ws_flood_disconnects_total",
+    "swell_ws_idle_disconnects_total",
+    "swell_ws_protocol_errors_total",
+    "swell_ws_rate_limited_total",
+    "swell_ws_read_check_disconnects_total",
+    "swell_ws_slow_consumer_disconnects_total",
+    "swell_ws_ticks_skipped_total",
+    "swell_ws_too_big_disconnects_total",
+];
+
 /// The process-wide Prometheus recorder. `metrics` has one global recorder per process, so
 /// several servers in one process (tests) share it.
 fn metrics_handle() -> PrometheusHandle {
@@ -127,6 +152,9 @@ fn metrics_handle() -> PrometheusHandle {
             let handle = recorder.handle();
             if metrics::set_global_recorder(recorder).is_err() {
                 tracing::warn!("a metrics recorder was already installed; /metrics will be empty");
+            }
+            for name in ZERO_FROM_START {
+                metrics::counter!(*name).increment(0);
             }
             handle
         })

@@ -36,7 +36,8 @@ pub fn code_for(status: StatusCode) -> ErrorCode {
     }
 }
 
-/// Rewrites 4xx/5xx answers that are not JSON (nor protobuf) as the JSON error.
+/// Rewrites 4xx/5xx answers that are not JSON (nor protobuf, nor an HTML page) as the JSON
+/// error.
 pub async fn json_errors(req: Request, next: Next) -> Response {
     let resp = next.run(req).await;
     let status = resp.status();
@@ -48,7 +49,10 @@ pub async fn json_errors(req: Request, next: Next) -> Response {
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|ct| {
-            ct.starts_with("application/json") || ct.starts_with("application/x-protobuf")
+            // HTML is a page the server wrote on purpose (the viewer on an unknown scene).
+            ct.starts_with("application/json")
+                || ct.starts_with("application/x-protobuf")
+                || ct.starts_with("text/html")
         });
     if typed {
         return resp;
@@ -75,6 +79,28 @@ pub async fn json_errors(req: Request, next: Next) -> Response {
         }
     }
     out
+}
+
+/// A query string that cannot be read into its fields (`x=abc`, an unknown name, bad
+/// percent-encoding): 400 `bad_request`, naming the field when serde's message does
+/// (`Failed to deserialize query string: x: invalid float literal`).
+pub fn query_rejection(r: &axum::extract::rejection::QueryRejection) -> ApiError {
+    let text = r.body_text();
+    let detail = text
+        .split_once("query string: ")
+        .map_or(text.as_str(), |(_, d)| d);
+    let field = detail
+        .split_once(": ")
+        .map(|(f, _)| f)
+        .filter(|f| !f.is_empty() && f.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'));
+    let e = ApiError::new(
+        ErrorCode::BadRequest,
+        format!("the query string cannot be read: {detail}"),
+    );
+    match field {
+        Some(f) => e.with_field(f),
+        None => e,
+    }
 }
 
 /// The request-head limits [`check_head`] applies (from [`Limits`]).

@@ -127,16 +127,17 @@ pub struct ImpactList {
 /// `GET /v1/scenes/{id}/impacts[?t=]`.
 ///
 /// # Errors
-/// 404 for an unknown scene; 400 for a non-finite t.
+/// 404 for an unknown scene; 400 for a t that is not finite or beyond `limits.max_time`, or a
+/// query string that cannot be read.
 pub async fn list(
     State(state): State<AppState>,
     Path(id): Path<String>,
-    Query(q): Query<ListQuery>,
+    q: Result<Query<ListQuery>, axum::extract::rejection::QueryRejection>,
 ) -> Result<axum::Json<ImpactList>, ApiError> {
     let entry = state.scene(&id)?;
+    let Query(q) = q.map_err(|r| super::errors::query_rejection(&r))?;
     let t = match q.t {
-        Some(t) if t.is_finite() => t,
-        Some(t) => return Err(ApiError::invalid("t", format!("t must be finite, got {t}"))),
+        Some(t) => state.limits.check_time(t, "t")?,
         None => state.read_clock(&entry).t,
     };
     let scene = &entry.scene;

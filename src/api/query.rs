@@ -29,7 +29,7 @@ pub async fn height(
     query: Result<Query<HeightQuery>, QueryRejection>,
 ) -> Result<Reply<HeightResponse>, ApiError> {
     let entry = state.scene(&id)?;
-    let Query(q) = query.map_err(|r| ApiError::invalid("", r.body_text()))?;
+    let Query(q) = query.map_err(|r| super::errors::query_rejection(&r))?;
     let at = resolve_time(&state, &entry, q.t)?;
     let scene = Arc::clone(&entry.scene);
     let st = state.clone();

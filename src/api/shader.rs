@@ -62,7 +62,7 @@ pub struct SpectrumQuery {
 /// string (bad percent-encoding) is rejected here.
 fn query<T>(q: Result<Query<T>, axum::extract::rejection::QueryRejection>) -> Result<T, ApiError> {
     q.map(|Query(v)| v)
-        .map_err(|r| ApiError::invalid("", r.body_text()))
+        .map_err(|r| super::errors::query_rejection(&r))
 }
 
 fn parse_lang(lang: Option<&str>) -> Result<Lang, ApiError> {
@@ -119,7 +119,8 @@ fn parse_origin(origin: Option<&str>, max: f64) -> Result<DVec2, ApiError> {
             Ok(v)
         } else {
             Err(bad(format!(
-                "{v} is out of range: a finite coordinate with |x| <= {max} m"
+                "{} is out of range: a finite coordinate within ±{max} m",
+                swell_waves::error::Num(v)
             )))
         }
     };

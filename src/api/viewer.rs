@@ -8,7 +8,7 @@
 //! endpoint. Sources: `clients/viewer/` (page and script) and `clients/js/src/` (the package).
 
 use axum::Router;
-use axum::extract::Path;
+use axum::extract::{Path, State};
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
@@ -51,11 +51,12 @@ pub fn routes() -> Router<AppState> {
     Router::new()
         .route("/viewer", get(page))
         .route("/viewer/", get(page))
-        .route("/viewer/{scene}", get(page))
+        .route("/viewer/{scene}", get(scene_page))
         .route("/viewer/assets/viewer.js", get(script))
         .route("/viewer/assets/fft-worker.js", get(fft_worker))
         .route("/viewer/assets/webgpu.js", get(webgpu))
         .route("/viewer/assets/client/{file}", get(client_module))
+        .route("/viewer/assets/{*rest}", get(no_asset))
 }
 
 fn asset(content_type: &'static str, body: &'static str) -> Response {
@@ -67,10 +68,25 @@ fn asset(content_type: &'static str, body: &'static str) -> Response {
     r
 }
 
-/// The page. The scene comes from the path (the script reads it), so an unknown scene still
-/// gets the page, which shows the server's `not_found` and offers the picker.
+/// The page (`/viewer`: the script picks a scene).
 async fn page() -> Response {
     asset("text/html; charset=utf-8", INDEX_HTML)
+}
+
+/// The page on one scene (the script reads it from the path). An unknown scene still gets the
+/// page, which shows the server's `not_found` and offers the picker, but with status 404, so a
+/// link checker or a script sees the miss.
+async fn scene_page(State(state): State<AppState>, Path(scene): Path<String>) -> Response {
+    let mut r = page().await;
+    if state.scene(&scene).is_err() {
+        *r.status_mut() = StatusCode::NOT_FOUND;
+    }
+    r
+}
+
+/// Any other file under `/viewer/assets/`.
+async fn no_asset() -> ApiError {
+    ApiError::new(ErrorCode::NotFound, "no such viewer asset")
 }
 
 async fn script() -> Response {

@@ -156,6 +156,16 @@ pub struct InputRequest {
     pub ticks: Option<u64>,
 }
 
+/// Longest an input may last, and furthest ahead of the bodies' tick it may start, ticks
+/// (3.9 days at 30 Hz).
+pub const MAX_INPUT_TICKS: u64 = 10_000_000;
+/// Largest force component an input may carry, N: a thousand g on the heaviest body allowed
+/// ([`swell_waves::body::MAX_MASS`]). Beyond it the number is a typo, and the step would go
+/// non-finite and quarantine the body.
+pub const MAX_INPUT_FORCE: f64 = 1e13;
+/// Largest torque component an input may carry, N·m: the largest force at 1 km.
+pub const MAX_INPUT_TORQUE: f64 = 1e16;
+
 /// What [`SceneBodies::advance_to`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Advance {
@@ -381,11 +391,41 @@ impl SceneBodies {
                 format!("from_tick = {from} is in the past: the bodies are at tick {now}"),
             ));
         }
+        // `from >= now`, but from a negative tick the difference can overflow.
+        if from
+            .checked_sub(now)
+            .is_none_or(|ahead| ahead > MAX_INPUT_TICKS as i64)
+        {
+            return Err(BodyError::invalid(
+                "from_tick",
+                format!(
+                    "from_tick = {from} is more than {MAX_INPUT_TICKS} ticks after the bodies' \
+                     tick {now}"
+                ),
+            ));
+        }
+        for (name, v, max) in [
+            ("force", req.force, MAX_INPUT_FORCE),
+            ("torque", req.torque, MAX_INPUT_TORQUE),
+        ] {
+            for (i, c) in v.into_iter().enumerate() {
+                if !(c.is_finite() && c.abs() <= max) {
+                    return Err(BodyError::invalid(
+                        format!("{name}[{i}]"),
+                        format!(
+                            "{name}[{i}] = {} is out of range: a finite number with |{name}| <= {}",
+                            swell_waves::error::Num(c),
+                            swell_waves::error::Num(max)
+                        ),
+                    ));
+                }
+            }
+        }
         let ticks = req.ticks.unwrap_or(1);
-        if !(1..=10_000_000).contains(&ticks) {
+        if !(1..=MAX_INPUT_TICKS).contains(&ticks) {
             return Err(BodyError::invalid(
                 "ticks",
-                format!("ticks = {ticks} is out of range: 1..=10000000"),
+                format!("ticks = {ticks} is out of range: 1..={MAX_INPUT_TICKS}"),
             ));
         }
         // `from >= now >= anchor`, but far ahead of a negative anchor the difference overflows.
@@ -465,8 +505,12 @@ impl SceneBodies {
         }
         let old_now = self.tick();
         for i in self.world.inputs() {
-            let start = self.anchor + i.from_tick as i64;
-            let end = start + i.ticks as i64; // exclusive, scene ticks
+            // Inputs start at most MAX_INPUT_TICKS ahead and last at most as long, so these
+            // cannot overflow; saturating all the same (a journal from before those bounds).
+            let start = self
+                .anchor
+                .saturating_add(i64::try_from(i.from_tick).unwrap_or(i64::MAX));
+            let end = start.saturating_add(i64::try_from(i.ticks).unwrap_or(i64::MAX)); // exclusive
             let remaining_start = start.max(old_now);
             if end > remaining_start {
                 let _ = world.input(BodyInput {

@@ -20,7 +20,7 @@ use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use swell_waves::body::MAX_TICK_HZ;
+use swell_waves::body::{MAX_TICK_HZ, MIN_TICK_HZ};
 use swell_waves::surface::layer_seed;
 use swell_waves::{Layer, LayerSpec, Surface, SurfaceSpec};
 
@@ -131,11 +131,11 @@ impl SceneSpec {
     pub fn validate(&self) -> Result<(), SceneError> {
         // The body model's limit: a scene's bodies step at the scene's tick rate, so a scene may
         // not tick faster than a body world can.
-        if !(self.tick_hz.is_finite() && self.tick_hz > 0.0 && self.tick_hz <= MAX_TICK_HZ) {
+        if !(self.tick_hz.is_finite() && (MIN_TICK_HZ..=MAX_TICK_HZ).contains(&self.tick_hz)) {
             return Err(SceneError::Rejected(swell_waves::SpecError::OutOfRange {
                 field: "tick_hz".into(),
                 value: self.tick_hz,
-                allowed: format!("in (0, {MAX_TICK_HZ}] Hz"),
+                allowed: format!("in [{MIN_TICK_HZ}, {MAX_TICK_HZ}] Hz"),
             }));
         }
         if let Some(e) = self.epoch

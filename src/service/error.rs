@@ -4,6 +4,7 @@
 
 use swell_waves::SpecError;
 use swell_waves::body::MAX_YAW;
+use swell_waves::error::Num;
 
 use crate::config::TimeOutOfRange;
 use crate::service::types::FIELD_NAMES;
@@ -40,7 +41,7 @@ pub enum QueryError {
         name: String,
     },
     /// A coordinate that is not finite or is beyond `max_coordinate`.
-    #[error("{field} = {value} is out of range: a finite coordinate with |x| <= {max} m")]
+    #[error("{field} = {} is out of range: a finite coordinate within ±{max} m", Num(*value))]
     Coordinate {
         /// Path of the coordinate (`points[3][0]`, `origin[1] + points[0][1]`).
         field: String,
@@ -50,7 +51,7 @@ pub enum QueryError {
         max: f64,
     },
     /// A body's yaw that is not finite or is beyond [`MAX_YAW`].
-    #[error("{field} = {value} is out of range: a finite angle with |yaw| <= {MAX_YAW} rad")]
+    #[error("{field} = {} is out of range: a finite angle with |yaw| <= {MAX_YAW} rad", Num(*value))]
     Yaw {
         /// Path of the yaw (`bodies[2].yaw`).
         field: String,
@@ -100,7 +101,7 @@ pub enum ClockUpdateError {
     #[error(transparent)]
     Time(#[from] TimeOutOfRange),
     /// `rate` is not finite or beyond [`crate::scene::clock::MAX_RATE`].
-    #[error("rate = {rate} is out of range: |rate| <= {max}")]
+    #[error("rate = {} is out of range: |rate| <= {max}", Num(*rate))]
     Rate {
         /// The rate as given.
         rate: f64,

@@ -52,8 +52,10 @@ fn path_error(e: serde_path_to_error::Error<serde_json::Error>) -> JsonError {
     let path = e.path().to_string();
     let message = e.inner().to_string();
     let mut field = if path == "." { String::new() } else { path };
-    // serde names an unknown field only in the message; put it in the path too.
-    if let Some(rest) = message.strip_prefix("unknown field `")
+    // serde names an unknown or a missing field only in the message; put it in the path too.
+    if let Some(rest) = message
+        .strip_prefix("unknown field `")
+        .or_else(|| message.strip_prefix("missing field `"))
         && let Some(name) = rest.split('`').next()
     {
         // serde_path_to_error includes the unknown key itself in some paths (plain structs)
@@ -99,6 +101,9 @@ mod tests {
         assert!(e.message.starts_with("points[1][1]: invalid type"), "{e:?}");
         let e = from_slice::<Batch>(br#"{"points": [], "colour": 1}"#).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("colour"), "{e:?}");
+        let e = from_slice::<Batch>(br#"{}"#).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("points"), "{e:?}");
+        assert!(e.message.starts_with("points: missing field"), "{e:?}");
         assert!(from_slice::<Batch>(br#"{"points": []} x"#).is_err());
     }
 }

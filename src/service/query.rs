@@ -76,12 +76,13 @@ pub fn resolve_time(
     }
 }
 
-/// Parses `fields` names into [`QueryFields`] (default: height).
+/// Parses `fields` names into [`QueryFields`]. Absent or empty: height (an empty protobuf
+/// list cannot be told from an absent one, so a JSON `[]` means the same).
 ///
 /// # Errors
 /// [`QueryError::UnknownField`] naming the first unknown name.
 pub fn parse_fields(names: Option<&[String]>) -> Result<QueryFields, QueryError> {
-    let Some(names) = names else {
+    let Some(names) = names.filter(|n| !n.is_empty()) else {
         return Ok(QueryFields::HEIGHT);
     };
     let mut f = QueryFields::default();

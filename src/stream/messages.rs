@@ -233,14 +233,25 @@ struct SubscribeBody {
     compact: bool,
 }
 
+/// The `id` of a message that does not parse as a whole (a number that overflows f64 elsewhere
+/// in it, `1e999`), so its error can still carry the id: the other members are skipped
+/// unconverted.
+fn readable_id(text: &str) -> Option<u64> {
+    #[derive(Deserialize)]
+    struct IdOnly {
+        id: Option<u64>,
+    }
+    serde_json::from_str::<IdOnly>(text).ok()?.id
+}
+
 /// Decodes a JSON text frame.
 ///
 /// # Errors
 /// `bad_json` for text that is not an object, a missing or unknown `type`, a bad `id`, or a
 /// payload that does not decode (with the field's path); the id is kept when it was readable.
 pub fn decode_json(text: &str) -> Result<Incoming, DecodeError> {
-    let value: Value =
-        json::from_slice(text.as_bytes()).map_err(|e| DecodeError::new(None, e.into()))?;
+    let value: Value = json::from_slice(text.as_bytes())
+        .map_err(|e| DecodeError::new(readable_id(text), e.into()))?;
     let Value::Object(mut map) = value else {
         return Err(DecodeError::new(
             None,
@@ -532,6 +543,11 @@ mod tests {
 
     #[test]
     fn json_unknown_type_keeps_the_id() {
+        // A number that overflows f64 fails the whole message; the id still comes back.
+        let e = decode_json(r#"{"type":"ping","id":13,"client_time":1e999}"#).unwrap_err();
+        assert_eq!((e.id, e.error.code), (Some(13), ErrorCode::BadJson));
+        let e = decode_json(r#"{"type":"ping","id":14}"#).unwrap_err();
+        assert_eq!(e.error.field.as_deref(), Some("client_time"), "{e:?}");
         let e = decode_json(r#"{"type":"dance","id":3}"#).unwrap_err();
         assert_eq!((e.id, e.error.code.as_str()), (Some(3), "unknown_type"));
     }

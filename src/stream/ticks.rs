@@ -100,7 +100,10 @@ async fn bodies_for(
     if latest.states.is_empty() && cell.lock().is_empty() {
         return (tick, None, Vec::new());
     }
-    let wait = Duration::from_secs_f64(BODY_WAIT_TICKS / reading.tick_hz).min(MAX_SLEEP);
+    // Scene specs bound tick_hz to [MIN_TICK_HZ, MAX_TICK_HZ]; a span that still did not fit a
+    // Duration waits the longest sleep.
+    let wait = Duration::try_from_secs_f64(BODY_WAIT_TICKS / reading.tick_hz)
+        .map_or(MAX_SLEEP, |w| w.min(MAX_SLEEP));
     let (published, exact) = cell.states_at(tick, reading.rate >= 0.0, wait).await;
     if !exact {
         metrics::counter!("swell_tick_body_lag_total").increment(1);

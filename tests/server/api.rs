@@ -213,6 +213,11 @@ async fn ops_endpoints() {
         "swell_points_sampled_total",
         "swell_fft_frames_total",
         "swell_fft_frame_seconds",
+        // Counters of rare events are there (at 0) before the first one.
+        "swell_ws_slow_consumer_disconnects_total",
+        "swell_ws_read_check_disconnects_total",
+        "swell_ws_ticks_skipped_total",
+        "swell_http_send_stalls_total",
     ] {
         assert!(text.contains(name), "{name} missing from /metrics:\n{text}");
     }
@@ -254,6 +259,33 @@ async fn documented_routes_exist() {
             !(status == 404 && body.contains("no such endpoint")) && status != 405,
             "{method} {path}: {status} {body}"
         );
+    }
+    s.stop().await;
+}
+
+/// The viewer's page on a scene is 200; on an unknown scene the page still comes (it shows the
+/// miss and offers the picker) with status 404; any missing asset is 404 `not_found`.
+#[tokio::test]
+async fn viewer_page_and_assets_answer_404_for_what_is_not_there() {
+    let s = TestServer::start(config()).await;
+    let html = |r: &reqwest::Response| {
+        r.headers()[reqwest::header::CONTENT_TYPE]
+            .to_str()
+            .unwrap()
+            .starts_with("text/html")
+    };
+    let r = s.get("/viewer/lake").await;
+    assert_eq!((r.status().as_u16(), html(&r)), (200, true));
+    let r = s.get("/viewer/no-such-sea").await;
+    assert_eq!((r.status().as_u16(), html(&r)), (404, true));
+    assert!(r.text().await.unwrap().contains("<html"));
+    for path in [
+        "/viewer/assets/nope.js",
+        "/viewer/assets/deep/nope.js",
+        "/viewer/assets/client/nope.js",
+    ] {
+        let (st, v) = s.get_json(path).await;
+        assert_eq!((st, code(&v)), (404, "not_found"), "{path}: {v}");
     }
     s.stop().await;
 }

@@ -4,7 +4,7 @@ use crate::common;
 
 use common::{TOKEN, TestServer, code, config, small_spec};
 use reqwest::Method;
-use serde_json::json;
+use serde_json::{Value, json};
 
 #[tokio::test]
 async fn malformed_json_is_400_with_serdes_message() {
@@ -294,6 +294,130 @@ async fn bad_bodies_and_clock_values_are_400() {
         (c["rate"].as_f64(), c["paused"].as_bool()),
         (Some(1.0), Some(false))
     );
+    s.stop().await;
+}
+
+/// Values that used to be accepted and then broke what came after (an outside audit): a scene
+/// whose waves overflow (500 on every query), a tick rate so low the stream panicked, a particle
+/// layer whose shader held an f32 infinity (500), a body spawned beyond `max_coordinate` (an
+/// infinity in compact frames), a cell hull whose derived damping was NaN, an input force that
+/// quarantined its boat. Each is now refused with its field named, and the message writes big
+/// numbers as `1e300`, not 301 digits.
+#[tokio::test]
+async fn values_that_would_break_later_work_are_refused_up_front() {
+    let s = TestServer::start(config()).await;
+    let wave = |k: &str, v: f64| {
+        let mut spec = small_spec();
+        spec["layers"][0]["waves"][0][k] = json!(v);
+        spec
+    };
+    let particles = |k: &str, v: Value| {
+        let mut layer = json!({"kind": "particles"});
+        layer[k] = v;
+        json!({"layers": [layer]})
+    };
+    let mut slow = small_spec();
+    slow["tick_hz"] = json!(1e-20);
+    for (spec, field) in [
+        (wave("amplitude", 1e308), "layers[0].waves[0].amplitude"),
+        (wave("wavelength", 1e-300), "layers[0].waves[0].wavelength"),
+        (wave("phase", 1e308), "layers[0].waves[0].phase"),
+        (wave("speed", 1e300), "layers[0].waves[0].speed"),
+        (slow, "tick_hz"),
+        (particles("scales", json!([1e-50])), "layers[0].scales[0]"),
+        (particles("tile_size", json!(1e-39)), "layers[0].tile_size"),
+    ] {
+        let (st, v) = s.put_scene("bad", &spec).await;
+        assert_eq!(
+            (st, code(&v), v["error"]["field"].as_str()),
+            (422, "invalid_spec", Some(field)),
+            "{v}"
+        );
+        let msg = v["error"]["message"].as_str().unwrap();
+        assert!(msg.len() < 300, "{msg}");
+    }
+    let (st, v) = s.put_scene("bad", &wave("amplitude", 1e308)).await;
+    assert!(
+        v["error"]["message"].as_str().unwrap().contains("= 1e308"),
+        "{st} {v}"
+    );
+    let boat =
+        |position: Value, hull: Value| json!({"mass": 3000.0, "hull": hull, "position": position});
+    let hull = json!({"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5});
+    let cells = json!({"kind": "cells", "cells": [{"position": [0, 0, 0], "volume": 1e300, "height": 1e-300}]});
+    for (body, status, field) in [
+        (boat(json!([1e300, 0, 0]), hull.clone()), 400, "position[0]"),
+        (boat(json!([0, 2e9, 0]), hull.clone()), 400, "position[1]"),
+        (
+            boat(json!([0, 0, 0]), cells),
+            422,
+            "body.hull.cells[0].height",
+        ),
+    ] {
+        let (st, v) = s
+            .admin(
+                Method::POST,
+                "/v1/scenes/calm/bodies",
+                Some(&body),
+                Some(TOKEN),
+            )
+            .await;
+        assert_eq!(
+            (st, v["error"]["field"].as_str()),
+            (status, Some(field)),
+            "{v}"
+        );
+    }
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/calm/bodies",
+            Some(&boat(json!([0, 0.5, 0]), hull)),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 201, "{v}");
+    let id = v["id"].as_u64().unwrap();
+    let input = format!("/v1/scenes/calm/bodies/{id}/input");
+    for (body, field) in [
+        (json!({"force": [1e308, 0, 0]}), "force[0]"),
+        (json!({"torque": [0, -1e17, 0]}), "torque[1]"),
+        (json!({"from_tick": i64::MAX}), "from_tick"),
+    ] {
+        let (st, v) = s
+            .admin(Method::POST, &input, Some(&body), Some(TOKEN))
+            .await;
+        assert_eq!(
+            (st, code(&v), v["error"]["field"].as_str()),
+            (400, "invalid_value", Some(field)),
+            "{v}"
+        );
+    }
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            &input,
+            Some(&json!({"force": [1e6, 0, 0], "ticks": 3})),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 202, "{v}");
+    // A query string that cannot be read: bad_request, naming the field.
+    let (st, v) = s.get_json("/v1/scenes/calm/height?x=abc&z=1").await;
+    assert_eq!(
+        (st, code(&v), v["error"]["field"].as_str()),
+        (400, "bad_request", Some("x")),
+        "{v}"
+    );
+    // An empty `fields` list asks for the default, as in protobuf.
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/sample",
+            &json!({"points": [[1, 2]], "fields": []}),
+        )
+        .await;
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["height"].as_array().map(Vec::len), Some(1), "{v}");
     s.stop().await;
 }
 

@@ -160,6 +160,53 @@ async fn bad_impacts_are_rejected_with_the_field_named() {
     s.stop().await;
 }
 
+/// An impact the set would expire at once is refused with the reason, not acknowledged and
+/// dropped: after a seek backwards past the scene's splashes (harbour's rings live 60 s), a
+/// splash at the new now is more than a lifetime older than the newest one. A `t` beyond
+/// `max_time` on `GET …/impacts` is refused like everywhere else.
+#[tokio::test]
+async fn an_impact_older_than_the_newest_by_a_lifetime_is_refused_not_dropped() {
+    let s = TestServer::start(config()).await;
+    let at = |t: f64| json!({"position": [1.0, 2.0], "strength": 0.3, "radius": 0.5, "t": t});
+    let (st, v) = s
+        .put_clock("harbour", &json!({"t": 1000.0, "paused": true}))
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let (st, v) = impact(&s, "harbour", at(1000.0)).await;
+    assert_eq!(st, 202, "{v}");
+    let (st, v) = s
+        .put_clock("harbour", &json!({"t": 0.0, "paused": true}))
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let (st, v) = impact(&s, "harbour", at(0.0)).await;
+    assert_eq!((st, code(&v)), (400, "invalid_value"), "{v}");
+    assert_eq!(v["error"]["field"], "t", "{v}");
+    let msg = v["error"]["message"].as_str().unwrap();
+    assert!(msg.contains("newest impact is at t = 1000"), "{msg}");
+    // Within a lifetime of the newest: still accepted (the clock allows it).
+    let (st, v) = s
+        .put_clock("harbour", &json!({"t": 950.0, "paused": true}))
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let (st, v) = impact(&s, "harbour", at(950.0)).await;
+    assert_eq!(st, 202, "{v}");
+    let (st, v) = s.get_json("/v1/scenes/harbour/impacts?t=900").await;
+    assert_eq!(st, 200, "{v}");
+    let ts: Vec<f64> = v["impacts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["t"].as_f64().unwrap())
+        .collect();
+    assert_eq!(ts, [950.0, 1000.0], "{v}");
+    for q in ["t=1e300", "t=abc"] {
+        let (st, v) = s.get_json(&format!("/v1/scenes/harbour/impacts?{q}")).await;
+        assert_eq!(st, 400, "{q}: {v}");
+        assert_eq!(v["error"]["field"], "t", "{q}: {v}");
+    }
+    s.stop().await;
+}
+
 /// A subscriber gets the impact in a tick frame, in both codecs, at (or before) the tick the
 /// POST answered with.
 #[tokio::test]

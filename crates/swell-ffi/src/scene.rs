@@ -3,7 +3,7 @@
 //! unknown fields rejected at every level, the surface built by the model.
 
 use serde_json::Value;
-use swell_waves::body::MAX_TICK_HZ;
+use swell_waves::body::{MAX_TICK_HZ, MIN_TICK_HZ};
 use swell_waves::{FrameMemo, SpecError, Surface, SurfaceSpec};
 
 use crate::error::{Error, SWELL_ERR_BAD_JSON};
@@ -73,11 +73,11 @@ impl Scene {
         let spec: SurfaceSpec = serde_json::from_value(Value::Object(map))
             .map_err(|e| bad_json(format!("scene spec: {e}")))?;
         // The server's checks, in its order (`SceneSpec::validate`).
-        if !(tick_hz.is_finite() && tick_hz > 0.0 && tick_hz <= MAX_TICK_HZ) {
+        if !(tick_hz.is_finite() && (MIN_TICK_HZ..=MAX_TICK_HZ).contains(&tick_hz)) {
             return Err(out_of_range(
                 "tick_hz",
                 tick_hz,
-                format!("in (0, {MAX_TICK_HZ}] Hz"),
+                format!("in [{MIN_TICK_HZ}, {MAX_TICK_HZ}] Hz"),
             ));
         }
         if let Some(e) = epoch

@@ -484,3 +484,25 @@ fn too_many_particles_is_an_error() {
         Err(ShaderError::TooManyParticles { particles: 600, .. })
     ));
 }
+
+/// Particle layers at the edges of what the model accepts (the smallest and largest tiles,
+/// scales and radii) export shaders that naga validates: every constant is a finite f32 (a
+/// tile of 1e-39 m once wrote `inff` into the WGSL and answered 500).
+#[test]
+fn particle_layers_at_the_bounds_export_valid_shaders() {
+    use swell_waves::particles::{MAX_SCALE, MAX_TILE_SIZE, MIN_SCALE, MIN_TILE_SIZE};
+    let min_radius = 0.01;
+    for (tile, radius) in [
+        (MIN_TILE_SIZE, min_radius),
+        (MAX_TILE_SIZE, min_radius),
+        (MAX_TILE_SIZE, MAX_TILE_SIZE / 4.0),
+    ] {
+        let s = surface(&format!(
+            r#"{{"layers": [{{"kind": "particles", "count": 8, "tile_size": {tile}, "radius": {radius}, "scales": [{MIN_SCALE}, {MAX_SCALE}]}}]}}"#
+        ));
+        for lang in [Lang::Wgsl, Lang::Glsl] {
+            // export parses the WGSL it writes with naga first: an `inff` fails there.
+            export(&s, lang, None).unwrap_or_else(|e| panic!("{tile} {radius}: {e}"));
+        }
+    }
+}

@@ -10,7 +10,7 @@ use thiserror::Error;
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SpecError {
     /// A number is NaN or infinite.
-    #[error("{field} must be a finite number, got {value}")]
+    #[error("{field} must be a finite number, got {}", Num(*value))]
     NotFinite {
         /// Path of the field, e.g. `layers[0].waves[2].wavelength`.
         field: String,
@@ -18,7 +18,7 @@ pub enum SpecError {
         value: f64,
     },
     /// A number lies outside its allowed range.
-    #[error("{field} = {value} is out of range: {allowed}")]
+    #[error("{field} = {} is out of range: {allowed}", Num(*value))]
     OutOfRange {
         /// Path of the field.
         field: String,
@@ -115,6 +115,23 @@ pub(crate) fn positive_at_most(field: &str, value: f64, max: f64) -> Result<f64,
             value,
             allowed: format!("in (0, {max}]"),
         })
+    }
+}
+
+/// A number as an error message shows it: Rust's shortest round-trip form (`0.25`, `1000`)
+/// between 10⁻⁴ and 10¹⁵ in magnitude (and 0), scientific notation (`1e300`, `5e-324`) outside,
+/// so a client's `1e300` comes back as `1e300`, not as 301 digits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
     }
 }
 

@@ -2,7 +2,7 @@
 
 use glam::DVec2;
 
-use crate::error::{SpecError, direction, finite, in_range, non_negative, positive};
+use crate::error::{SpecError, direction, in_range, positive_at_most};
 #[cfg(target_arch = "x86_64")]
 use crate::math::RoundByTrunc;
 use crate::math::{
@@ -80,14 +80,31 @@ impl SurfaceSample {
     }
 }
 
+/// Largest amplitude an analytic wave may have, m: ten times any sea ever measured. Beyond it
+/// the number is a typo, and sums, slopes (`A·k`) and normals of hundreds of such waves stop
+/// being finite.
+pub const MAX_AMPLITUDE: f64 = 1e3;
+/// Shortest wavelength an analytic wave may have, m (capillary ripples are ~17 mm): keeps the
+/// wave number `2π/λ` and the phase `k·x` at `|x| ≤ 10⁹ m` finite and reducible.
+pub const MIN_WAVELENGTH: f64 = 1e-3;
+/// Longest wavelength an analytic wave may have, m (a tide's is ~10⁷ m).
+pub const MAX_WAVELENGTH: f64 = 1e7;
+/// Largest `|phase|` offset, rad: any angle fits in [−π, π]; this leaves room for unreduced
+/// inputs while keeping the phase sum accurate.
+pub const MAX_PHASE: f64 = 1e6;
+/// Largest phase speed a wave may be given (`speed`), m/s: a 10⁷ m deep-water wave runs at
+/// ~4·10³ m/s.
+pub const MAX_SPEED: f64 = 1e5;
+
 impl Wave {
     /// Builds a wave from its spec values. `field` is the error path prefix.
     ///
     /// ω comes from `dispersion` unless `speed` (phase speed c, m/s) is given, then `ω = c·k`.
     ///
     /// # Errors
-    /// Amplitude < 0, wavelength ≤ 0, a zero direction, a non-finite phase, a speed ≤ 0, a
-    /// steepness outside [0, 1], or anything non-finite.
+    /// Amplitude outside [0, [`MAX_AMPLITUDE`]], wavelength outside [[`MIN_WAVELENGTH`],
+    /// [`MAX_WAVELENGTH`]], a zero direction, `|phase|` over [`MAX_PHASE`], a speed outside
+    /// (0, [`MAX_SPEED`]], a steepness outside [0, 1], or anything non-finite.
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         field: &str,
@@ -99,14 +116,19 @@ impl Wave {
         steepness: f64,
         dispersion: &Dispersion,
     ) -> Result<Wave, SpecError> {
-        non_negative(&format!("{field}.amplitude"), amplitude)?;
-        positive(&format!("{field}.wavelength"), wavelength)?;
+        in_range(&format!("{field}.amplitude"), amplitude, 0.0, MAX_AMPLITUDE)?;
+        in_range(
+            &format!("{field}.wavelength"),
+            wavelength,
+            MIN_WAVELENGTH,
+            MAX_WAVELENGTH,
+        )?;
         let direction = direction(&format!("{field}.direction"), dir)?;
-        finite(&format!("{field}.phase"), phase)?;
+        in_range(&format!("{field}.phase"), phase, -MAX_PHASE, MAX_PHASE)?;
         in_range(&format!("{field}.steepness"), steepness, 0.0, 1.0)?;
         let k = TAU / wavelength;
         let omega = match speed {
-            Some(c) => positive(&format!("{field}.speed"), c)? * k,
+            Some(c) => positive_at_most(&format!("{field}.speed"), c, MAX_SPEED)? * k,
             None => dispersion.omega(k),
         };
         if !(k.is_finite() && omega.is_finite()) {
@@ -965,6 +987,63 @@ mod tests {
         assert_eq!(e.field(), "w.speed");
         let e = Wave::build("w", 1.0, 1.0, [1.0, 0.0], 0.0, None, 1.5, &d).unwrap_err();
         assert_eq!(e.field(), "w.steepness");
+    }
+
+    /// The bounds are what keeps every answer finite: the most extreme waves they allow, 1,024
+    /// of them (a layer's most), evaluated at the server's largest coordinates and times, give
+    /// finite heights, displacements and slopes; one step past each bound is refused.
+    #[test]
+    fn the_most_extreme_allowed_waves_stay_finite() {
+        let d = Dispersion::default();
+        let extremes = [
+            (MAX_AMPLITUDE, MIN_WAVELENGTH, MAX_PHASE, Some(MAX_SPEED)),
+            (MAX_AMPLITUDE, MIN_WAVELENGTH, -MAX_PHASE, None),
+            (MAX_AMPLITUDE, MAX_WAVELENGTH, MAX_PHASE, Some(MAX_SPEED)),
+        ];
+        for (a, l, phase, speed) in extremes {
+            let w = Wave::build("w", a, l, [1.0, 1.0], phase, speed, 0.0, &d).unwrap();
+            let waves = vec![w; crate::sine::MAX_WAVES_PER_LAYER];
+            for (x, t) in [(1e9, 1e10), (-1e9, -1e10), (0.3, 0.0)] {
+                let mut s = SurfaceSample::default();
+                accumulate_all(&waves, DVec2::new(x, -x), t, true, &mut s);
+                let v = [s.displacement, s.d_dx, s.d_dz];
+                assert!(
+                    v.iter().all(|c| c.is_finite()),
+                    "{a} {l} {phase} at {x}, {t}: {s:?}"
+                );
+                assert!(s.normal().is_finite());
+            }
+        }
+        let up = |v: f64| v * (1.0 + 1e-15) + f64::MIN_POSITIVE;
+        let build = |a, l, phase, speed| Wave::build("w", a, l, [1.0, 0.0], phase, speed, 0.0, &d);
+        assert_eq!(
+            build(up(MAX_AMPLITUDE), 1.0, 0.0, None)
+                .unwrap_err()
+                .field(),
+            "w.amplitude"
+        );
+        assert_eq!(
+            build(1.0, MIN_WAVELENGTH * 0.999, 0.0, None)
+                .unwrap_err()
+                .field(),
+            "w.wavelength"
+        );
+        assert_eq!(
+            build(1.0, up(MAX_WAVELENGTH), 0.0, None)
+                .unwrap_err()
+                .field(),
+            "w.wavelength"
+        );
+        assert_eq!(
+            build(1.0, 1.0, -up(MAX_PHASE), None).unwrap_err().field(),
+            "w.phase"
+        );
+        assert_eq!(
+            build(1.0, 1.0, 0.0, Some(up(MAX_SPEED)))
+                .unwrap_err()
+                .field(),
+            "w.speed"
+        );
     }
 
     #[test]

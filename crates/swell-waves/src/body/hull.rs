@@ -13,6 +13,16 @@ use serde::{Deserialize, Serialize};
 
 /// Most cells a hull may have: each costs one height and velocity query per substep.
 pub const MAX_CELLS: usize = 256;
+/// Largest hull dimension (a box's length, beam or height; a cell column's height or width), m:
+/// ten times the largest ship afloat.
+pub const MAX_HULL_SIZE: f64 = 5000.0;
+/// Smallest hull dimension, m.
+pub const MIN_HULL_SIZE: f64 = 0.001;
+
+/// Checks a hull dimension is in [[`MIN_HULL_SIZE`], [`MAX_HULL_SIZE`]] m.
+fn size(field: &str, v: f64) -> Result<f64, SpecError> {
+    crate::error::in_range(field, v, MIN_HULL_SIZE, MAX_HULL_SIZE)
+}
 /// Most columns along either axis of a box hull (16 × 16 = 256 = [`MAX_CELLS`]).
 pub const MAX_BOX_CELLS_PER_SIDE: u32 = 16;
 /// Default box subdivision, `[along length, along beam]`: 4 × 2 columns resolve pitch and roll
@@ -99,10 +109,12 @@ impl HullSpec {
     /// Validates and builds the hull. `field` prefixes error paths (e.g. `bodies[3].hull`).
     ///
     /// # Errors
-    /// A box dimension not finite and > 0 (`{field}.length`, `.beam`, `.height`); a box
+    /// A box dimension outside [[`MIN_HULL_SIZE`], [`MAX_HULL_SIZE`]] m (`{field}.length`,
+    /// `.beam`, `.height`); a box
     /// subdivision outside 1..=16 (`{field}.cells`); an empty or over-long cell list
-    /// (`{field}.cells`); a cell position not finite, or a cell volume or height not finite and
-    /// > 0 (`{field}.cells[i].…`).
+    /// (`{field}.cells`); a cell position not finite, a cell volume not finite and > 0, or a
+    /// cell height or width (`sqrt(volume/height)`) outside the box's bounds
+    /// (`{field}.cells[i].…`).
     pub fn build(&self, field: &str) -> Result<Hull, SpecError> {
         match self {
             HullSpec::Box {
@@ -111,9 +123,9 @@ impl HullSpec {
                 height,
                 cells,
             } => {
-                let l = positive(&format!("{field}.length"), *length)?;
-                let b = positive(&format!("{field}.beam"), *beam)?;
-                let h = positive(&format!("{field}.height"), *height)?;
+                let l = size(&format!("{field}.length"), *length)?;
+                let b = size(&format!("{field}.beam"), *beam)?;
+                let h = size(&format!("{field}.height"), *height)?;
                 let [nx, nz] = cells.unwrap_or(DEFAULT_BOX_CELLS);
                 for (i, n) in [nx, nz].into_iter().enumerate() {
                     if !(1..=MAX_BOX_CELLS_PER_SIDE).contains(&n) {
@@ -165,7 +177,20 @@ impl HullSpec {
                         finite(&format!("{f}.position[{k}]"), *p)?;
                     }
                     let v = positive(&format!("{f}.volume"), c.volume)?;
-                    let h = positive(&format!("{f}.height"), c.height)?;
+                    let h = size(&format!("{f}.height"), c.height)?;
+                    // The column's width sqrt(V/h), bounded as a box's sides are.
+                    size(&format!("{f}.volume"), (v / h).sqrt()).map_err(|_| {
+                        SpecError::OutOfRange {
+                            field: format!("{f}.volume"),
+                            value: v,
+                            allowed: format!(
+                                "a column at most {MAX_HULL_SIZE} m and at least \
+                                 {MIN_HULL_SIZE} m wide: volume/height in [{}, {}] m²",
+                                MIN_HULL_SIZE * MIN_HULL_SIZE,
+                                MAX_HULL_SIZE * MAX_HULL_SIZE
+                            ),
+                        }
+                    })?;
                     out.push(cell(DVec3::from_array(c.position), v, h));
                 }
                 // Length along x: the extent of the columns' footprints.

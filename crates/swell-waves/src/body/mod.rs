@@ -42,6 +42,7 @@ mod world;
 pub use authority::{DEFAULT_DAMPING_RATIO, SpawnSpec, authority_settings, authority_step_options};
 pub use hull::{
     Cell, CellSpec, DEFAULT_BOX_CELLS, Hull, HullSpec, MAX_BOX_CELLS_PER_SIDE, MAX_CELLS,
+    MAX_HULL_SIZE, MIN_HULL_SIZE,
 };
 pub use impacts::{
     BODY_IMPACT_HISTORY, Derived, MAX_BODY_IMPACTS, MAX_BODY_NEAR_IMPACTS, MAX_FELT_IMPACTS,
@@ -54,6 +55,6 @@ pub use spec::{BodyModel, BodySpec, MAX_MASS, MAX_WAVELENGTH_FACTOR};
 pub use state::{BodyState, BodyStatus, quat_from_rotation_vector};
 pub use water::WaterPoint;
 pub use world::{
-    Body, BodyId, BodyInput, MAX_SUBSTEPS, MAX_TICK_HZ, PHASE_PER_SUBSTEP, SEA_WATER_DENSITY,
-    WarmStart, World, WorldSettings, WorldSnapshot, substeps_for,
+    Body, BodyId, BodyInput, MAX_SUBSTEPS, MAX_TICK_HZ, MIN_TICK_HZ, PHASE_PER_SUBSTEP,
+    SEA_WATER_DENSITY, WarmStart, World, WorldSettings, WorldSnapshot, substeps_for,
 };

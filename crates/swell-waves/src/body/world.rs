@@ -33,6 +33,9 @@ pub type BodyId = u64;
 /// network rate) and the sea evaluations per second explode. The server bounds scene tick rates
 /// with this same constant, since a scene's bodies step at its tick rate.
 pub const MAX_TICK_HZ: f64 = 1000.0;
+/// Smallest tick rate, Hz: one tick every 100 s. Slower than that is a typo, and tick spans
+/// (`1/tick_hz`, and the stream's waits in ticks) would overflow time types.
+pub const MIN_TICK_HZ: f64 = 0.01;
 
 /// Sea water density, kg/m³: the usual surface value (fresh water is 1000, the open ocean
 /// 1020–1030). The default of [`WorldSettings::water_density`], and what the server uses.
@@ -75,15 +78,15 @@ impl WorldSettings {
     /// Checks the settings.
     ///
     /// # Errors
-    /// `tick_hz` not in (0, 1000]; `water_density` or `gravity` not finite and > 0;
+    /// `tick_hz` not in [0.01, 1000]; `water_density` or `gravity` not finite and > 0;
     /// `start_time` not finite.
     pub fn validate(&self) -> Result<(), SpecError> {
         let hz = positive("tick_hz", self.tick_hz)?;
-        if hz > MAX_TICK_HZ {
+        if !(MIN_TICK_HZ..=MAX_TICK_HZ).contains(&hz) {
             return Err(SpecError::OutOfRange {
                 field: "tick_hz".into(),
                 value: hz,
-                allowed: format!("in (0, {MAX_TICK_HZ}] Hz"),
+                allowed: format!("in [{MIN_TICK_HZ}, {MAX_TICK_HZ}] Hz"),
             });
         }
         positive("water_density", self.water_density)?;

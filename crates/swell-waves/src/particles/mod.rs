@@ -45,6 +45,7 @@ use crate::error::{SpecError, direction, in_range, positive_at_most};
 use crate::spectrum::Dispersion;
 use ambient::AmbientParams;
 use field::LiveRing;
+use ripple::MIN_IMPACT_RADIUS;
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -55,6 +56,12 @@ pub const MAX_AMBIENT_PARTICLES: u32 = 16_384;
 pub const MAX_SCALES: usize = 4;
 /// Largest tile size, m.
 pub const MAX_TILE_SIZE: f64 = 100_000.0;
+/// Smallest tile size, m: with the smallest scale, a shader's `1/(scale·tile)` stays a small f32.
+pub const MIN_TILE_SIZE: f64 = 0.1;
+/// Smallest tile scale.
+pub const MIN_SCALE: f64 = 1.0 / 64.0;
+/// Largest tile scale.
+pub const MAX_SCALE: f64 = 64.0;
 
 /// A particle layer spec. Every field has a default, so `{"kind": "particles"}` is valid.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,10 +71,10 @@ pub struct ParticleLayerSpec {
     /// Ambient particles per tile, 0..=16384. Default 512: about 1.6 particles overlap any
     /// point at the default size and radius, dense enough to hide the tile's grid.
     pub count: u32,
-    /// Tile size L, m, in (0, 100000]. Default 32 m: several boat lengths, so the tile's period
+    /// Tile size L, m, in [0.1, 100000]. Default 32 m: several boat lengths, so the tile's period
     /// is hard to see (the finer scales break it up further).
     pub tile_size: f64,
-    /// Particle radius r, m, in (0, L/4] (a particle must not overlap its own periodic image).
+    /// Particle radius r, m, in [0.01, L/4] (a particle must not overlap its own periodic image).
     /// Default 1 m: detail between the Gerstner or FFT swell and the shader's normal maps.
     pub radius: f64,
     /// Particle amplitude a, m, in [0, 10]. Default 0.03 m: a ripple, not a wave.
@@ -84,7 +91,7 @@ pub struct ParticleLayerSpec {
     /// With a `direction`: the width of the directions around it, degrees, in [0, 360].
     /// Default 120°.
     pub spread: f64,
-    /// Tile scales s, 1..=4 values in (0, 64]: the pattern is also summed shrunk to s (tile
+    /// Tile scales s, 1..=4 values in [1/64, 64]: the pattern is also summed shrunk to s (tile
     /// s·L, radius s·r, amplitude s·a, speed s·v). Default `[1]`; the seed samples
     /// `[0.33, 0.66, 1]`.
     pub scales: Vec<f64>,
@@ -147,8 +154,13 @@ impl ParticleLayer {
             0.0,
             f64::from(MAX_AMBIENT_PARTICLES),
         )?;
-        let tile = positive_at_most(&f("tile_size"), spec.tile_size, MAX_TILE_SIZE)?;
-        let radius = positive_at_most(&f("radius"), spec.radius, tile / 4.0)?;
+        let tile = in_range(
+            &f("tile_size"),
+            spec.tile_size,
+            MIN_TILE_SIZE,
+            MAX_TILE_SIZE,
+        )?;
+        let radius = in_range(&f("radius"), spec.radius, MIN_IMPACT_RADIUS, tile / 4.0)?;
         in_range(&f("amplitude"), spec.amplitude, 0.0, 10.0)?;
         in_range(&f("amplitude_jitter"), spec.amplitude_jitter, 0.0, 1.0)?;
         let speed = match spec.speed {
@@ -168,7 +180,7 @@ impl ParticleLayer {
             });
         }
         for (i, &s) in spec.scales.iter().enumerate() {
-            positive_at_most(&f(&format!("scales[{i}]")), s, 64.0)?;
+            in_range(&f(&format!("scales[{i}]")), s, MIN_SCALE, MAX_SCALE)?;
         }
         spec.ripples.validate(&f("ripples"))?;
         if let Some(b) = &spec.body_impacts {
