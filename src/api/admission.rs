@@ -127,8 +127,8 @@ pub fn authorize(need: Option<Role>, presented: Presented) -> Result<(), ApiErro
         Presented::None => Err(ApiError::new(
             ErrorCode::Unauthorized,
             format!(
-                "this endpoint needs a {} token: Authorization: Bearer <token>",
-                need.as_str()
+                "this endpoint needs {} token: Authorization: Bearer <token>",
+                a_role(need)
             ),
         )),
         Presented::Unknown => Err(ApiError::new(
@@ -139,11 +139,20 @@ pub fn authorize(need: Option<Role>, presented: Presented) -> Result<(), ApiErro
         Presented::Valid(r) => Err(ApiError::new(
             ErrorCode::Forbidden,
             format!(
-                "this endpoint needs a {} token; this one is a {} token",
-                need.as_str(),
-                r.as_str()
+                "this endpoint needs {} token; this one is {} token",
+                a_role(need),
+                a_role(r)
             ),
         )),
+    }
+}
+
+/// The role's name with its article, for messages: "an admin", "a game", "a reader".
+fn a_role(role: Role) -> &'static str {
+    match role {
+        Role::Admin => "an admin",
+        Role::Game => "a game",
+        Role::Reader => "a reader",
     }
 }
 
@@ -502,5 +511,29 @@ mod tests {
             Some(Role::Admin)
         );
         assert_eq!(required_role(&get, None, true, false), None);
+    }
+
+    /// The 401/403 messages used to say "needs a admin token".
+    #[test]
+    fn token_messages_take_the_right_article() {
+        use axum::http::StatusCode;
+        let e = authorize(Some(Role::Admin), Presented::None).unwrap_err();
+        assert_eq!(e.status(), StatusCode::UNAUTHORIZED);
+        assert!(
+            e.message.starts_with("this endpoint needs an admin token:"),
+            "{}",
+            e.message
+        );
+        let e = authorize(Some(Role::Admin), Presented::Valid(Role::Game)).unwrap_err();
+        assert_eq!(e.status(), StatusCode::FORBIDDEN);
+        assert_eq!(
+            e.message,
+            "this endpoint needs an admin token; this one is a game token"
+        );
+        let e = authorize(Some(Role::Game), Presented::Valid(Role::Reader)).unwrap_err();
+        assert_eq!(
+            e.message,
+            "this endpoint needs a game token; this one is a reader token"
+        );
     }
 }

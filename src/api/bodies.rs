@@ -119,7 +119,7 @@ fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
     })
 }
 
-/// `POST /v1/scenes/{id}/bodies` (admin): spawns a body at rest; 201 with its state.
+/// `POST /v1/scenes/{id}/bodies` (game): spawns a body at rest; 201 with its state.
 pub async fn create(
     State(state): State<AppState>,
     Path(id): Path<String>,
@@ -192,7 +192,7 @@ pub async fn get_one(
     }))
 }
 
-/// `DELETE /v1/scenes/{id}/bodies/{bid}` (admin): 204.
+/// `DELETE /v1/scenes/{id}/bodies/{bid}` (game): 204.
 pub async fn delete(
     State(state): State<AppState>,
     Path((id, bid)): Path<(String, String)>,
@@ -203,7 +203,7 @@ pub async fn delete(
     Ok(StatusCode::NO_CONTENT)
 }
 
-/// `POST /v1/scenes/{id}/bodies/{bid}/input` (admin): 202 with the tick the bodies are at, the
+/// `POST /v1/scenes/{id}/bodies/{bid}/input` (game): 202 with the tick the bodies are at, the
 /// tick the input acts from and for how many, and the world's anchor
 /// ([`crate::service::types::InputAccepted`]).
 pub async fn input(

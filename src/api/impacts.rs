@@ -1,4 +1,4 @@
-//! Impact endpoints: `POST /v1/scenes/{id}/impacts` (admin) adds a splash that ripples on the
+//! Impact endpoints: `POST /v1/scenes/{id}/impacts` (game) adds a splash that ripples on the
 //! scene's particle layer; `GET /v1/scenes/{id}/impacts` lists the impacts that can still be
 //! rippling. The set itself is [`crate::impacts`].
 
@@ -45,7 +45,7 @@ pub struct ImpactAccepted {
     pub body_tick: Option<i64>,
 }
 
-/// `POST /v1/scenes/{id}/impacts` (admin): validates, adds to the scene's set, journals (durable
+/// `POST /v1/scenes/{id}/impacts` (game): validates, adds to the scene's set, journals (durable
 /// before the answer), 202 `{"tick","t","body_tick"?}`. In a fleet the impact is stored in Redis instead and
 /// applied by every replica from the change feed (this one before it answers).
 ///

@@ -1,13 +1,17 @@
 //! Operations endpoints: health, readiness, metrics, the OpenAPI document and the docs page.
 //!
 //! The OpenAPI document is written by hand (a small `json!` value) rather than generated with
-//! utoipa: it keeps the build lean and the API is small; `tests/server/api.rs` checks that every route
-//! the router serves is listed.
+//! utoipa: it keeps the build lean and the API is small. So it cannot drift from the handlers
+//! unnoticed, `tests/server/api.rs` checks that every route the router serves is listed, that
+//! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
+//! carry statuses the document declares.
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
 use axum::response::{Html, IntoResponse, Response};
 use serde_json::{Value, json};
+
+use swell_shaders::{Entry, Lang};
 
 use crate::access::Role;
 use crate::error::{ApiError, ErrorCode};
@@ -99,7 +103,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "post",
         "/v1/scenes/{id}/bodies",
-        "Spawn a floating body (game): {mass, hull, position, yaw?, drag?...} → 201 state, spawn_tick, anchor_tick",
+        "Spawn a floating body (game): {mass, hull, position, yaw?, center_of_mass?, linear_drag?, ...} → 201 state, spawn_tick, anchor_tick",
     ),
     (
         "get",
@@ -114,7 +118,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "post",
         "/v1/scenes/{id}/bodies/{bid}/input",
-        "Force/torque in the body frame from a tick for some ticks (game): {force, torque, from_tick?, ticks?} → 202 {tick, from_tick, ticks, anchor_tick?}",
+        "Force/torque in the body frame from a tick for some ticks (game): {force?, torque?, from_tick?, ticks?} → 202 {tick, from_tick, ticks, anchor_tick?}",
     ),
     (
         "post",
@@ -134,7 +138,7 @@ pub const ROUTES: &[(&str, &str, &str)] = &[
     (
         "get",
         "/v1/scenes/{id}/shader",
-        "The scene's generated shader code: ?lang=wgsl|glsl|hlsl|msl|godot|unity|unreal",
+        "The scene's generated shader code: ?lang=wgsl|glsl|glsl_es|hlsl|msl|hlsl_include|gdshaderinc[&entry=][&layer=]",
     ),
     (
         "get",
@@ -169,25 +173,172 @@ fn error_ref() -> Value {
                     "application/x-protobuf": protobuf_content("ErrorResponse")}})
 }
 
+/// The success statuses of an operation, as its handler answers them (`src/api/*.rs`): a
+/// client generated from the document treats any other 2xx as unexpected, so this is kept to
+/// what the handlers return, and `tests/server/api.rs` checks it against real answers.
+fn success(method: &str, path: &str) -> &'static [(&'static str, &'static str)] {
+    const NOT_MODIFIED: (&str, &str) = (
+        "304",
+        "not modified: If-None-Match holds the current ETag (no body)",
+    );
+    match (method, path) {
+        ("put", "/v1/scenes/{id}") => &[
+            ("200", "replaced: the scene's detail"),
+            ("201", "created: the scene's detail"),
+        ],
+        ("delete", _) => &[("204", "deleted (no body)")],
+        ("post", "/v1/scenes/{id}/bodies") => {
+            &[("201", "spawned: its state, spawn_tick, anchor_tick")]
+        }
+        ("post", "/v1/scenes/{id}/bodies/{bid}/input") => {
+            &[("202", "accepted: {tick, from_tick, ticks, anchor_tick?}")]
+        }
+        ("post", "/v1/scenes/{id}/impacts") => &[("202", "accepted: {tick, t, body_tick?}")],
+        ("get", "/v1/scenes/{id}/stream") => &[("101", "switching protocols")],
+        (
+            "get",
+            "/v1/scenes/{id}/shader" | "/v1/scenes/{id}/uniforms" | "/v1/scenes/{id}/spectrum",
+        ) => &[
+            ("200", "ok, with ETag, Swell-Model-Version, Swell-Spec-Hash"),
+            NOT_MODIFIED,
+        ],
+        _ => &[("200", "ok")],
+    }
+}
+
+/// The declaration of the path parameter `name`, typed as the handler parses it (the router
+/// names them `{id}`, `{bid}` and `{scene}`, `src/api/mod.rs` and `src/api/viewer.rs`).
+fn path_parameter(name: &str) -> Value {
+    let (schema, description) = match name {
+        "id" => (
+            json!({"type": "string", "pattern": "^[a-z0-9-]{1,64}$"}),
+            "scene id",
+        ),
+        "bid" => (
+            json!({"type": "integer", "minimum": 0, "maximum": u64::MAX}),
+            "body id (an unsigned 64-bit integer)",
+        ),
+        "scene" => (
+            json!({"type": "string"}),
+            "scene id the page opens (an unknown one still gets the page, which says so)",
+        ),
+        _ => (json!({"type": "string"}), ""),
+    };
+    json!({"name": name, "in": "path", "required": true, "description": description, "schema": schema})
+}
+
+/// Every `{name}` in `path`, in order.
+fn path_names(path: &str) -> impl Iterator<Item = &str> {
+    path.split('/')
+        .filter_map(|seg| seg.strip_prefix('{')?.strip_suffix('}'))
+}
+
+/// The query parameters an operation reads, as its handler's query struct declares them
+/// (`HeightQuery`, `ShaderQuery`, `UniformsQuery`, `SpectrumQuery`, `impacts::ListQuery`).
+fn query_parameters(method: &str, path: &str) -> Vec<Value> {
+    let q = |name: &str, required: bool, schema: Value, description: &str| {
+        json!({"name": name, "in": "query", "required": required, "description": description,
+            "schema": schema})
+    };
+    let num = || json!({"type": "number"});
+    let t = || {
+        q(
+            "t",
+            false,
+            num(),
+            "scene time, s (default: the scene clock's now)",
+        )
+    };
+    match (method, path) {
+        ("get", "/v1/scenes/{id}/height") => vec![
+            q("x", true, num(), "world x, m"),
+            q("z", true, num(), "world z, m"),
+            t(),
+        ],
+        ("get", "/v1/scenes/{id}/shader") => {
+            let langs: Vec<&str> = Lang::ALL.iter().map(|l| l.name()).collect();
+            let entries: Vec<&str> = Entry::ALL
+                .into_iter()
+                .chain(Entry::FFT)
+                .chain(Entry::FFT_COMPUTE)
+                .map(Entry::name)
+                .collect();
+            vec![
+                q(
+                    "lang",
+                    true,
+                    json!({"type": "string", "enum": langs}),
+                    "output language; hlsl_include (Unity, Unreal) and gdshaderinc (Godot 4) are \
+                    includes with no entry point",
+                ),
+                q(
+                    "entry",
+                    false,
+                    json!({"type": "string", "enum": entries}),
+                    "one entry point (default: the whole module); not with an include lang; the \
+                    swell_fft_* entries give FFT layer `layer`'s pass module",
+                ),
+                q(
+                    "layer",
+                    false,
+                    json!({"type": "integer", "minimum": 0}),
+                    "index of the FFT layer, with (and only with) a swell_fft_* entry",
+                ),
+            ]
+        }
+        ("get", "/v1/scenes/{id}/uniforms") => vec![
+            t(),
+            q(
+                "origin",
+                false,
+                json!({"type": "string", "pattern": "^[^,]+,[^,]+$"}),
+                "world origin `x,z`, m (default 0,0)",
+            ),
+        ],
+        ("get", "/v1/scenes/{id}/spectrum") => vec![q(
+            "layer",
+            true,
+            json!({"type": "integer", "minimum": 0}),
+            "index of an FFT layer",
+        )],
+        ("get", "/v1/scenes/{id}/impacts") => vec![t()],
+        _ => Vec::new(),
+    }
+}
+
+/// The request body of an operation: its schema in `components` and whether it may also be
+/// protobuf (query bodies only; admin and game bodies are JSON only, `src/api/json.rs`).
+fn request_body(method: &str, path: &str) -> Option<(&'static str, bool)> {
+    match (method, path) {
+        ("put", "/v1/scenes/{id}") => Some(("SceneSpec", false)),
+        ("put", "/v1/scenes/{id}/clock") => Some(("ClockUpdate", false)),
+        ("post", "/v1/scenes/{id}/sample") => Some(("SampleRequest", true)),
+        ("post", "/v1/scenes/{id}/orientation") => Some(("OrientationRequest", true)),
+        ("post", "/v1/scenes/{id}/bodies") => Some(("SpawnRequest", false)),
+        ("post", "/v1/scenes/{id}/bodies/{bid}/input") => Some(("InputRequest", false)),
+        ("post", "/v1/scenes/{id}/impacts") => Some(("ImpactRequest", false)),
+        _ => None,
+    }
+}
+
 /// The OpenAPI 3.1 document.
 pub fn openapi_document() -> Value {
     let mut paths = serde_json::Map::new();
     for (method, path, summary) in ROUTES {
         let entry = paths.entry(path.to_string()).or_insert_with(|| json!({}));
-        let mut op = json!({
-            "summary": summary,
-            "responses": {"200": {"description": "ok"}, "4XX": error_ref(), "5XX": error_ref()},
-        });
-        if path.contains("{id}") {
-            op["parameters"] = json!([{"name": "id", "in": "path", "required": true,
-                "schema": {"type": "string", "pattern": "^[a-z0-9-]{1,64}$"}}]);
+        let mut responses = serde_json::Map::new();
+        for (status, description) in success(method, path) {
+            responses.insert((*status).to_owned(), json!({"description": description}));
         }
-        if *path == "/v1/scenes/{id}/height"
-            && let Some(p) = op["parameters"].as_array_mut()
-        {
-            for (n, req) in [("x", true), ("z", true), ("t", false)] {
-                p.push(json!({"name": n, "in": "query", "required": req, "schema": {"type": "number"}}));
-            }
+        responses.insert("4XX".to_owned(), error_ref());
+        responses.insert("5XX".to_owned(), error_ref());
+        let mut op = json!({"summary": summary, "responses": responses});
+        let parameters: Vec<Value> = path_names(path)
+            .map(path_parameter)
+            .chain(query_parameters(method, path))
+            .collect();
+        if !parameters.is_empty() {
+            op["parameters"] = Value::Array(parameters);
         }
         // Who may call it (crate::access): admin and game routes need their token; reads are
         // public unless the server requires a reader token, so the token is optional there.
@@ -211,17 +362,10 @@ pub fn openapi_document() -> Value {
                 "Public unless limits.metrics_public = false (then an admin token); also on --probe-bind."
             );
         }
-        let schema = match (*method, *path) {
-            ("put", "/v1/scenes/{id}") => Some("SceneSpec"),
-            ("put", "/v1/scenes/{id}/clock") => Some("ClockUpdate"),
-            ("post", "/v1/scenes/{id}/sample") => Some("SampleRequest"),
-            ("post", "/v1/scenes/{id}/orientation") => Some("OrientationRequest"),
-            _ => None,
-        };
-        if let Some(s) = schema {
+        if let Some((s, protobuf)) = request_body(method, path) {
             let mut content = json!({"application/json":
                 {"schema": {"$ref": format!("#/components/schemas/{s}")}}});
-            if *method == "post" {
+            if protobuf {
                 content["application/x-protobuf"] = protobuf_content(s);
             }
             op["requestBody"] = json!({"required": true, "content": content});
@@ -248,13 +392,9 @@ pub fn openapi_document() -> Value {
                 (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \
                 upgrade or with an unknown subprotocol, before the upgrade."
             );
-            op["responses"] = json!({"101": {"description": "switching protocols"},
-                "4XX": error_ref(), "5XX": error_ref()});
         }
         entry[*method] = op;
     }
-    let num = json!({"type": "number"});
-    let xz = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
     json!({
         "openapi": "3.1.0",
         "info": {
@@ -265,31 +405,94 @@ pub fn openapi_document() -> Value {
         "paths": paths,
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"}},
-            "schemas": {
-                "Error": {"type": "object", "properties": {"error": {"type": "object",
-                    "required": ["code", "message"],
-                    "properties": {"code": {"type": "string"}, "message": {"type": "string"}, "field": {"type": "string"}}}}},
-                "SceneSpec": {"type": "object", "required": ["layers"], "properties": {
-                    "description": {"type": "string"}, "tick_hz": num, "seed": {"type": "integer"},
-                    "gravity": num, "depth": {"type": ["number", "null"]},
-                    "layers": {"type": "array", "items": {"type": "object", "required": ["kind"],
-                        "properties": {"kind": {"enum": ["sine", "gerstner", "fft"]}}}}}},
-                "ClockUpdate": {"type": "object", "properties": {"rate": num, "paused": {"type": "boolean"}, "t": num}},
-                "SampleRequest": {"type": "object", "required": ["points"], "properties": {
-                    "t": num, "origin": xz, "points": {"type": "array", "items": xz},
-                    "fields": {"type": "array", "items": {"enum": ["height", "normal", "displacement", "jacobian", "residual"]}},
-                    "accuracy": {"type": "object", "properties": {
-                        "method": {"enum": ["newton", "fixed_point"]}, "iterations": {"type": "integer"},
-                        "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]},
-                        "precision": {"enum": ["f64", "f32"]},
-                        "time": {"enum": ["grid", "exact"]}}}}},
-                "OrientationRequest": {"type": "object", "required": ["bodies"], "properties": {
-                    "t": num, "bodies": {"type": "array", "items": {"type": "object",
-                        "required": ["position", "length", "beam"], "properties": {
-                            "position": xz, "yaw": num, "length": num, "beam": num,
-                            "probes": {"type": "array", "items": xz}}}}}},
-            },
+            "schemas": schemas(),
         },
+    })
+}
+
+/// The request schemas, field for field as serde reads the request types: a field with
+/// `#[serde(default)]` (or an `Option`) is optional, every other one is `required`, and a type
+/// with `deny_unknown_fields` has `additionalProperties: false`.
+fn schemas() -> Value {
+    let num = json!({"type": "number"});
+    let xz = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
+    let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
+    json!({
+        "Error": {"type": "object", "properties": {"error": {"type": "object",
+            "required": ["code", "message"],
+            "properties": {"code": {"type": "string"}, "message": {"type": "string"}, "field": {"type": "string"}}}}},
+        // crate::scene::SceneSpec: its own fields beside swell_waves::SurfaceSpec's, unknown
+        // fields rejected at every level.
+        "SceneSpec": {"type": "object", "required": ["layers"], "additionalProperties": false,
+            "properties": {
+                "description": {"type": "string", "maxLength": crate::scene::MAX_DESCRIPTION},
+                "tick_hz": {"type": "number", "minimum": swell_waves::body::MIN_TICK_HZ,
+                    "maximum": swell_waves::body::MAX_TICK_HZ, "default": crate::scene::DEFAULT_TICK_HZ},
+                "epoch": {"type": "number", "minimum": 0, "maximum": crate::scene::MAX_EPOCH,
+                    "description": "Unix time, s, at which the scene clock reads t = 0 at rate 1 \
+                    (default: the built-in epoch for configured scenes, the time of creation for a PUT)"},
+                "seed": {"type": "integer", "minimum": 0, "maximum": u64::MAX, "default": 0},
+                "gravity": num, "depth": {"type": ["number", "null"]},
+                "layers": {"type": "array", "minItems": 1, "maxItems": swell_waves::surface::MAX_LAYERS,
+                    "items": {"type": "object", "required": ["kind"],
+                        "properties": {"kind": {"enum": ["sine", "gerstner", "fft", "particles"]}}}}}},
+        "ClockUpdate": {"type": "object", "additionalProperties": false,
+            "properties": {"rate": num, "paused": {"type": "boolean"}, "t": num}},
+        "SampleRequest": {"type": "object", "required": ["points"], "properties": {
+            "t": num, "origin": xz, "points": {"type": "array", "items": xz},
+            "fields": {"type": "array", "items": {"enum": ["height", "normal", "displacement", "jacobian", "residual"]}},
+            "accuracy": {"type": "object", "properties": {
+                "method": {"enum": ["newton", "fixed_point"]}, "iterations": {"type": "integer"},
+                "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]},
+                "precision": {"enum": ["f64", "f32"]},
+                "time": {"enum": ["grid", "exact"]}}}}},
+        "OrientationRequest": {"type": "object", "required": ["bodies"], "properties": {
+            "t": num, "bodies": {"type": "array", "items": {"type": "object",
+                "required": ["position", "length", "beam"], "properties": {
+                    "position": xz, "yaw": num, "length": num, "beam": num,
+                    "probes": {"type": "array", "items": xz}}}}}},
+        // swell_waves::body::SpawnSpec (crate::bodies::SpawnRequest).
+        "SpawnRequest": {"type": "object", "required": ["mass", "hull", "position"],
+            "additionalProperties": false, "properties": {
+                "mass": {"type": "number", "description": "kg"},
+                "hull": {"$ref": "#/components/schemas/HullSpec"},
+                "position": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                    "description": "world position of the body origin [x, y, z], m"},
+                "yaw": {"type": "number", "default": 0, "description": "rad, about +y"},
+                "center_of_mass": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                    "description": "in the body frame, m (default: the hull centre)"},
+                "linear_drag": {"type": ["number", "null"],
+                    "description": "N·s/m (default: a fraction of critical heave damping)"},
+                "quadratic_drag": {"type": "number", "default": 0, "description": "N·s²/m²"},
+                "angular_damping": {"type": ["number", "null"], "description": "N·m·s/rad"},
+                "min_wavelength_factor": {"type": "number", "default": 0}}},
+        // swell_waves::body::HullSpec, tagged by `kind`.
+        "HullSpec": {"oneOf": [
+            {"type": "object", "required": ["kind", "length", "beam", "height"], "properties": {
+                "kind": {"const": "box"}, "length": num, "beam": num, "height": num,
+                "cells": {"type": ["array", "null"], "items": {"type": "integer", "minimum": 1, "maximum": 16},
+                    "minItems": 2, "maxItems": 2, "description": "columns [along length, along beam] (default [4, 2])"}}},
+            {"type": "object", "required": ["kind", "cells"], "properties": {
+                "kind": {"const": "cells"},
+                "cells": {"type": "array", "minItems": 1, "maxItems": 256, "items": {"type": "object",
+                    "required": ["position", "volume", "height"], "additionalProperties": false,
+                    "properties": {"position": xyz, "volume": num, "height": num}}}}}],
+            "discriminator": {"propertyName": "kind"}},
+        // crate::bodies::InputRequest.
+        "InputRequest": {"type": "object", "additionalProperties": false, "properties": {
+            "force": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                "default": [0, 0, 0], "description": "in the body frame, N (x forward)"},
+            "torque": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                "default": [0, 0, 0], "description": "in the body frame, N·m (y: yaw)"},
+            "from_tick": {"type": ["integer", "null"], "description": "first scene tick it acts on (default: the next)"},
+            "ticks": {"type": ["integer", "null"], "minimum": 1, "maximum": 10_000_000, "default": 1}}},
+        // crate::api::impacts::ImpactRequest.
+        "ImpactRequest": {"type": "object", "required": ["position", "strength", "radius"],
+            "additionalProperties": false, "properties": {
+                "position": xz,
+                "t": {"type": ["number", "null"], "description": "scene time, s (default: the start of the next tick)"},
+                "strength": {"type": "number", "exclusiveMinimum": 0, "maximum": 100, "description": "splash height, m"},
+                "radius": {"type": "number", "minimum": 0.01, "maximum": 1000, "description": "particle radius, m"}}},
     })
 }
 
@@ -309,7 +512,7 @@ li{list-style:none;margin:.3rem 0}code{background:#eef;padding:0 .2rem}pre{backg
 </style></head><body>
 <h1>Swell API</h1><p id="desc"></p>
 <p>Machine-readable: <a href="/openapi.json">/openapi.json</a>. Errors are <code>{"error":{"code","message","field"}}</code>.
-Admin endpoints need <code>Authorization: Bearer &lt;token&gt;</code>.</p>
+Admin and game endpoints (🔒) need <code>Authorization: Bearer &lt;token&gt;</code>.</p>
 <ul id="routes"><li>loading /openapi.json…</li></ul>
 <h2>Schemas</h2><div id="schemas"></div>
 <script>
@@ -325,3 +528,32 @@ fetch('/openapi.json').then(r=>r.json()).then(doc=>{
 }).catch(e=>{document.getElementById('routes').textContent='could not load /openapi.json: '+e;});
 </script></body></html>
 "#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `/shader` summary lists exactly the languages the handler accepts (it once offered
+    /// godot, unity and unreal, which get 400).
+    #[test]
+    fn shader_summary_lists_the_accepted_langs() {
+        let (_, _, summary) = ROUTES
+            .iter()
+            .find(|(m, p, _)| *m == "get" && *p == "/v1/scenes/{id}/shader")
+            .unwrap();
+        let langs = summary
+            .split("?lang=")
+            .nth(1)
+            .and_then(|rest| rest.split('[').next())
+            .unwrap();
+        let names: Vec<&str> = Lang::ALL.iter().map(|l| l.name()).collect();
+        assert_eq!(langs, names.join("|"));
+    }
+
+    #[test]
+    fn path_names_are_the_braced_segments() {
+        let names: Vec<&str> = path_names("/v1/scenes/{id}/bodies/{bid}/input").collect();
+        assert_eq!(names, ["id", "bid"]);
+        assert_eq!(path_names("/healthz").count(), 0);
+    }
+}

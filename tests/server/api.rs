@@ -3,8 +3,10 @@
 use crate::common;
 
 use common::{TOKEN, TestServer, code, config, small_spec};
+use std::collections::{BTreeMap, BTreeSet};
+
 use reqwest::Method;
-use serde_json::json;
+use serde_json::{Value, json};
 
 #[tokio::test]
 async fn lists_builtin_scenes() {
@@ -242,6 +244,228 @@ async fn ops_endpoints() {
     let html = r.text().await.unwrap();
     assert!(html.contains("/openapi.json") && !html.contains("https://"));
     s.stop().await;
+}
+
+/// The OpenAPI document against the server. It used to declare a `200` alone for every
+/// operation (a new scene answers 201, a spawn 201, an input or impact 202, a delete 204, a
+/// revalidated shader 304), no `{bid}` or `{scene}` path parameter, no query parameter for
+/// `/shader`, `/uniforms`, `/spectrum` or `GET /impacts`, no body for spawns, inputs and
+/// impacts, languages `/shader` refuses, and a layer `kind` enum without `particles`.
+#[tokio::test]
+async fn openapi_declares_the_parameters_and_statuses_the_server_uses() {
+    let s = TestServer::start(config()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let paths = doc["paths"].as_object().unwrap();
+    assert!(paths.contains_key("/v1/scenes/{id}/bodies/{bid}/input"));
+    assert!(paths.contains_key("/viewer/{scene}"));
+
+    // Every `{name}` of a path is a required path parameter of each of its operations, and no
+    // operation declares one its path lacks.
+    for (path, ops) in paths {
+        let names: BTreeSet<&str> = path
+            .split('/')
+            .filter_map(|seg| seg.strip_prefix('{')?.strip_suffix('}'))
+            .collect();
+        for (method, op) in ops.as_object().unwrap() {
+            let declared: BTreeSet<&str> = params(op, "path")
+                .map(|p| {
+                    assert_eq!(p["required"], true, "{method} {path}: {p}");
+                    assert!(p["schema"]["type"].is_string(), "{method} {path}: {p}");
+                    p["name"].as_str().unwrap()
+                })
+                .collect();
+            assert_eq!(declared, names, "{method} {path}: path parameters");
+        }
+    }
+
+    // The query parameters are the handlers' query structs, with `required` as they treat them.
+    // (method, path, [(name, required)]).
+    type Queries<'a> = &'a [(&'a str, &'a str, &'a [(&'a str, bool)])];
+    let queries: Queries = &[
+        (
+            "get",
+            "/v1/scenes/{id}/height",
+            &[("t", false), ("x", true), ("z", true)],
+        ),
+        (
+            "get",
+            "/v1/scenes/{id}/shader",
+            &[("entry", false), ("lang", true), ("layer", false)],
+        ),
+        (
+            "get",
+            "/v1/scenes/{id}/uniforms",
+            &[("origin", false), ("t", false)],
+        ),
+        ("get", "/v1/scenes/{id}/spectrum", &[("layer", true)]),
+        ("get", "/v1/scenes/{id}/impacts", &[("t", false)]),
+        ("post", "/v1/scenes/{id}/impacts", &[]),
+    ];
+    for (method, path, want) in queries {
+        let got: BTreeMap<&str, bool> = params(&doc["paths"][*path][*method], "query")
+            .map(|p| (p["name"].as_str().unwrap(), p["required"] == true))
+            .collect();
+        let want: BTreeMap<&str, bool> = want.iter().copied().collect();
+        assert_eq!(got, want, "{method} {path}: query parameters");
+    }
+
+    // Request bodies: the game routes' bodies are described, JSON only.
+    for (method, path, schema) in [
+        ("post", "/v1/scenes/{id}/bodies", "SpawnRequest"),
+        ("post", "/v1/scenes/{id}/bodies/{bid}/input", "InputRequest"),
+        ("post", "/v1/scenes/{id}/impacts", "ImpactRequest"),
+    ] {
+        let content = &doc["paths"][path][method]["requestBody"]["content"];
+        assert_eq!(
+            content["application/json"]["schema"]["$ref"],
+            format!("#/components/schemas/{schema}"),
+            "{method} {path}"
+        );
+        assert!(
+            content["application/x-protobuf"].is_null(),
+            "{method} {path}"
+        );
+    }
+    let schemas = &doc["components"]["schemas"];
+    assert_eq!(
+        schemas["InputRequest"]["required"],
+        Value::Null,
+        "force, torque default to 0"
+    );
+    assert_eq!(
+        schemas["ImpactRequest"]["required"],
+        json!(["position", "strength", "radius"])
+    );
+
+    // Real answers: each status the server gives is among the operation's responses.
+    let declared = |method: &str, path: &str, status: u16| {
+        let responses = &doc["paths"][path][method]["responses"];
+        assert!(
+            responses[status.to_string()].is_object(),
+            "{method} {path} answered {status}; the document declares {}",
+            responses
+                .as_object()
+                .unwrap()
+                .keys()
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    };
+    let (st, v) = s.put_scene("openapi", &small_spec()).await;
+    assert_eq!(st, 201, "{v}");
+    declared("put", "/v1/scenes/{id}", st);
+    let (st, v) = s.put_scene("openapi", &small_spec()).await;
+    assert_eq!(st, 200, "{v}");
+    declared("put", "/v1/scenes/{id}", st);
+    let boat = json!({"mass": 3000.0, "position": [0.0, 1.0, 0.0],
+        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5}});
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/openapi/bodies",
+            Some(&boat),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 201, "{v}");
+    declared("post", "/v1/scenes/{id}/bodies", st);
+    let bid = v["id"].as_u64().unwrap();
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            &format!("/v1/scenes/openapi/bodies/{bid}/input"),
+            Some(&json!({"force": [1000.0, 0.0, 0.0]})),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 202, "{v}");
+    declared("post", "/v1/scenes/{id}/bodies/{bid}/input", st);
+    let (st, v) = s
+        .admin(
+            Method::DELETE,
+            &format!("/v1/scenes/openapi/bodies/{bid}"),
+            None,
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 204, "{v}");
+    declared("delete", "/v1/scenes/{id}/bodies/{bid}", st);
+    let splash = json!({"position": [0.0, 0.0], "strength": 0.5, "radius": 1.0});
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/harbour/impacts",
+            Some(&splash),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 202, "{v}");
+    declared("post", "/v1/scenes/{id}/impacts", st);
+    let (st, _) = s
+        .admin(Method::DELETE, "/v1/scenes/openapi", None, Some(TOKEN))
+        .await;
+    assert_eq!(st, 204);
+    declared("delete", "/v1/scenes/{id}", st);
+
+    // `lang`: every value the document offers is accepted, and one it does not is refused.
+    let shader = "/v1/scenes/{id}/shader";
+    let lang = params(&doc["paths"][shader]["get"], "query")
+        .find(|p| p["name"] == "lang")
+        .unwrap();
+    let langs = lang["schema"]["enum"].as_array().unwrap();
+    assert!(langs.contains(&json!("gdshaderinc")) && !langs.contains(&json!("godot")));
+    for l in langs {
+        let r = s
+            .get(&format!(
+                "/v1/scenes/calm/shader?lang={}",
+                l.as_str().unwrap()
+            ))
+            .await;
+        assert_eq!(r.status(), 200, "lang={l}");
+    }
+    let (st, _) = s.get_json("/v1/scenes/calm/shader?lang=godot").await;
+    assert_eq!(st, 400);
+    let r = s.get("/v1/scenes/calm/shader?lang=wgsl").await;
+    let tag = r.headers()["etag"].clone();
+    let r = s
+        .client
+        .get(s.url("/v1/scenes/calm/shader?lang=wgsl"))
+        .header("if-none-match", tag)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 304);
+    declared("get", shader, 304);
+
+    // The layer kinds: every built-in scene's layers are of a kind the spec schema offers.
+    let kinds =
+        &schemas["SceneSpec"]["properties"]["layers"]["items"]["properties"]["kind"]["enum"];
+    assert!(
+        kinds.as_array().unwrap().contains(&json!("particles")),
+        "{kinds}"
+    );
+    let (_, list) = s.get_json("/v1/scenes").await;
+    for scene in list["scenes"].as_array().unwrap() {
+        for kind in scene["layers"].as_array().unwrap() {
+            assert!(
+                kinds.as_array().unwrap().contains(kind),
+                "{kind} of {scene}"
+            );
+        }
+    }
+    assert!(schemas["SceneSpec"]["properties"]["epoch"].is_object());
+    s.stop().await;
+}
+
+/// The parameters of `op` that are `in` `place`.
+fn params<'a>(op: &'a Value, place: &'a str) -> impl Iterator<Item = &'a Value> + 'a {
+    op["parameters"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(move |p| p["in"] == place)
 }
 
 /// Every route in `ROUTES` is served (no 404 "no such endpoint"), so the docs cannot list a
