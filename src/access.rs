@@ -120,11 +120,24 @@ pub enum TokensError {
     },
 }
 
+/// `line` without its comment: from a `#` at the start or after a space or tab to the end. A `#`
+/// inside a token (`s3cr#t…`) is part of it, so a token is never cut short silently.
+fn strip_comment(line: &str) -> &str {
+    let mut prev_blank = true;
+    for (i, c) in line.char_indices() {
+        if c == '#' && prev_blank {
+            return &line[..i];
+        }
+        prev_blank = c == ' ' || c == '\t';
+    }
+    line
+}
+
 /// Parses a tokens file's text into `(digest, role)` entries.
 fn parse_file(path: &Path, text: &str) -> Result<Vec<(Digest32, Role)>, TokensError> {
     let mut out = Vec::new();
     for (i, raw) in text.lines().enumerate() {
-        let line = raw.split('#').next().unwrap_or("").trim();
+        let line = strip_comment(raw).trim();
         if line.is_empty() {
             continue;
         }
@@ -389,5 +402,18 @@ mod tests {
         assert!(e.contains("16 characters"), "{e}");
         let e = parse_file(p, "game sha256:abc\n").unwrap_err().to_string();
         assert!(e.contains("64 hex"), "{e}");
+    }
+
+    /// A `#` starts a comment only at the start of a line or after a blank: one inside a token
+    /// belongs to it (it used to cut the token there).
+    #[test]
+    fn a_hash_inside_a_token_is_part_of_it() {
+        let p = Path::new("t");
+        let text = "# rotated 2026-11\ngame s3cr#t-token-0000001  # the relay\n\t# note\n";
+        let entries = parse_file(p, text).unwrap();
+        assert_eq!(entries.len(), 1);
+        assert_eq!(entries[0], (digest("s3cr#t-token-0000001"), Role::Game));
+        // A short token with a `#` in it is refused as short, not cut.
+        assert!(parse_file(p, "game s3cr#t\n").is_err());
     }
 }

@@ -72,7 +72,8 @@ struct ServeArgs {
     #[arg(long, env = "SWELL_TOKENS_FILE")]
     tokens_file: Option<PathBuf>,
     /// Queries and streams need a reader (or game, or admin) token; public otherwise.
-    #[arg(long, env = "SWELL_READS_NEED_TOKEN")]
+    /// The variable takes true/false, 1/0, yes/no or on/off.
+    #[arg(long, env = "SWELL_READS_NEED_TOKEN", value_parser = clap::builder::BoolishValueParser::new())]
     reads_need_token: bool,
     /// Serve /healthz, /readyz and /metrics on this address too, outside every client limit
     /// (Kubernetes probes, Prometheus).
@@ -146,6 +147,17 @@ fn parse_store(s: &str) -> Result<swell::store::StoreUrl, String> {
 }
 
 async fn serve(args: ServeArgs) -> anyhow::Result<()> {
+    // A blank token (an unset shell variable, `--admin-token " "`) would be a token anyone can
+    // guess; refuse to start rather than serve with it.
+    if args
+        .admin_token
+        .as_deref()
+        .is_some_and(|t| t.trim().is_empty())
+    {
+        anyhow::bail!(
+            "--admin-token (SWELL_ADMIN_TOKEN) is empty or blank; give a token or leave it out to get a random one"
+        );
+    }
     let mut config = swell::Config {
         bind: args.bind,
         data_dir: Some(args.data_dir),

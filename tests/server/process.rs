@@ -141,3 +141,22 @@ async fn a_stream_subscriber_costs_the_server_well_under_128_kib() {
     );
     drop(all);
 }
+
+/// A blank `--admin-token` (an unset shell variable expanded to `""` or spaces) would be a
+/// token anyone can guess: the server refuses to start and says why.
+#[test]
+fn a_blank_admin_token_stops_startup() {
+    let dir = tempfile::tempdir().unwrap();
+    for token in ["", "   "] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_swell"))
+            .args(["serve", "--bind", "127.0.0.1:0", "--admin-token", token])
+            .arg("--data-dir")
+            .arg(dir.path())
+            .env_remove("SWELL_ADMIN_TOKEN")
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{token:?} started");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("empty or blank"), "{token:?}: {err}");
+    }
+}
