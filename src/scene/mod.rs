@@ -107,8 +107,13 @@ impl SceneSpec {
                 return Err(malformed("epoch must be a number", Some("epoch")));
             }
         };
+        let layers = map.get("layers").cloned();
         let surface: SurfaceSpec =
             crate::service::json::from_value(Value::Object(map)).map_err(|e| {
+                let e = match &layers {
+                    Some(l) => layer_error(l, e),
+                    None => e,
+                };
                 SceneError::Malformed {
                     message: e.message,
                     field: e.field,
@@ -336,4 +341,50 @@ pub struct SceneEntry {
     /// Its clock (see [`clock`]). A std mutex: held for a few arithmetic operations, never
     /// across an await.
     pub clock: Mutex<Clock>,
+}
+/// `e`, a layer's error, with the path inside the layer. Layers are tagged by `kind`, which serde
+/// reads by buffering the layer first, and the path tracking stops at the buffer: an unknown
+/// field deep in a sine layer came back as `layers[0].foo`, not `layers[0].waves[0].foo`. The
+/// layer is decoded again as its own kind, whose errors carry the whole path.
+fn layer_error(
+    layers: &Value,
+    e: crate::service::json::JsonError,
+) -> crate::service::json::JsonError {
+    use crate::service::json::from_value;
+    let Some((i, _)) = e
+        .field
+        .as_deref()
+        .and_then(|f| f.strip_prefix("layers["))
+        .and_then(|r| r.split_once(']'))
+        .and_then(|(i, rest)| Some((i.parse::<usize>().ok()?, rest)))
+    else {
+        return e;
+    };
+    let Some(Value::Object(layer)) = layers.get(i) else {
+        return e;
+    };
+    let mut body = layer.clone();
+    let kind = body.remove("kind");
+    let body = Value::Object(body);
+    let inner = match kind.as_ref().and_then(Value::as_str) {
+        Some("sine") => from_value::<swell_waves::sine::SineLayerSpec>(body).err(),
+        Some("gerstner") => from_value::<swell_waves::gerstner::GerstnerLayerSpec>(body).err(),
+        Some("fft") => from_value::<swell_waves::fft::FftSpec>(body).err(),
+        Some("particles") => from_value::<swell_waves::particles::ParticleLayerSpec>(body).err(),
+        _ => None,
+    };
+    match inner {
+        Some(inner) => crate::service::json::JsonError {
+            field: Some(match &inner.field {
+                Some(f) => format!("layers[{i}].{f}"),
+                None => format!("layers[{i}]"),
+            }),
+            message: if inner.field.is_some() {
+                format!("layers[{i}].{}", inner.message)
+            } else {
+                format!("layers[{i}]: {}", inner.message)
+            },
+        },
+        None => e,
+    }
 }

@@ -168,6 +168,9 @@ async fn invalid_spec_is_422_with_the_models_message_and_field() {
     spec["layers"][0]["waves"][0]["amplitdue"] = json!(1);
     let (st, v) = s.put_scene("bad", &spec).await;
     assert_eq!(st, 400);
+    // The whole path, through the layer's `kind` tag (serde's buffering used to cut it at
+    // `layers[0]`).
+    assert_eq!(v["error"]["field"], "layers[0].waves[0].amplitdue", "{v}");
     assert!(
         v["error"]["message"]
             .as_str()
