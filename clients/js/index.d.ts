@@ -78,6 +78,7 @@ export class SwellClient {
   body(id: string, bid: number): Promise<BodyDescription & { tick: number; anchor_tick: number }>;
   spawnBody(id: string, spec: object): Promise<SpawnedBody>;
   putScene(id: string, spec: object): Promise<any>;
+  deleteScene(id: string): Promise<void>;
 }
 
 /** A scene clock's reading: `t` at Unix time `unix`; `generation` counts admin changes. */
@@ -98,9 +99,15 @@ export interface SessionOptions {
   WebSocket?: any; pingInterval?: number; syncPings?: number; resyncPings?: number; requestTimeout?: number;
   onClock?: (ev: ClockReading) => void;
   backoff?: { initial?: number; max?: number; factor?: number };
-  onTick?: (frame: TickFrame) => void; onOpen?: () => void; onClose?: (ev: any) => void;
+  onTick?: (frame: TickFrame) => void; onOpen?: () => void;
+  /** The socket closed: code 4404 (`SCENE_GONE`) means the scene was deleted; no reconnect then. */
+  onClose?: (ev: { code: number | string; reason: string }) => void;
+  /** An error the server sent that answers no request of this session (e.g. the scene was deleted). */
+  onError?: (err: SwellError) => void;
   interpolator?: BodyInterpolator; now?: () => number; clock?: { window?: number; best?: number };
 }
+/** The Close code of a session whose scene was deleted. */
+export const SCENE_GONE: 4404;
 export class SwellSession {
   constructor(url: string, options?: SessionOptions);
   connect(): Promise<this>;
@@ -115,6 +122,8 @@ export class SwellSession {
   unsubscribe(): void;
   close(): void;
   readonly reconnects: number;
+  /** Resolves when the clock re-sync after the latest reconnect is done (null before one). */
+  readonly resyncing: Promise<void> | null;
   readonly lastTick: TickFrame | null;
   readonly lastClock: ClockReading | undefined;
 }

@@ -220,7 +220,7 @@ fn path_parameter(name: &str) -> Value {
         ),
         "scene" => (
             json!({"type": "string"}),
-            "scene id the page opens (an unknown one still gets the page, which says so)",
+            "scene id the page opens (an unknown one gets the page, which says so, with status 404)",
         ),
         _ => (json!({"type": "string"}), ""),
     };

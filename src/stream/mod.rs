@@ -38,6 +38,12 @@
 //! it, and its unread messages are drained for a moment first, so the connection ends with a
 //! FIN rather than a reset.
 //!
+//! # A deleted scene
+//! A session subscribed to a scene that is deleted gets a `not_found` error (no id), then Close
+//! [`SCENE_GONE`] (4404) with the reason: reconnecting to the same URL would be refused with 404,
+//! and the clients stop there instead of retrying. A session not subscribed learns of it from
+//! its next request's `not_found`.
+//!
 //! # Clock changes
 //! Every session hears of every change to its scene's clock ([`AppState::replace_clock`]: a
 //! local admin change, or in a fleet the change arriving through the shared feed) and sends a
@@ -263,7 +269,14 @@ enum End {
     Protocol(u16),
     /// Kept sending past the message rate: Close 1008.
     Flood,
+    /// The scene was deleted while the session was subscribed: Close [`SCENE_GONE`].
+    SceneGone,
 }
+
+/// The Close code of a session whose scene was deleted while it was subscribed (an application
+/// code, RFC 6455's 4000–4999; 4404 reads as "not found"). After the `not_found` error (no id),
+/// so a client knows not to reconnect to the same URL: the upgrade would be refused with 404.
+pub const SCENE_GONE: u16 = 4404;
 
 /// What a session hands its writer, in order: a message to send, or a change of the tick
 /// subscription (so a `subscribe` answered before a frame takes effect in that order too).
@@ -366,6 +379,8 @@ struct Writer {
     codec: Codec,
     scene_id: String,
     shutdown: CancellationToken,
+    /// Fired when the scene's tick loop ended because the scene was deleted.
+    gone: CancellationToken,
     /// Fired when one message waits `stall` for the socket; the session then drops the client.
     slow: CancellationToken,
     /// [`crate::Limits::ws_send_stall_ms`].
@@ -430,6 +445,8 @@ impl Writer {
                             id: None,
                             event: Event::Error(ApiError::scene_not_found(&self.scene_id)),
                         };
+                        // The session then closes the socket (SCENE_GONE), after this error.
+                        self.gone.cancel();
                         encode(self.codec, out)
                     }
                 },
@@ -537,11 +554,13 @@ where
     };
     let shutdown = state.shutdown.clone();
     let slow = queue.slow.clone();
+    let gone = CancellationToken::new();
     let mut writer = state.tasks.spawn(
         Writer {
             codec,
             scene_id: scene_id.clone(),
             shutdown: shutdown.clone(),
+            gone: gone.clone(),
             slow: slow.clone(),
             stall: state.limits.ws_send_stall(),
         }
@@ -578,6 +597,7 @@ where
             biased;
             () = shutdown.cancelled() => break End::Shutdown,
             () = slow.cancelled() => break End::SlowConsumer,
+            () = gone.cancelled() => break End::SceneGone,
             () = sleep_until(wake) => {
                 let now = tokio::time::Instant::now();
                 match check.poll(now) {
@@ -685,7 +705,13 @@ where
             .await;
             writer.abort();
         }
-        End::Shutdown | End::Client | End::TooBig | End::Idle | End::Protocol(_) | End::Flood => {
+        End::Shutdown
+        | End::Client
+        | End::TooBig
+        | End::Idle
+        | End::Protocol(_)
+        | End::Flood
+        | End::SceneGone => {
             let close = |code: u16, reason: String| {
                 Out::Message(Message::Close(Some(CloseFrame {
                     code,
@@ -708,6 +734,11 @@ where
                         "a WebSocket protocol violation"
                     };
                     let _ = queue.tx.try_send(close(code, why.into()));
+                }
+                End::SceneGone => {
+                    let _ = queue
+                        .tx
+                        .try_send(close(SCENE_GONE, format!("scene {scene_id} was deleted")));
                 }
                 End::Flood => {
                     metrics::counter!("swell_ws_flood_disconnects_total").increment(1);

@@ -694,3 +694,42 @@ async fn now_and_the_same_explicit_t_give_the_same_bits_on_every_path() {
     }
     s.stop().await;
 }
+
+/// A scene deleted under a subscriber: the session sends `not_found` (no id), then Close 4404
+/// with the reason, so a client stops instead of reconnecting to a URL that now answers 404.
+#[tokio::test]
+async fn a_subscriber_of_a_deleted_scene_gets_not_found_then_close_4404() {
+    let s = TestServer::start(config()).await;
+    assert_eq!(s.put_scene("doomed", &common::small_spec()).await.0, 201);
+    let mut ws = ws_connect(s.addr, "doomed", None).await;
+    send_json(&mut ws, json!({"type": "subscribe", "ticks": true})).await;
+    let v = recv_json(&mut ws, true).await;
+    assert_eq!(v["type"], "tick", "{v}");
+    let (st, _) = s
+        .admin(
+            reqwest::Method::DELETE,
+            "/v1/scenes/doomed",
+            None,
+            Some(common::TOKEN),
+        )
+        .await;
+    assert_eq!(st, 204);
+    let v = recv_json(&mut ws, false).await;
+    assert_eq!(
+        (v["type"].as_str(), v["code"].as_str()),
+        (Some("error"), Some("not_found")),
+        "{v}"
+    );
+    assert!(v.get("id").is_none(), "{v}");
+    let close = loop {
+        match timeout(Duration::from_secs(5), ws.next()).await {
+            Ok(Some(Ok(Message::Close(c)))) => break c,
+            Ok(Some(Ok(_))) => continue,
+            other => panic!("no Close frame: {other:?}"),
+        }
+    };
+    let close = close.expect("a close code");
+    assert_eq!(close.code, CloseCode::from(swell::stream::SCENE_GONE));
+    assert!(close.reason.contains("doomed"), "{}", close.reason);
+    s.stop().await;
+}

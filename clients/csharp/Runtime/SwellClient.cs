@@ -157,6 +157,9 @@ namespace Swell
         /// <summary>PUT /v1/scenes/{id} (admin).</summary>
         public Task<object> PutScene(string id, object spec) { return RequestJson(HttpMethod.Put, "/v1/scenes/" + CheckId(id), spec, true); }
 
+        /// <summary>DELETE /v1/scenes/{id} (admin).</summary>
+        public Task<string> DeleteScene(string id) { return RequestText(HttpMethod.Delete, "/v1/scenes/" + CheckId(id), null, true); }
+
         /// <summary>GET /v1/scenes/{id}/clock.</summary>
         public async Task<ClockReading> Clock(string id)
         {

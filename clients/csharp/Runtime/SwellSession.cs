@@ -11,7 +11,10 @@
 // - Events are raised on the receive thread: in Unity or Godot, hand them to the main thread
 //   (or read ServerTime()/Interpolator from the main thread, which are safe to call anywhere).
 // - No automatic reconnect: after Closed fires, make a new session (the JS client reconnects
-//   by itself; this port leaves the policy to the game).
+//   by itself; this port leaves the policy to the game). CloseStatus and CloseReason say why:
+//   4404 (SceneGone) means the scene was deleted, and a new session would be refused (404).
+// - Errors the server sends that answer no request (the scene was deleted, a rate limit) go to
+//   OnError.
 using System;
 using System.Collections.Concurrent;
 using System.Collections.Generic;
@@ -52,8 +55,18 @@ namespace Swell
         public event Action<TickFrame> OnTick;
         /// <summary>The scene's clock changed (receive thread).</summary>
         public event Action<ClockReading> OnClock;
-        /// <summary>The socket closed.</summary>
+        /// <summary>The socket closed (see CloseStatus, CloseReason).</summary>
         public event Action Closed;
+        /// <summary>An error the server sent that answers no request of this session, e.g.
+        /// not_found when the scene is deleted (receive thread).</summary>
+        public event Action<SwellException> OnError;
+        /// <summary>The Close code of a session whose scene was deleted.</summary>
+        public const int SceneGone = 4404;
+        /// <summary>The server's Close code, once it closed the socket (null before, or when the
+        /// connection dropped without one).</summary>
+        public int? CloseStatus { get; private set; }
+        /// <summary>The server's Close reason (empty when none).</summary>
+        public string CloseReason { get; private set; }
         /// <summary>The client clock, s (default a monotonic stopwatch).</summary>
         public Func<double> Now;
 
@@ -88,7 +101,16 @@ namespace Swell
         /// <summary>Opens the socket, starts the receive and ping loops, and waits for SyncPings pongs.</summary>
         public async Task ConnectAsync(CancellationToken ct = default(CancellationToken))
         {
-            await ws.ConnectAsync(url, ct).ConfigureAwait(false);
+            try
+            {
+                await ws.ConnectAsync(url, ct).ConfigureAwait(false);
+            }
+            catch (WebSocketException e)
+            {
+                // The upgrade's status is not exposed: a missing scene (404) and a server that
+                // is down look the same here.
+                throw new SwellException(0, "unreachable", "cannot open " + url + ": the scene does not exist (404) or the server cannot be reached (" + e.Message + ")", null);
+            }
             string expect = Wire == Wire.Json ? "swell.v1.json" : "swell.v1.protobuf";
             if (ws.SubProtocol != expect) throw new SwellException(0, "subprotocol", "the server chose subprotocol " + ws.SubProtocol + ", not " + expect, null);
             ReceiveTask = Task.Run(() => ReceiveLoop());
@@ -120,7 +142,12 @@ namespace Swell
                     do
                     {
                         r = await ws.ReceiveAsync(new ArraySegment<byte>(buf), stop.Token).ConfigureAwait(false);
-                        if (r.MessageType == WebSocketMessageType.Close) return;
+                        if (r.MessageType == WebSocketMessageType.Close)
+                        {
+                            CloseStatus = r.CloseStatus.HasValue ? (int?)(int)r.CloseStatus.Value : null;
+                            CloseReason = r.CloseStatusDescription ?? "";
+                            return;
+                        }
                         msg.Write(buf, 0, r.Count);
                     } while (!r.EndOfMessage);
                     double received = Now();
@@ -229,7 +256,12 @@ namespace Swell
                 return;
             }
             TaskCompletionSource<ServerMessage> p;
-            if (m.Id == 0 || !pending.TryRemove(m.Id, out p)) return;
+            if (m.Id == 0 || !pending.TryRemove(m.Id, out p))
+            {
+                var onError = OnError;
+                if (m.Type == "error" && onError != null) onError(new SwellException(0, m.Code, m.Message, m.Field));
+                return;
+            }
             if (m.Type == "error")
             {
                 p.TrySetException(new SwellException(400, m.Code, m.Message, m.Field));

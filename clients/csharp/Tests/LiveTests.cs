@@ -319,6 +319,42 @@ namespace Swell.Tests
                         await s.CloseAsync();
                     }
                 });
+
+                Runner.TA("WebSocket " + wire + ": a scene deleted under a subscriber: OnError not_found, Closed with 4404", async () =>
+                {
+                    string id = "doomed-cs-" + wire.ToString().ToLowerInvariant();
+                    await http.PutScene(id, Json.Parse(SmallSpec));
+                    var frames = new List<TickFrame>();
+                    var errors = new List<SwellException>();
+                    var closed = new TaskCompletionSource<bool>();
+                    using (var s = new SwellSession(http.StreamUrl(id), wire))
+                    {
+                        s.OnTick += f => { lock (frames) frames.Add(f); };
+                        s.OnError += e => { lock (errors) errors.Add(e); };
+                        s.Closed += () => closed.TrySetResult(true);
+                        await s.ConnectAsync();
+                        await s.Subscribe();
+                        await Next(frames, f => true);
+                        await http.DeleteScene(id);
+                        var done = await Task.WhenAny(closed.Task, Task.Delay(5000));
+                        Runner.Assert(done == closed.Task, "Closed fired");
+                        Runner.Equal(SwellSession.SceneGone, s.CloseStatus ?? -1, "close status");
+                        Runner.Assert(s.CloseReason.Contains(id), "reason: " + s.CloseReason);
+                        lock (errors) Runner.Assert(errors.Any(e => e.Code == "not_found"), "OnError heard not_found");
+                    }
+                    using (var s = new SwellSession(http.StreamUrl(id), wire))
+                    {
+                        try
+                        {
+                            await s.ConnectAsync();
+                            Runner.Assert(false, "connected to a deleted scene");
+                        }
+                        catch (SwellException e)
+                        {
+                            Runner.Equal("unreachable", e.Code, "code");
+                        }
+                    }
+                });
             }
         }
 

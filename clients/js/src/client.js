@@ -301,4 +301,10 @@ export class SwellClient {
     checkSceneId(id);
     return this._json('PUT', `/v1/scenes/${id}`, { body: JSON.stringify(spec), contentType: 'application/json', admin: true });
   }
+
+  /** DELETE /v1/scenes/{id} (admin): resolves when deleted (204). */
+  async deleteScene(id) {
+    checkSceneId(id);
+    await this._request('DELETE', `/v1/scenes/${id}`, { admin: true });
+  }
 }

@@ -10,7 +10,7 @@
 // - `ParticleLayer`, `ImpactSet` (particles.js): wave particles and impact rings, to the
 //   server's bits (with the model's exp/atan2/tanh ported in libm.js).
 export { SwellClient, checkSceneId, checkSample, checkOrientation } from './client.js';
-export { SwellSession, ClockSync } from './session.js';
+export { SwellSession, ClockSync, SCENE_GONE } from './session.js';
 export { BodyInterpolator } from './interp.js';
 export { Surface, normalOf, jacobianOf, DEFAULT_INVERSION } from './surface.js';
 export { FftLayer, parseSpectrum, ifft2 } from './fft.js';

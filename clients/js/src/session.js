@@ -20,10 +20,18 @@
 //   another network path, may have another offset and round trip; mixing them would keep the
 //   old connection's lowest-RTT samples in the estimate). Until the new connection's first
 //   pong, `serverTime()` still answers from the old estimate. Requests in flight when the
-//   socket drops are rejected with `TransportError`.
+//   socket drops are rejected with `TransportError`. No reconnect when the first `connect()`
+//   fails (it rejects: a wrong URL or a scene that does not exist should not be retried
+//   forever), nor after Close 4404 (the scene was deleted: the server says so with a
+//   `not_found` error, then closes); `onClose` gets the code and reason.
+// - Errors the server sends without an id (the scene was deleted, a message it could not read
+//   the id of, a rate limit) go to `onError(SwellError)`.
 
 import { ArgumentError, SwellError, TransportError } from './errors.js';
 import { checkOrientation, checkSample, checkFinite } from './client.js';
+
+/** The Close code of a session whose scene was deleted (the server's `stream::SCENE_GONE`). */
+export const SCENE_GONE = 4404;
 
 const monotonicSeconds = () => (globalThis.performance?.now?.() ?? Date.now()) / 1000;
 
@@ -108,7 +116,9 @@ export class ClockSync {
  * with `--experimental-websocket`), `pingInterval` (ms, 1000), `syncPings` (pings `connect()`
  * waits for, 5), `requestTimeout` (ms, 10000), `backoff` (`{initial: 200, max: 5000, factor:
  * 2}` ms), `onTick(frame)` (a TickFrame: `{tick, t, bodies, impacts?, anchor_tick?}`, each
- * impact with `body_tick`, the tick the scene's bodies feel it from, when they do), `onOpen()`, `onClose(event)`, `onClock(event)` (the scene's clock
+ * impact with `body_tick`, the tick the scene's bodies feel it from, when they do), `onOpen()`,
+ * `onClose({code, reason})` (4404: the scene was deleted, no reconnect), `onError(SwellError)`
+ * (an error the server sent that answers no request of ours), `onClock(event)` (the scene's clock
  * changed: `{t, tick, tick_hz, rate, paused, unix, generation}`), `resyncPings` (pings sent at a
  * clock change, 3), `interpolator` (a BodyInterpolator fed every tick frame), `now` (client
  * clock in s; default `performance.now()/1000`).
@@ -132,6 +142,7 @@ export class SwellSession {
     this.onTick = options.onTick ?? null;
     this.onOpen = options.onOpen ?? null;
     this.onClose = options.onClose ?? null;
+    this.onError = options.onError ?? null;
     this.interpolator = options.interpolator ?? null;
     this.now = options.now ?? monotonicSeconds;
     this.clockOptions = options.clock;
@@ -157,12 +168,13 @@ export class SwellSession {
   /** Opens the socket and resolves once `syncPings` pongs have arrived. */
   async connect() {
     this.closed = false;
-    await this._open();
+    await this._open(true);
     await this.syncNow(this.syncPings);
     return this;
   }
 
-  _open() {
+  // `first`: the socket of `connect()`; if it never opens, connect() rejects and nothing retries.
+  _open(first = false) {
     return new Promise((resolve, reject) => {
       let ws;
       try {
@@ -186,19 +198,28 @@ export class SwellSession {
       // One way down per socket: a close, or an error before the socket opened (Node 20's
       // WebSocket reports a refused connection with an error and no close event).
       let down = false;
-      const lost = (code) => {
+      const lost = (code, reason = '') => {
         if (down) return;
         down = true;
         if (this.ws === ws) this.ws = null;
         this._stopPings();
-        for (const [, p] of this.pending) p.reject(new TransportError(`socket closed (${code}) before the answer`));
+        const gone = code === SCENE_GONE;
+        // The scene was deleted: reconnecting would be refused (404), so stop here.
+        if (gone) this.closed = true;
+        for (const [, p] of this.pending) {
+          p.reject(gone
+            ? new SwellError(0, 'not_found', reason || 'the scene was deleted')
+            : new TransportError(`socket closed (${code}) before the answer`));
+        }
         this.pending.clear();
-        this.onClose?.({ code });
-        if (!opened) reject(new TransportError(`cannot open ${this.url} (${code})`));
-        if (!this.closed) this._scheduleReconnect();
+        this.onClose?.({ code, reason });
+        if (!opened) {
+          reject(new TransportError(`cannot open ${this.url} (${code}): a scene that does not exist is refused (404), as is a server that is down`));
+        }
+        if (!this.closed && (opened || !first)) this._scheduleReconnect();
       };
       ws.onerror = () => { if (!opened) { lost('error'); try { ws.close(); } catch { /* never opened */ } } };
-      ws.onclose = (ev) => lost(ev.code);
+      ws.onclose = (ev) => lost(ev.code, ev.reason ?? '');
     });
   }
 
@@ -301,7 +322,10 @@ export class SwellSession {
       return;
     }
     const p = m.id != null ? this.pending.get(m.id) : undefined;
-    if (!p) return;
+    if (!p) {
+      if (m.type === 'error') this.onError?.(new SwellError(0, m.code, m.message, m.field));
+      return;
+    }
     this.pending.delete(m.id);
     if (m.type === 'error') {
       p.reject(new SwellError(0, m.code, m.message, m.field));

@@ -4,7 +4,7 @@
 import { describe, test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { SwellProcess, available, freePort } from './server.js';
-import { SwellClient, SwellSession, Surface, SwellError, ArgumentError, BodyInterpolator, bitsHex, MAX_RINGS_PER_POINT } from '../src/index.js';
+import { SwellClient, SwellSession, Surface, SwellError, TransportError, ArgumentError, BodyInterpolator, bitsHex, MAX_RINGS_PER_POINT, SCENE_GONE } from '../src/index.js';
 import { VECTORS, checkCase } from './golden.js';
 
 const EPOCH = 1767225600; // built-in scenes' epoch (README): t = unix − epoch at rate 1
@@ -362,6 +362,49 @@ describe('live server', { skip }, () => {
         assert.equal(carried.tick, answer.tick);
       } finally { s.close(); }
     });
+  });
+});
+
+describe('a scene that goes away', { skip }, () => {
+  let srv; let admin;
+  before(async () => {
+    srv = await SwellProcess.start();
+    admin = new SwellClient(srv.url, { adminToken: srv.token });
+  });
+  after(async () => { await srv?.dispose(); });
+
+  test('deleted under a subscriber: onError(not_found), onClose(4404), no reconnect', async () => {
+    await admin.putScene('doomed', { layers: [{ kind: 'sine', waves: [{ amplitude: 0.1, wavelength: 8, direction: [1, 0] }] }] });
+    const errors = []; const closes = []; const frames = [];
+    const s = new SwellSession(admin.streamUrl('doomed'), {
+      onError: (e) => errors.push(e), onClose: (c) => closes.push(c), onTick: (f) => frames.push(f),
+      backoff: { initial: 20, max: 50 }, pingInterval: 100,
+    });
+    try {
+      await s.connect();
+      s.subscribe();
+      for (let i = 0; i < 100 && frames.length < 2; i++) await sleep(20);
+      await admin.deleteScene('doomed');
+      for (let i = 0; i < 100 && closes.length === 0; i++) await sleep(20);
+      assert.equal(closes[0]?.code, SCENE_GONE, JSON.stringify(closes));
+      assert.match(closes[0].reason, /doomed/);
+      assert.ok(errors.some((e) => e instanceof SwellError && e.code === 'not_found'), 'onError heard not_found');
+      await sleep(300);
+      assert.equal(s.reconnects, 0, 'no reconnect to a deleted scene');
+      assert.equal(closes.length, 1);
+      await assert.rejects(s.ping(), TransportError);
+    } finally { s.close(); }
+  });
+
+  test('connect() to a scene that does not exist rejects once and does not retry', async () => {
+    let opened = 0;
+    const Counting = class extends WebSocket { constructor(...a) { super(...a); opened++; } };
+    const s = new SwellSession(admin.streamUrl('atlantis'), { WebSocket: Counting, backoff: { initial: 20, max: 50 } });
+    try {
+      await assert.rejects(s.connect(), (e) => e instanceof TransportError && /404/.test(e.message));
+      await sleep(300);
+      assert.equal(opened, 1, 'one attempt, no background retries');
+    } finally { s.close(); }
   });
 });
 

@@ -27,7 +27,14 @@ signal tick(frame: Dictionary)
 ## The scene's clock changed: {t, tick, tick_hz, rate, paused, unix, generation}.
 signal clock_changed(event: Dictionary)
 signal opened
+## The socket closed; 4404 (SCENE_GONE): the scene was deleted, and no reconnect follows.
 signal closed(code: int)
+## An error the server sent that answers no request of this session ({code, message, field?}),
+## e.g. not_found when the scene is deleted.
+signal server_error(error: Dictionary)
+
+## The Close code of a session whose scene was deleted.
+const SCENE_GONE := 4404
 
 ## ws:// URL of the stream (SwellClient.stream_url).
 @export var url: String = ""
@@ -153,6 +160,9 @@ func _process(_delta: float) -> void:
 			var w: _Waiter = _pending[id]
 			w.done.emit({"type": "error", "code": "transport", "message": "socket closed (%d) before the answer" % code})
 		_pending.clear()
+		# The scene was deleted: reconnecting would be refused (404).
+		if code == SCENE_GONE:
+			_closed = true
 		closed.emit(code)
 		if not _closed:
 			var base := minf(backoff_max, backoff_initial * pow(backoff_factor, _attempt))
@@ -225,6 +235,8 @@ func _on_message(text: String, seen_after: float) -> void:
 		_clock_changed(m, received)
 		return
 	if m.get("id") == null or not _pending.has(int(m.id)):
+		if type == "error":
+			server_error.emit(m)
 		return
 	var w: _Waiter = _pending[int(m.id)]
 	_pending.erase(int(m.id))
