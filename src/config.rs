@@ -58,6 +58,11 @@ pub struct Config {
     /// Close, loops finishing a step) before it writes the final snapshot anyway. 10 s: well
     /// inside Kubernetes' default 30 s grace period, with room for in-flight requests first.
     pub shutdown_timeout: Duration,
+    /// How long, after the shutdown signal, the server keeps serving with `/readyz` at 503
+    /// before it stops accepting: time for a load balancer to see the 503 (or for Kubernetes
+    /// to take the pod out of its endpoints) so no client is sent to a closed port. 0 here (in
+    /// process, tests); the `swell` binary's `--drain-delay` defaults to 2 s.
+    pub drain_delay: Duration,
 }
 
 impl Default for Config {
@@ -76,6 +81,7 @@ impl Default for Config {
             limits: Limits::default(),
             snapshots: Default::default(),
             shutdown_timeout: Duration::from_secs(10),
+            drain_delay: Duration::ZERO,
         }
     }
 }

@@ -169,6 +169,7 @@ pub struct Server {
     state: AppState,
     snapshots: journal::snapshot::SnapshotPolicy,
     shutdown_timeout: Duration,
+    drain_delay: Duration,
     /// A fleet's Redis store: its change feed and body logs are followed while serving.
     shared: Option<(store::Fleet, store::FleetBodies)>,
 }
@@ -265,6 +266,7 @@ impl Server {
             state,
             snapshots: config.snapshots,
             shutdown_timeout: config.shutdown_timeout,
+            drain_delay: config.drain_delay,
             shared,
         })
     }
@@ -415,10 +417,23 @@ impl Server {
             policy: state.peer_policy.clone(),
             slow_lane: Arc::clone(&state.slow_lane),
             parser_max_headers: (4 * state.limits.max_headers).max(100),
+            drain_deadline: self.shutdown_timeout,
         };
+        let drain_delay = self.drain_delay;
+        let stopping_at = Arc::new(std::sync::OnceLock::new());
+        let stopping = Arc::clone(&stopping_at);
         let result = api::serve::serve(self.listener, app, limits, async move {
             shutdown.await;
             draining.set_ready(false);
+            if !drain_delay.is_zero() {
+                // Still serving (the probe port too), with /readyz at 503.
+                tracing::info!(
+                    delay_s = drain_delay.as_secs_f64(),
+                    "shutting down: not ready, serving on while load balancers notice"
+                );
+                tokio::time::sleep(drain_delay).await;
+            }
+            let _ = stopping.set(tokio::time::Instant::now());
             // WebSocket sessions send Close and end; tick loops stop.
             draining.shutdown.cancel();
             tracing::info!("shutting down: draining in-flight requests");
@@ -427,7 +442,11 @@ impl Server {
         // (Already fired unless serving failed.)
         state.shutdown.cancel();
         state.tasks.close();
-        if tokio::time::timeout(self.shutdown_timeout, state.tasks.wait())
+        // One deadline for the whole drain: connections (above) and tasks share it.
+        let left = stopping_at.get().map_or(self.shutdown_timeout, |at| {
+            self.shutdown_timeout.saturating_sub(at.elapsed())
+        });
+        if tokio::time::timeout(left, state.tasks.wait())
             .await
             .is_err()
         {

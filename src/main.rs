@@ -92,6 +92,10 @@ struct ServeArgs {
     /// Seconds shutdown waits for sessions and loops to end before the final snapshot.
     #[arg(long, env = "SWELL_SHUTDOWN_TIMEOUT", default_value_t = 10.0)]
     shutdown_timeout: f64,
+    /// Seconds the server keeps serving after the shutdown signal with /readyz answering 503,
+    /// before it stops accepting (so load balancers stop sending first).
+    #[arg(long, env = "SWELL_DRAIN_DELAY", default_value_t = 2.0)]
+    drain_delay: f64,
 }
 
 #[tokio::main]
@@ -106,6 +110,9 @@ async fn main() -> anyhow::Result<()> {
         )
         .with_writer(std::io::stderr)
         .with_ansi(std::io::stderr().is_terminal())
+        // A log line that cannot be written (stderr full or closed) is dropped: reporting it
+        // would eprintln! to the same stderr, and that panics.
+        .log_internal_errors(false)
         .init();
     let cli = Cli::parse();
     match cli.command {
@@ -140,6 +147,14 @@ async fn main() -> anyhow::Result<()> {
         Some(Command::Serve(args)) => serve(*args).await,
         None => serve(cli.serve).await,
     }
+}
+
+/// A line on stdout for the operator. A stdout that is closed or full loses the line, not the
+/// server (`println!` panics on a write error).
+fn say(line: &str) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{line}").and_then(|()| out.flush());
 }
 
 fn parse_store(s: &str) -> Result<swell::store::StoreUrl, String> {
@@ -182,6 +197,8 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
         },
         shutdown_timeout: std::time::Duration::try_from_secs_f64(args.shutdown_timeout)
             .context("--shutdown-timeout must be a non-negative number of seconds")?,
+        drain_delay: std::time::Duration::try_from_secs_f64(args.drain_delay)
+            .context("--drain-delay must be a non-negative number of seconds")?,
         ..Default::default()
     };
     if let Some(path) = &args.config {
@@ -196,11 +213,14 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
         .context("starting the server")?;
     if args.admin_token.is_none() {
         // Printed once, to stdout (not the log), so it can be captured and is not kept in logs.
-        println!("admin token: {}", server.admin_token());
+        say(&format!("admin token: {}", server.admin_token()));
     }
-    println!("swell listening on http://{}", server.local_addr());
+    say(&format!(
+        "swell listening on http://{}",
+        server.local_addr()
+    ));
     if let Some(p) = server.probe_addr() {
-        println!("probes on http://{p}");
+        say(&format!("probes on http://{p}"));
     }
     server
         .run(swell::shutdown_signal())

@@ -72,10 +72,14 @@ pub struct ConnectionLimits {
     /// Most headers the HTTP parser reads ([`crate::Limits::max_headers`] answers below it
     /// with the JSON error; this is the backstop, answered bare).
     pub parser_max_headers: usize,
+    /// Longest the drain after `shutdown` waits for open connections (a request in flight, a
+    /// client still sending its head or body) before `serve` returns without them.
+    pub drain_deadline: Duration,
 }
 
 /// Serves `app` on `listener` until `shutdown` completes, then stops accepting and waits for
-/// every connection to finish (idle ones close at once; a request in flight runs to its end).
+/// every connection to finish (idle ones close at once; a request in flight runs to its end),
+/// up to `limits.drain_deadline`.
 ///
 /// # Errors
 /// None today: accept errors are logged and retried (a full file table eases as connections
@@ -200,7 +204,18 @@ pub async fn serve(
     }
     drop(listener);
     drop(done_rx);
-    done_tx.closed().await;
+    if tokio::time::timeout(limits.drain_deadline, done_tx.closed())
+        .await
+        .is_err()
+    {
+        // A slow client's head or body, or a long request: not worth holding the exit (and the
+        // final snapshot) past the deadline. Their tasks end with the runtime.
+        tracing::warn!(
+            open = open.load(Ordering::Relaxed),
+            deadline_s = limits.drain_deadline.as_secs_f64(),
+            "shutdown: connections still open at the deadline; leaving them"
+        );
+    }
     Ok(())
 }
 

@@ -60,6 +60,10 @@ pub struct Journal(Arc<Inner>);
 #[derive(Debug)]
 struct Inner {
     dir: PathBuf,
+    /// `<dir>/lock`, held with an exclusive `flock` for the journal's life: a second process
+    /// on the same data dir would interleave its records and compactions with ours and lose
+    /// acknowledged writes, so it is refused at open ([`lock_dir`]).
+    _lock: File,
     /// Appends. Held for a `write` of one record; taken after any domain lock (scene admin
     /// lock, a scene's body lock), never before one.
     writer: Mutex<Writer>,
@@ -109,10 +113,15 @@ impl Journal {
     pub fn open(data_dir: &Path) -> std::io::Result<(Journal, Recovered)> {
         let dir = data_dir.join("journal");
         fs::create_dir_all(&dir)?;
+        let lock = lock_dir(&dir)?;
         let mut rec = Recovered::default();
         let snapshot = read_snapshot(&dir, &mut rec.problems);
         let log_path = dir.join(LOG_FILE);
-        let (frames, clean) = read_log(&log_path, &mut rec.problems);
+        let (frames, clean, keep_copy) = read_log(&log_path, &mut rec.problems);
+        if keep_copy {
+            // The log is rewritten from what could be read below: keep what could not.
+            copy_aside(&log_path, &mut rec.problems);
+        }
         let mut admin = snapshot
             .as_ref()
             .map(|s| s.admin.clone())
@@ -159,6 +168,7 @@ impl Journal {
         rec.snapshot = snapshot;
         let journal = Journal(Arc::new(Inner {
             dir,
+            _lock: lock,
             writer: Mutex::new(Writer {
                 file: Arc::new(file),
                 len,
@@ -314,6 +324,63 @@ fn rewrite_log<'a>(path: &Path, frames: impl Iterator<Item = &'a [u8]>) -> std::
     OpenOptions::new().append(true).open(path)
 }
 
+/// Opens `<dir>/lock` and takes an exclusive, non-blocking `flock` on it (released when the
+/// file closes, also when the process dies).
+///
+/// # Errors
+/// Another process (or another journal in this one) holds it: [`std::io::ErrorKind::WouldBlock`]
+/// with a message naming the dir; or the file cannot be opened.
+fn lock_dir(dir: &Path) -> std::io::Result<File> {
+    let path = dir.join("lock");
+    let file = OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)?;
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd;
+        // SAFETY: a valid open descriptor; flock only changes the lock on its open file.
+        let rc = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if rc != 0 {
+            let e = std::io::Error::last_os_error();
+            return Err(if e.kind() == std::io::ErrorKind::WouldBlock {
+                std::io::Error::new(
+                    std::io::ErrorKind::WouldBlock,
+                    format!(
+                        "{} is in use by another swell process (one data dir per process: two \
+                         would overwrite each other's records)",
+                        dir.parent().unwrap_or(dir).display()
+                    ),
+                )
+            } else {
+                e
+            });
+        }
+    }
+    Ok(file)
+}
+
+/// Copies a file aside (`<name>.damaged-<unix seconds>`) before it is rewritten without the
+/// parts that could not be read, and says so.
+fn copy_aside(path: &Path, problems: &mut Vec<String>) {
+    let mut aside = path.as_os_str().to_owned();
+    aside.push(format!(".damaged-{}", unix_now() as u64));
+    let aside = PathBuf::from(aside);
+    match fs::copy(path, &aside) {
+        Ok(_) => {
+            let msg = format!(
+                "{}: the unreadable parts are kept in {}",
+                path.display(),
+                aside.display()
+            );
+            tracing::error!("journal: {msg}");
+            problems.push(msg);
+        }
+        Err(e) => tracing::error!(error = %e, "journal: could not copy a damaged log aside"),
+    }
+}
+
 /// Moves a damaged file aside (never deletes it) and says so.
 fn move_aside(path: &Path, why: &str, problems: &mut Vec<String>) {
     let mut aside = path.as_os_str().to_owned();
@@ -366,28 +433,32 @@ fn read_snapshot(dir: &Path, problems: &mut Vec<String>) -> Option<Snapshot> {
     }
 }
 
-/// The log's valid records with their framed bytes, and whether the file was clean (absent
-/// counts as not clean: a fresh one is written).
-fn read_log(path: &Path, problems: &mut Vec<String>) -> (Vec<(Record, Vec<u8>)>, bool) {
+/// The log's valid records with their framed bytes, whether the file was clean (absent counts
+/// as not clean: a fresh one is written), and whether it holds bytes that rewriting it would
+/// drop beyond a torn tail (a damaged header, damage mid-log, a record that does not decode):
+/// those are copied aside first. A torn tail, what a crash mid-append leaves, is not.
+fn read_log(path: &Path, problems: &mut Vec<String>) -> (Vec<(Record, Vec<u8>)>, bool, bool) {
     let bytes = match fs::read(path) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Vec::new(), false),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Vec::new(), false, false),
         Err(e) => {
             move_aside(path, &e.to_string(), problems);
-            return (Vec::new(), false);
+            return (Vec::new(), false, false);
         }
     };
+    let mut keep_copy = false;
     match frame::read_header(&bytes, LOG_MAGIC) {
         frame::Header::Version(FORMAT) => {}
         frame::Header::Version(v) => {
             move_aside(path, &format!("unknown format {v}"), problems);
-            return (Vec::new(), false);
+            return (Vec::new(), false, false);
         }
         frame::Header::Unrecognised if bytes.len() < frame::HEADER_LEN => {
             // A crash while the first header was written: nothing was ever acknowledged.
-            return (Vec::new(), false);
+            return (Vec::new(), false, false);
         }
         frame::Header::Unrecognised => {
+            keep_copy = true;
             // Read it anyway: only the header may be damaged. The file is rewritten below.
             let msg = format!("{}: damaged header", path.display());
             tracing::error!("journal: {msg}");
@@ -397,6 +468,7 @@ fn read_log(path: &Path, problems: &mut Vec<String>) -> (Vec<(Record, Vec<u8>)>,
     let decoded = frame::decode(&bytes, frame::HEADER_LEN);
     let mut clean = decoded.damage.is_empty()
         && frame::read_header(&bytes, LOG_MAGIC) == frame::Header::Version(FORMAT);
+    keep_copy |= decoded.damage.iter().any(|d| !d.at_end);
     for d in &decoded.damage {
         let msg = format!(
             "{}: {} damaged bytes at offset {}{}; skipped",
@@ -414,6 +486,7 @@ fn read_log(path: &Path, problems: &mut Vec<String>) -> (Vec<(Record, Vec<u8>)>,
             Ok(r) => out.push((r, frame::encode(payload))),
             Err(e) => {
                 clean = false;
+                keep_copy = true;
                 let msg = format!(
                     "{}: record at offset {offset} does not decode ({e}); skipped",
                     path.display()
@@ -423,7 +496,7 @@ fn read_log(path: &Path, problems: &mut Vec<String>) -> (Vec<(Record, Vec<u8>)>,
             }
         }
     }
-    (out, clean)
+    (out, clean, keep_copy)
 }
 
 #[cfg(test)]

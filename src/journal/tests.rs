@@ -167,6 +167,64 @@ fn a_foreign_or_newer_file_is_moved_aside_not_read_or_deleted() {
     assert_eq!(j.append(put(1)).unwrap(), 1);
 }
 
+/// A log whose header is not a journal's (or with damage mid-log) is rewritten from what could
+/// be read, but its bytes are kept aside first: "never deleted" (an outside audit found 100 KB
+/// of junk replaced by an empty log). A torn tail, what every kill -9 mid-append leaves, is not
+/// copied.
+#[test]
+fn a_log_rewritten_around_damage_is_kept_aside_first() {
+    let aside = |jdir: &Path| -> Vec<String> {
+        fs::read_dir(jdir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| n.contains(".damaged-"))
+            .collect()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let jdir = dir.path().join("journal");
+    fs::create_dir_all(&jdir).unwrap();
+    let junk: Vec<u8> = (0..100_000u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
+    fs::write(jdir.join(LOG_FILE), &junk).unwrap();
+    let (j, rec) = Journal::open(dir.path()).unwrap();
+    assert!(
+        rec.problems.iter().any(|p| p.contains("damaged header")),
+        "{:?}",
+        rec.problems
+    );
+    let kept = aside(&jdir);
+    assert_eq!(kept.len(), 1, "{kept:?}");
+    assert_eq!(fs::read(jdir.join(&kept[0])).unwrap(), junk);
+    j.append(put(1)).unwrap();
+    j.sync_blocking(1).unwrap();
+    drop(j);
+    // A torn tail only: rewritten, nothing more kept aside.
+    let log = jdir.join(LOG_FILE);
+    let mut bytes = fs::read(&log).unwrap();
+    bytes.extend_from_slice(&frame::encode(b"{\"seq\": 2")[..7]);
+    fs::write(&log, &bytes).unwrap();
+    let (_j, rec) = Journal::open(dir.path()).unwrap();
+    assert_eq!(rec.records.len(), 1, "{:?}", rec.problems);
+    assert_eq!(aside(&jdir).len(), 1, "a torn tail is not copied aside");
+}
+
+/// One journal per data dir: a second open (another process, or a test's second server)
+/// fails with a message naming the dir while the first is open, and succeeds once it is gone.
+#[test]
+fn a_data_dir_in_use_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (j, _) = Journal::open(dir.path()).unwrap();
+    let e = Journal::open(dir.path()).unwrap_err();
+    assert_eq!(e.kind(), std::io::ErrorKind::WouldBlock);
+    assert!(
+        e.to_string().contains("in use by another swell process"),
+        "{e}"
+    );
+    drop(j);
+    Journal::open(dir.path()).unwrap();
+}
+
 #[test]
 fn a_snapshot_compacts_the_log_and_replay_starts_after_it() {
     let dir = tempfile::tempdir().unwrap();

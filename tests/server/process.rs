@@ -160,3 +160,191 @@ fn a_blank_admin_token_stops_startup() {
         assert!(err.contains("empty or blank"), "{token:?}: {err}");
     }
 }
+
+/// A server whose stdout and stderr cannot be written (a full disk under its log, a closed
+/// pipe) keeps serving: log lines and the startup lines are dropped, not a panic (tracing used
+/// to report its own write error with `eprintln!`, which panics on the same stderr). A second
+/// server on the same data dir is refused, naming it.
+#[cfg(target_os = "linux")]
+#[tokio::test]
+async fn a_full_stderr_does_not_stop_the_server_and_a_data_dir_is_one_process() {
+    let port = free_port();
+    let dir = tempfile::tempdir().unwrap();
+    let full = || Stdio::from(std::fs::File::create("/dev/full").unwrap());
+    let child = Command::new(env!("CARGO_BIN_EXE_swell"))
+        .args(["serve", "--bind", &format!("127.0.0.1:{port}")])
+        .arg("--data-dir")
+        .arg(dir.path())
+        .args(["--admin-token", "x"])
+        .env("RUST_LOG", "debug")
+        .stdout(full())
+        .stderr(full())
+        .spawn()
+        .expect("the swell binary starts");
+    let mut guard = Killed(child);
+    let client = reqwest::Client::new();
+    let base = format!("http://127.0.0.1:{port}");
+    let start = Instant::now();
+    loop {
+        if let Ok(r) = client.get(format!("{base}/readyz")).send().await
+            && r.status() == 200
+        {
+            break;
+        }
+        assert!(
+            guard.0.try_wait().unwrap().is_none(),
+            "the server exited: {:?}",
+            guard.0.try_wait()
+        );
+        assert!(start.elapsed() < Duration::from_secs(60), "never ready");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    // Debug logging writes on every request; each write fails.
+    for _ in 0..20 {
+        let r = client
+            .get(format!("{base}/v1/scenes/calm/height?x=1&z=2"))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    assert!(guard.0.try_wait().unwrap().is_none(), "still running");
+    let second = Command::new(env!("CARGO_BIN_EXE_swell"))
+        .args(["serve", "--bind", "127.0.0.1:0", "--admin-token", "x"])
+        .arg("--data-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(!second.status.success());
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(err.contains("in use by another swell process"), "{err}");
+}
+
+/// `swell serve` on `dir` with extra arguments, once ready; killed (SIGKILL) on drop.
+async fn serve_on(
+    dir: &std::path::Path,
+    extra: &[&str],
+    client: &reqwest::Client,
+) -> (String, Killed) {
+    let port = free_port();
+    let child = Command::new(env!("CARGO_BIN_EXE_swell"))
+        .args([
+            "serve",
+            "--bind",
+            &format!("127.0.0.1:{port}"),
+            "--admin-token",
+            "x",
+        ])
+        .arg("--data-dir")
+        .arg(dir)
+        .args(extra)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("the swell binary starts");
+    let guard = Killed(child);
+    let base = format!("http://127.0.0.1:{port}");
+    let start = Instant::now();
+    while !matches!(client.get(format!("{base}/readyz")).send().await, Ok(r) if r.status() == 200) {
+        assert!(start.elapsed() < Duration::from_secs(60), "never ready");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    (base, guard)
+}
+
+/// Records read back at start count toward `--snapshot-records`: a server killed before it
+/// compacted, restarted with the log over the limit, compacts within a few seconds (it used to
+/// count only the records it wrote itself, so a crash loop grew the replay without end).
+#[tokio::test]
+async fn records_replayed_at_start_count_toward_the_snapshot_limit() {
+    let client = reqwest::Client::new();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("journal").join("journal.log");
+    let (base, guard) = serve_on(
+        dir.path(),
+        &[
+            "--snapshot-records",
+            "100000",
+            "--snapshot-interval",
+            "3600",
+        ],
+        &client,
+    )
+    .await;
+    for i in 0..12 {
+        let r = client
+            .put(format!("{base}/v1/scenes/s{i}"))
+            .bearer_auth("x")
+            .json(&common::small_spec())
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 201);
+    }
+    drop(guard); // kill -9: no final snapshot
+    let before = std::fs::metadata(&log).unwrap().len();
+    let (_base, _guard) = serve_on(
+        dir.path(),
+        &["--snapshot-records", "5", "--snapshot-interval", "3600"],
+        &client,
+    )
+    .await;
+    let start = Instant::now();
+    while std::fs::metadata(&log).unwrap().len() >= before {
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "the replayed log was never compacted ({before} bytes)"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// SIGTERM: `/readyz` answers 503 for `--drain-delay` while the server still serves, then the
+/// server stops accepting and exits within `--shutdown-timeout` of that even though a client
+/// holds a request head half sent (it used to wait out `head_timeout_ms`, 10 s).
+#[cfg(unix)]
+#[tokio::test]
+async fn sigterm_turns_readyz_503_then_exits_within_the_deadline() {
+    use tokio::io::AsyncWriteExt as _;
+    let client = reqwest::Client::new();
+    let dir = tempfile::tempdir().unwrap();
+    let (base, mut guard) = serve_on(
+        dir.path(),
+        &["--drain-delay", "1", "--shutdown-timeout", "1"],
+        &client,
+    )
+    .await;
+    let addr = base.trim_start_matches("http://").to_owned();
+    let mut slow = tokio::net::TcpStream::connect(&addr).await.unwrap();
+    slow.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let pid = i32::try_from(guard.0.id()).unwrap();
+    // SAFETY: signalling our own child process.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGTERM) }, 0);
+    let signalled = Instant::now();
+    let mut saw_503 = false;
+    while signalled.elapsed() < Duration::from_millis(800) {
+        if let Ok(r) = client.get(format!("{base}/readyz")).send().await {
+            saw_503 |= r.status() == 503;
+            let h = client.get(format!("{base}/healthz")).send().await.unwrap();
+            assert_eq!(h.status(), 200, "still serving while draining");
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    assert!(saw_503, "/readyz never answered 503 during the drain delay");
+    let status = loop {
+        if let Some(s) = guard.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            signalled.elapsed() < Duration::from_secs(5),
+            "still running 5 s after SIGTERM (drain 1 s + deadline 1 s)"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    assert!(status.success(), "{status:?}");
+    drop(slow);
+}

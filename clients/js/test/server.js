@@ -45,7 +45,7 @@ export class SwellProcess {
     const config = join(this.dataDir, 'test-limits.toml');
     writeFileSync(config, '[limits]\nws_read_check_ms = 2000\n');
     this.child = spawn(SWELL_BIN, ['serve', '--bind', `127.0.0.1:${this.port}`, '--data-dir', this.dataDir,
-      '--admin-token', this.token, '--shutdown-timeout', '2', '--config', config, ...this.args],
+      '--admin-token', this.token, '--shutdown-timeout', '2', '--drain-delay', '0', '--config', config, ...this.args],
     { stdio: ['ignore', 'pipe', 'pipe'] });
     const keep = (d) => { this.log = (this.log + d).slice(-20000); };
     this.child.stdout.on('data', keep);
