@@ -34,22 +34,32 @@ async fn spawn_server(client: &reqwest::Client) -> (String, Killed, tempfile::Te
         .stderr(Stdio::null())
         .spawn()
         .expect("the swell binary starts");
-    let guard = Killed(child);
+    let mut guard = Killed(child);
     let base = format!("http://127.0.0.1:{port}");
+    wait_ready(client, &base, &mut guard).await;
+    (base, guard, dir)
+}
+
+/// Waits until the child at `base` answers `/readyz` 200; fails if it exits or takes a minute.
+async fn wait_ready(client: &reqwest::Client, base: &str, guard: &mut Killed) {
     let start = Instant::now();
     loop {
         if let Ok(r) = client.get(format!("{base}/readyz")).send().await
             && r.status() == 200
         {
-            break;
+            return;
         }
+        assert!(
+            guard.0.try_wait().unwrap().is_none(),
+            "the server exited: {:?}",
+            guard.0.try_wait()
+        );
         assert!(
             start.elapsed() < Duration::from_secs(60),
             "the child never became ready"
         );
-        tokio::time::sleep(Duration::from_millis(100)).await;
+        tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    (base, guard, dir)
 }
 
 #[tokio::test]
@@ -184,21 +194,7 @@ async fn a_full_stderr_does_not_stop_the_server_and_a_data_dir_is_one_process() 
     let mut guard = Killed(child);
     let client = reqwest::Client::new();
     let base = format!("http://127.0.0.1:{port}");
-    let start = Instant::now();
-    loop {
-        if let Ok(r) = client.get(format!("{base}/readyz")).send().await
-            && r.status() == 200
-        {
-            break;
-        }
-        assert!(
-            guard.0.try_wait().unwrap().is_none(),
-            "the server exited: {:?}",
-            guard.0.try_wait()
-        );
-        assert!(start.elapsed() < Duration::from_secs(60), "never ready");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
+    wait_ready(&client, &base, &mut guard).await;
     // Debug logging writes on every request; each write fails.
     for _ in 0..20 {
         let r = client
@@ -243,13 +239,9 @@ async fn serve_on(
         .stderr(Stdio::null())
         .spawn()
         .expect("the swell binary starts");
-    let guard = Killed(child);
+    let mut guard = Killed(child);
     let base = format!("http://127.0.0.1:{port}");
-    let start = Instant::now();
-    while !matches!(client.get(format!("{base}/readyz")).send().await, Ok(r) if r.status() == 200) {
-        assert!(start.elapsed() < Duration::from_secs(60), "never ready");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
+    wait_ready(client, &base, &mut guard).await;
     (base, guard)
 }
 
