@@ -199,6 +199,7 @@ impl SceneBodies {
                 |id| rec.bodies.iter().any(|r| r.id == id),
             ),
             origins: BTreeMap::new(),
+            created_seq: 0,
         };
         for r in &rec.bodies {
             let status = rec.statuses.get(&r.id).copied().unwrap_or_default();

@@ -196,6 +196,11 @@ pub struct SceneBodies {
     /// Per body, where its trajectory in the current world starts ([`Origin`]): published, so
     /// a client can rebuild the world from `anchor` on.
     origins: BTreeMap<u64, Origin>,
+    /// The journal seq of this world's `Created` record; 0 when not known (a world restored
+    /// from a snapshot or a replay, or a server without a journal). A snapshot leaves out a
+    /// world made before a delete of its scene that the snapshot's admin part holds
+    /// ([`crate::state::snapshots::take`]).
+    created_seq: u64,
 }
 
 /// Where a body's trajectory in its scene's current world starts: with the world's anchor, what
@@ -272,7 +277,18 @@ impl SceneBodies {
             }],
             impacts: WorldImpacts::new(),
             origins: BTreeMap::new(),
+            created_seq: 0,
         })
+    }
+
+    /// See the field: the journal seq of this world's `Created` record, 0 when not known.
+    pub fn created_seq(&self) -> u64 {
+        self.created_seq
+    }
+
+    /// Notes the seq its `Created` record was journaled at.
+    pub(crate) fn set_created_seq(&mut self, seq: u64) {
+        self.created_seq = seq;
     }
 
     /// Number of bodies.

@@ -28,8 +28,16 @@ pub fn append_body_events(
     let Some(journal) = journal else {
         return Ok(0);
     };
-    journal.append_all(events.into_iter().map(|event| Op::Body {
-        scene: scene.to_owned(),
-        event,
-    }))
+    let mut last = 0;
+    for event in events {
+        let created = matches!(event, crate::bodies::BodyEvent::Created { .. });
+        last = journal.append(Op::Body {
+            scene: scene.to_owned(),
+            event,
+        })?;
+        if created {
+            bodies.set_created_seq(last);
+        }
+    }
+    Ok(last)
 }
