@@ -22,21 +22,8 @@ impl Drop for Killed {
 /// `swell serve` as a separate process on a free loopback port with its own data dir, once it
 /// answers `/readyz`; the base URL, the child (killed on drop) and the data dir.
 async fn spawn_server(client: &reqwest::Client) -> (String, Killed, tempfile::TempDir) {
-    let port = free_port();
     let dir = tempfile::tempdir().unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_swell"))
-        .args(["serve", "--bind", &format!("127.0.0.1:{port}")])
-        .arg("--data-dir")
-        .arg(dir.path())
-        .args(["--admin-token", "x"])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("the swell binary starts");
-    let mut guard = Killed(child);
-    let base = format!("http://127.0.0.1:{port}");
-    wait_ready(client, &base, &mut guard).await;
+    let (base, guard) = serve_on(dir.path(), &[], client).await;
     (base, guard, dir)
 }
 
