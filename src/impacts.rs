@@ -304,7 +304,8 @@ fn expire(set: Impacts, lifetime: Option<f64>) -> Impacts {
         return set;
     };
     let events = set.events();
-    let Some(newest) = events.iter().map(|e| e.t).reduce(f64::max) else {
+    // Canonical order is by t first: the newest is the last.
+    let Some(newest) = events.last().map(|e| e.t) else {
         return set;
     };
     let keep_from = newest - lifetime;
@@ -328,10 +329,11 @@ fn near_in(events: &[Impact], t: f64, window: f64) -> usize {
 }
 
 fn room(g: &Inner, impact: &Impact, window: f64) -> Result<(), AddError> {
+    // (Canonical order is by t first: the newest is the last event.)
     // An impact the set would expire at once (more than a lifetime older than its newest, as
     // after a clock seek backwards past the scene's splashes) is refused, not dropped unseen.
     if let Some(lifetime) = g.lifetime
-        && let Some(newest) = g.api.events().iter().map(|e| e.t).reduce(f64::max)
+        && let Some(newest) = g.api.events().last().map(|e| e.t)
         && impact.t < newest - lifetime
     {
         return Err(AddError::Invalid(SpecError::OutOfRange {

@@ -128,17 +128,8 @@ pub async fn create(
     let req: SpawnRequest = from_slice(&body)?;
     // Where queries may look (`limits.max_coordinate`) is where a body may start: beyond it the
     // sea cannot be queried, and a stream's compact (f32) offsets would not be finite.
-    let max = state.limits.max_coordinate;
     for (i, v) in req.position.into_iter().enumerate() {
-        if !(v.is_finite() && v.abs() <= max) {
-            return Err(ApiError::invalid(
-                format!("position[{i}]"),
-                format!(
-                    "position[{i}] = {} is out of range: a finite coordinate within ±{max} m",
-                    swell_waves::error::Num(v)
-                ),
-            ));
-        }
+        crate::service::query::check_coord(&state.limits, v, || format!("position[{i}]"))?;
     }
     let out = state.spawn_body(&id, req).await?;
     Ok((StatusCode::CREATED, axum::Json(out)).into_response())

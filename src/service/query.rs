@@ -35,7 +35,15 @@ pub fn check_time(limits: &Limits, t: f64, field: &str) -> Result<f64, QueryErro
     Ok(limits.check_time(t, field)?)
 }
 
-fn check_coord(limits: &Limits, v: f64, field: impl Fn() -> String) -> Result<f64, QueryError> {
+/// Checks a coordinate given by a client: finite and within `limits.max_coordinate`.
+///
+/// # Errors
+/// [`QueryError::Coordinate`] naming the field `field()` returns.
+pub(crate) fn check_coord(
+    limits: &Limits,
+    v: f64,
+    field: impl Fn() -> String,
+) -> Result<f64, QueryError> {
     if v.is_finite() && v.abs() <= limits.max_coordinate {
         Ok(v)
     } else {
