@@ -6,6 +6,7 @@ use rustfft::num_complex::Complex;
 
 use super::fields::{FftFields, FftGrid};
 use super::layer::{FftLayer, evolve};
+use super::{AlignedVec, aligned};
 use crate::math::{reduce_phase, sin_cos};
 
 /// The fields of an FFT layer at one time, on the layer's N×N grid.
@@ -22,7 +23,7 @@ pub struct FftFrame {
     pub(crate) fields: FftFields,
     pub(crate) n: usize,
     pub(crate) tile_size: f64,
-    pub(crate) grids: [Option<Vec<f64>>; 8],
+    pub(crate) grids: [Option<AlignedVec<f64>>; 8],
     pub(crate) transforms: usize,
     /// Where the grids go when the frame is dropped (`None`: to the allocator).
     pub(crate) pool: Option<Arc<GridPool>>,
@@ -60,7 +61,7 @@ impl Drop for FftFrame {
 pub(crate) struct GridPool {
     len: usize,
     cap: usize,
-    pub(crate) free: Mutex<Vec<Vec<f64>>>,
+    pub(crate) free: Mutex<Vec<AlignedVec<f64>>>,
 }
 
 /// Most bytes of grid buffers a layer's pool keeps: 16 MiB is one full frame at 512² (8 grids)
@@ -80,14 +81,14 @@ impl GridPool {
     }
 
     /// A buffer of N² values (contents unspecified: the caller overwrites all of them).
-    pub(crate) fn take(&self) -> Vec<f64> {
+    pub(crate) fn take(&self) -> AlignedVec<f64> {
         let pooled = self.free.lock().ok().and_then(|mut f| f.pop());
-        pooled.unwrap_or_else(|| vec![0.0; self.len])
+        pooled.unwrap_or_else(|| aligned(self.len, 0.0))
     }
 
     /// Keeps `grid` for a later frame if it has the pool's size and the pool has room; otherwise
     /// frees it. A poisoned lock only means the buffer is freed.
-    fn put(&self, grid: Vec<f64>) {
+    fn put(&self, grid: AlignedVec<f64>) {
         if grid.len() != self.len {
             return;
         }
@@ -197,14 +198,14 @@ impl FftLayer {
     fn frame_into_body(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
-        let mut grids: [Option<Vec<f64>>; 8] = Default::default();
+        let mut grids: [Option<AlignedVec<f64>>; 8] = Default::default();
         let mut old = std::mem::take(&mut frame.grids);
         let old_pool = frame.pool.take();
         let mut transforms = 0;
         if fields.grid_count() > 0 {
             // Buffers come from the layer's pool: a frame allocates only the grids it returns.
             let mut scratch = self.transform.take_scratch();
-            let mut htilde = std::mem::take(&mut scratch.htilde);
+            let mut htilde = std::mem::replace(&mut scratch.htilde, AlignedVec::new(0));
             self.evolve_into(t_r, &mut scratch.phases, &mut htilde);
             for grid in FftGrid::ALL.into_iter().filter(|&g| fields.has(g)) {
                 let mut out = old[grid.index()]

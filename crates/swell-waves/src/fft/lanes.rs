@@ -73,6 +73,15 @@ pub(crate) unsafe trait Lane: Copy {
     fn neg(self) -> Self;
     /// `x` in every lane.
     fn splat(x: f64) -> Self;
+    /// Lane 0 of `from`, the other lanes of `self` (a move: no bit changes).
+    fn with_lane0(self, from: Self) -> Self;
+    /// Stores the transpose of the W × W block whose rows are `rows`, `dst[c][r] = rows[r][c]`,
+    /// shuffling in registers (moves only: the bits are untouched).
+    ///
+    /// # Safety
+    /// W must be the type's lane count, and each `dst[c]` valid for writing W f64 (no
+    /// alignment needed).
+    unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]);
 }
 
 // SAFETY: plain Rust arithmetic, valid on every CPU.
@@ -107,19 +116,34 @@ unsafe impl<const W: usize> Lane for Lanes<W> {
     fn splat(x: f64) -> Self {
         [x; W]
     }
+    #[inline(always)]
+    fn with_lane0(mut self, from: Self) -> Self {
+        self[0] = from[0];
+        self
+    }
+    #[inline(always)]
+    unsafe fn transpose_store<const K: usize>(rows: [Self; K], dst: [*mut f64; K]) {
+        debug_assert_eq!(K, W);
+        for (c, &d) in dst.iter().enumerate() {
+            for (r, row) in rows.iter().enumerate() {
+                // SAFETY: the caller's contract (c, r < W).
+                unsafe { *d.add(r) = row[c] };
+            }
+        }
+    }
 }
 
 /// The x86-64 vector [`Lane`]s: `__m128d` (SSE2, W = 2), `__m256d` (AVX, W = 4) and `__m512d`
 /// (AVX-512 F, W = 8). Each method is one instruction (`neg` an xor with the sign bit, as the
 /// compiler emits for scalar `-x`).
 #[cfg(target_arch = "x86_64")]
-mod x86 {
+pub(crate) mod x86 {
     use super::Lane;
     use std::arch::x86_64::*;
 
     macro_rules! lane {
         ($t:ty, $load:ident, $store:ident, $add:ident, $sub:ident, $mul:ident, $xor:ident,
-         $set1:ident) => {
+         $set1:ident, $lanes:literal, $lane0:ident, $transpose:ident) => {
             // SAFETY: the trait's contract puts the CPU check on the users of these types
             // (`LaneFft::run_simd`); each method is the lane-wise IEEE operation.
             unsafe impl Lane for $t {
@@ -158,8 +182,122 @@ mod x86 {
                     // SAFETY: as `add`.
                     unsafe { $set1(x) }
                 }
+                #[inline(always)]
+                fn with_lane0(self, from: Self) -> Self {
+                    $lane0(self, from)
+                }
+                #[inline(always)]
+                unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
+                    assert!(W == $lanes, "transpose_store: lane count");
+                    let cols = $transpose(std::array::from_fn(|r| rows[r]));
+                    for (c, col) in cols.into_iter().enumerate() {
+                        // SAFETY: the caller's contract (W = the lane count, so c < W).
+                        unsafe { $store(dst[c], col) };
+                    }
+                }
             }
         };
+    }
+
+    /// Lane 0 of `b`, lane 1 of `a` (SSE2).
+    #[inline(always)]
+    fn lane0_128(a: __m128d, b: __m128d) -> __m128d {
+        // SAFETY: SSE2 is on every x86-64 CPU.
+        unsafe { _mm_move_sd(a, b) }
+    }
+
+    /// Lane 0 of `b`, lanes 1–3 of `a` (AVX; the trait's contract puts the CPU check on the
+    /// caller).
+    #[inline(always)]
+    fn lane0_256(a: __m256d, b: __m256d) -> __m256d {
+        // SAFETY: the `Lane` contract: AVX is available where `__m256d` lanes are used.
+        unsafe { _mm256_blend_pd::<1>(a, b) }
+    }
+
+    /// Lane 0 of `b`, lanes 1–7 of `a` (AVX-512 F, as `lane0_256`).
+    #[inline(always)]
+    fn lane0_512(a: __m512d, b: __m512d) -> __m512d {
+        // SAFETY: the `Lane` contract: AVX-512 F is available where `__m512d` lanes are used.
+        unsafe { _mm512_mask_blend_pd(1, a, b) }
+    }
+
+    /// The 2 × 2 transpose of two rows (SSE2 unpacks).
+    #[inline(always)]
+    pub(crate) fn transpose2(r: [__m128d; 2]) -> [__m128d; 2] {
+        // SAFETY: SSE2 is on every x86-64 CPU.
+        unsafe { [_mm_unpacklo_pd(r[0], r[1]), _mm_unpackhi_pd(r[0], r[1])] }
+    }
+
+    /// The 4 × 4 transpose of four rows: unpack, then swap 128-bit halves (AVX; the `Lane`
+    /// contract puts the CPU check on the caller).
+    #[inline(always)]
+    pub(crate) fn transpose4(r: [__m256d; 4]) -> [__m256d; 4] {
+        // SAFETY: the `Lane` contract: AVX is available where `__m256d` lanes are used.
+        unsafe {
+            let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+            let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+            let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+            let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+            [
+                _mm256_permute2f128_pd(t0, t2, 0x20),
+                _mm256_permute2f128_pd(t1, t3, 0x20),
+                _mm256_permute2f128_pd(t0, t2, 0x31),
+                _mm256_permute2f128_pd(t1, t3, 0x31),
+            ]
+        }
+    }
+
+    /// The 8 × 8 transpose of eight rows: pairs interleaved, then 2×2 and 4×4 blocks moved
+    /// with two-source permutes (24 shuffles; AVX-512 F, as `transpose4`).
+    #[inline(always)]
+    pub(crate) fn transpose8(r: [__m512d; 8]) -> [__m512d; 8] {
+        // SAFETY: the `Lane` contract: AVX-512 F is available where `__m512d` lanes are used;
+        // the index vectors are 8 i64 each.
+        unsafe {
+            // lo(a, b) = [a0 b0 a2 b2 a4 b4 a6 b6], hi = [a1 b1 a3 b3 a5 b5 a7 b7].
+            let lo = |a, b| _mm512_unpacklo_pd(a, b);
+            let hi = |a, b| _mm512_unpackhi_pd(a, b);
+            let t = [
+                lo(r[0], r[1]),
+                hi(r[0], r[1]),
+                lo(r[2], r[3]),
+                hi(r[2], r[3]),
+                lo(r[4], r[5]),
+                hi(r[4], r[5]),
+                lo(r[6], r[7]),
+                hi(r[6], r[7]),
+            ];
+            let perm = |a, idx: [i64; 8], b| {
+                _mm512_permutex2var_pd(a, _mm512_loadu_si512(idx.as_ptr().cast()), b)
+            };
+            const EVEN: [i64; 8] = [0, 1, 8, 9, 4, 5, 12, 13];
+            const ODD: [i64; 8] = [2, 3, 10, 11, 6, 7, 14, 15];
+            // u[k]: rows 0–3 (v: rows 4–7) of columns (c, c + 4) for c = 0, 2, 1, 3.
+            let u = [
+                perm(t[0], EVEN, t[2]),
+                perm(t[0], ODD, t[2]),
+                perm(t[1], EVEN, t[3]),
+                perm(t[1], ODD, t[3]),
+            ];
+            let v = [
+                perm(t[4], EVEN, t[6]),
+                perm(t[4], ODD, t[6]),
+                perm(t[5], EVEN, t[7]),
+                perm(t[5], ODD, t[7]),
+            ];
+            const LOW: [i64; 8] = [0, 1, 2, 3, 8, 9, 10, 11];
+            const HIGH: [i64; 8] = [4, 5, 6, 7, 12, 13, 14, 15];
+            [
+                perm(u[0], LOW, v[0]),
+                perm(u[2], LOW, v[2]),
+                perm(u[1], LOW, v[1]),
+                perm(u[3], LOW, v[3]),
+                perm(u[0], HIGH, v[0]),
+                perm(u[2], HIGH, v[2]),
+                perm(u[1], HIGH, v[1]),
+                perm(u[3], HIGH, v[3]),
+            ]
+        }
     }
     lane!(
         __m128d,
@@ -169,7 +307,10 @@ mod x86 {
         _mm_sub_pd,
         _mm_mul_pd,
         _mm_xor_pd,
-        _mm_set1_pd
+        _mm_set1_pd,
+        2,
+        lane0_128,
+        transpose2
     );
     lane!(
         __m256d,
@@ -179,7 +320,10 @@ mod x86 {
         _mm256_sub_pd,
         _mm256_mul_pd,
         _mm256_xor_pd,
-        _mm256_set1_pd
+        _mm256_set1_pd,
+        4,
+        lane0_256,
+        transpose4
     );
     lane!(
         __m512d,
@@ -189,7 +333,10 @@ mod x86 {
         _mm512_sub_pd,
         _mm512_mul_pd,
         xor512,
-        _mm512_set1_pd
+        _mm512_set1_pd,
+        8,
+        lane0_512,
+        transpose8
     );
 
     /// `_mm512_xor_pd` needs AVX-512 DQ; the integer xor needs only F (the level's feature).

@@ -73,6 +73,19 @@ pub(crate) use sample::FftReads;
 pub use sample::{FftSample, SampleFilter, lerp_samples, sample_between};
 pub use velocity::FftVelocityFrame;
 
+/// A vector whose first element sits on a 64-byte boundary (a cache line, and one AVX-512
+/// vector): the transforms' lane buffers and the grids. With the allocator's 16-byte alignment
+/// every 64-byte vector load or store of these buffers straddled two cache lines, which cost the
+/// AVX-512 frame about a fifth of its time. Alignment moves no value, so no bit changes.
+pub(crate) type AlignedVec<T> = aligned_vec::AVec<T, aligned_vec::ConstAlign<64>>;
+
+/// `len` copies of `v` in an [`AlignedVec`].
+pub(crate) fn aligned<T: Clone>(len: usize, v: T) -> AlignedVec<T> {
+    let mut a = AlignedVec::new(0);
+    a.resize(len, v);
+    a
+}
+
 use crate::spectrum::{SpectrumSpec, SpreadingSpec};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};

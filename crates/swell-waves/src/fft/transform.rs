@@ -38,6 +38,7 @@ use rustfft::{Fft, FftPlanner};
 
 use super::FftBackend;
 use super::lanes::{C, Lane, LaneFft, Lanes};
+use super::{AlignedVec, aligned};
 use crate::simd::{SimdLevel, simd_level};
 
 /// Plans and scratch sizes for inverse real 2-D transforms of one size, and a pool of working
@@ -85,27 +86,27 @@ pub(crate) struct Scratch {
     /// Native backend: G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
     cols: Vec<Complex<f64>>,
     /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
-    column: Vec<Complex<f64>>,
+    column: AlignedVec<Complex<f64>>,
     /// Native backend: one block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart)
     /// and its transform, and RustFFT's scratch.
     rows_in: Vec<Complex<f64>>,
     rows_out: Vec<Complex<f64>>,
     fft: Vec<Complex<f64>>,
     /// Portable backend: N values of W lanes, for the width in use (only one is ever sized).
-    lanes1: Vec<C<1>>,
-    lanes2: Vec<C<2>>,
-    lanes4: Vec<C<4>>,
-    lanes8: Vec<C<8>>,
+    lanes1: AlignedVec<C<1>>,
+    lanes2: AlignedVec<C<2>>,
+    lanes4: AlignedVec<C<4>>,
+    lanes8: AlignedVec<C<8>>,
     /// Portable backend: the row pass's packed input Z (N/2 row pairs × N entries, N/2·N/W
     /// values of W lanes), made by the column pass and transformed in place by the row pass.
     /// Block b (row pairs bW … bW + W − 1, one per lane) is `[b·N .. (b+1)·N]`, entry m at
     /// the plan's position `scatter[m]`: each block is contiguous and already in gather order.
-    rows1: Vec<C<1>>,
-    rows2: Vec<C<2>>,
-    rows4: Vec<C<4>>,
-    rows8: Vec<C<8>>,
+    rows1: AlignedVec<C<1>>,
+    rows2: AlignedVec<C<2>>,
+    rows4: AlignedVec<C<4>>,
+    rows8: AlignedVec<C<8>>,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
-    pub(crate) htilde: Vec<Complex<f64>>,
+    pub(crate) htilde: AlignedVec<Complex<f64>>,
     /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
     /// `FftLayer::phase_omegas`); resized by the frame.
     pub(crate) phases: Vec<(f64, f64)>,
@@ -155,19 +156,19 @@ impl InverseRealFft2 {
         };
         Scratch {
             cols: vec![zero; cols],
-            column: Vec::new(),
+            column: AlignedVec::new(0),
             rows_in: vec![zero; rows * (self.n + ROW_STRIDE_PAD)],
             rows_out: vec![zero; rows * self.n],
             fft: vec![zero; fft_len],
-            lanes1: Vec::new(),
-            lanes2: Vec::new(),
-            lanes4: Vec::new(),
-            lanes8: Vec::new(),
-            rows1: Vec::new(),
-            rows2: Vec::new(),
-            rows4: Vec::new(),
-            rows8: Vec::new(),
-            htilde: vec![zero; half],
+            lanes1: AlignedVec::new(0),
+            lanes2: AlignedVec::new(0),
+            lanes4: AlignedVec::new(0),
+            lanes8: AlignedVec::new(0),
+            rows1: AlignedVec::new(0),
+            rows2: AlignedVec::new(0),
+            rows4: AlignedVec::new(0),
+            rows8: AlignedVec::new(0),
+            htilde: aligned(half, zero),
             phases: Vec::new(),
         }
     }
@@ -325,38 +326,38 @@ impl InverseRealFft2 {
 
 /// The lane buffers of width W in a scratch: one transform's values, and the row pass's input.
 trait LaneBuf<const W: usize> {
-    fn lanes(&mut self) -> &mut Vec<C<W>>;
-    fn rows(&mut self) -> &mut Vec<C<W>>;
+    fn lanes(&mut self) -> &mut AlignedVec<C<W>>;
+    fn rows(&mut self) -> &mut AlignedVec<C<W>>;
 }
 impl LaneBuf<1> for Scratch {
-    fn lanes(&mut self) -> &mut Vec<C<1>> {
+    fn lanes(&mut self) -> &mut AlignedVec<C<1>> {
         &mut self.lanes1
     }
-    fn rows(&mut self) -> &mut Vec<C<1>> {
+    fn rows(&mut self) -> &mut AlignedVec<C<1>> {
         &mut self.rows1
     }
 }
 impl LaneBuf<2> for Scratch {
-    fn lanes(&mut self) -> &mut Vec<C<2>> {
+    fn lanes(&mut self) -> &mut AlignedVec<C<2>> {
         &mut self.lanes2
     }
-    fn rows(&mut self) -> &mut Vec<C<2>> {
+    fn rows(&mut self) -> &mut AlignedVec<C<2>> {
         &mut self.rows2
     }
 }
 impl LaneBuf<4> for Scratch {
-    fn lanes(&mut self) -> &mut Vec<C<4>> {
+    fn lanes(&mut self) -> &mut AlignedVec<C<4>> {
         &mut self.lanes4
     }
-    fn rows(&mut self) -> &mut Vec<C<4>> {
+    fn rows(&mut self) -> &mut AlignedVec<C<4>> {
         &mut self.rows4
     }
 }
 impl LaneBuf<8> for Scratch {
-    fn lanes(&mut self) -> &mut Vec<C<8>> {
+    fn lanes(&mut self) -> &mut AlignedVec<C<8>> {
         &mut self.lanes8
     }
-    fn rows(&mut self) -> &mut Vec<C<8>> {
+    fn rows(&mut self) -> &mut AlignedVec<C<8>> {
         &mut self.rows8
     }
 }
@@ -386,9 +387,9 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
     let h = n / 2;
     debug_assert_eq!(out.len(), n * n);
     let zero = Complex::new(0.0, 0.0);
-    let mut data = std::mem::take(LaneBuf::<W>::lanes(s));
+    let mut data = std::mem::replace(LaneBuf::<W>::lanes(s), AlignedVec::new(0));
     data.resize(n, C::ZERO);
-    let mut zs = std::mem::take(LaneBuf::<W>::rows(s));
+    let mut zs = std::mem::replace(LaneBuf::<W>::rows(s), AlignedVec::new(0));
     zs.resize(h * n / W, C::ZERO);
     let gather = fft.gather_order();
     let mut columns = columns;
@@ -448,60 +449,61 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
         // (rows a = 2p, b = 2p + 1), Z[m] = G_a[m] + i·G_b[m] and Z[N − m] = conj(G_a[m]) +
         // i·conj(G_b[m]) in the scalar packing's operations, then W × W transposes turn lanes
         // of columns into lanes of row pairs, stored at the entries' places in the plan's order.
+        // Where lane l's entries go in every block: Z[m] to `scatter[m]`, Z[N − m] to
+        // `scatter[N − m]`; m = 0 has no Z[N − 0], so its row goes to a sink.
+        let at_pos: [usize; W] = std::array::from_fn(|l| scatter[m0 + l] as usize);
+        let at_neg: [Option<usize>; W] =
+            std::array::from_fn(|l| (m0 + l > 0).then(|| scatter[n - m0 - l] as usize));
+        let mut sink = C::<W>::ZERO;
+        let sink: *mut C<W> = &mut sink;
         for (jb, block) in data.chunks_exact(2 * W).enumerate() {
-            let mut zp = [C::<W>::ZERO; W];
-            let mut zn = [C::<W>::ZERO; W];
-            for r in 0..W {
-                let (ga, gb) = (&block[2 * r], &block[2 * r + 1]);
-                zp[r] = C {
-                    re: std::array::from_fn(|l| ga.re[l] - gb.im[l]),
-                    im: std::array::from_fn(|l| ga.im[l] + gb.re[l]),
-                };
-                zn[r] = C {
-                    re: std::array::from_fn(|l| ga.re[l] + gb.im[l]),
-                    im: std::array::from_fn(|l| gb.re[l] - ga.im[l]),
-                };
-                if m0 == 0 {
-                    // m = 0 (lane 0): Z[0] = (G_a[0].re, G_b[0].re), real up to rounding.
-                    zp[r].re[0] = ga.re[0];
-                    zp[r].im[0] = gb.re[0];
+            let base = zs[jb * n..(jb + 1) * n].as_mut_ptr();
+            // Four W × W blocks, each made in registers and stored transposed: Re Z[m],
+            // Im Z[m], Re Z[N − m], Im Z[N − m] of the W row pairs r (rows 2r, 2r + 1).
+            for part in 0..4 {
+                let mut rows = [V::splat(0.0); W];
+                for (r, row) in rows.iter_mut().enumerate() {
+                    let (ga, gb) = (&block[2 * r], &block[2 * r + 1]);
+                    // SAFETY: each array holds W f64, V's lane count (this function's contract).
+                    let (are, aim, bre, bim) = unsafe {
+                        (
+                            V::load(ga.re.as_ptr()),
+                            V::load(ga.im.as_ptr()),
+                            V::load(gb.re.as_ptr()),
+                            V::load(gb.im.as_ptr()),
+                        )
+                    };
+                    *row = match part {
+                        // m = 0 (lane 0 of the first batch): Z[0] = (G_a[0].re, G_b[0].re),
+                        // real up to rounding.
+                        0 if m0 == 0 => are.sub(bim).with_lane0(are),
+                        0 => are.sub(bim),
+                        1 if m0 == 0 => aim.add(bre).with_lane0(bre),
+                        1 => aim.add(bre),
+                        2 => are.add(bim),
+                        _ => bre.sub(aim),
+                    };
                 }
-            }
-            let zblock = &mut zs[jb * n..(jb + 1) * n];
-            let base = zblock.as_mut_ptr();
-            // m = 0 has no Z[N − 0]: its row goes to a sink.
-            let mut sink = C::<W>::ZERO;
-            for (z, neg) in [(&zp, false), (&zn, true)] {
-                for im in [false, true] {
-                    let from: [*const f64; W] = std::array::from_fn(|r| {
-                        if im {
-                            z[r].im.as_ptr()
+                let to: [*mut f64; W] = std::array::from_fn(|l| {
+                    let d: *mut C<W> = match (part < 2, at_neg[l]) {
+                        // SAFETY: scatter[k] < n = the block's length for k < n (m < h).
+                        (true, _) => unsafe { base.add(at_pos[l]) },
+                        (false, Some(at)) => unsafe { base.add(at) },
+                        (false, None) => sink,
+                    };
+                    // SAFETY: `d` points to a live C<W> (of `zs` or the sink).
+                    unsafe {
+                        if part % 2 == 1 {
+                            std::ptr::addr_of_mut!((*d).im).cast::<f64>()
                         } else {
-                            z[r].re.as_ptr()
+                            std::ptr::addr_of_mut!((*d).re).cast::<f64>()
                         }
-                    });
-                    let to: [*mut f64; W] = std::array::from_fn(|l| {
-                        let m = m0 + l;
-                        let d: *mut C<W> = match (neg, m) {
-                            (true, 0) => &mut sink,
-                            // SAFETY: scatter[k] < n = zblock.len() for k < n (m < h).
-                            (true, _) => unsafe { base.add(scatter[n - m] as usize) },
-                            (false, _) => unsafe { base.add(scatter[m] as usize) },
-                        };
-                        // SAFETY: `d` points to a live C<W> (of `zblock` or `sink`).
-                        unsafe {
-                            if im {
-                                std::ptr::addr_of_mut!((*d).im).cast::<f64>()
-                            } else {
-                                std::ptr::addr_of_mut!((*d).re).cast::<f64>()
-                            }
-                        }
-                    });
-                    // SAFETY: W rows of W f64 read from `zp`/`zn`, written to the re or im
-                    // array of W distinct entries (scatter is a permutation, and m, N − m and
-                    // the sink never coincide).
-                    unsafe { transpose_rows::<W>(from, to) };
-                }
+                    }
+                });
+                // SAFETY: V has W lanes; each destination is the re or im array (W f64) of a
+                // distinct entry (scatter is a permutation, and m, N − m and the sink never
+                // coincide).
+                unsafe { V::transpose_store(rows, to) };
             }
         }
     }
@@ -578,8 +580,7 @@ unsafe fn transpose_rows<const W: usize>(src: [*const f64; W], dst: [*mut f64; W
     }
 }
 
-/// [`transpose_rows`] for W = 8 in AVX-512 registers: pairs interleaved, then 2×2 and 4×4
-/// blocks moved with two-source permutes (24 shuffles, no arithmetic).
+/// [`transpose_rows`] for W = 8 in AVX-512 registers ([`super::lanes::x86::transpose8`]).
 ///
 /// # Safety
 /// As [`transpose_rows`].
@@ -589,59 +590,16 @@ unsafe fn transpose_rows<const W: usize>(src: [*const f64; W], dst: [*mut f64; W
 unsafe fn transpose8_rows_avx512(src: [*const f64; 8], dst: [*mut f64; 8]) {
     use std::arch::x86_64::*;
     // SAFETY: the caller's contract: 8 readable f64 at each source row, 8 writable at each
-    // destination row (unaligned access is allowed); the index vectors are 8 i64 each.
+    // destination row (unaligned access is allowed); this function has AVX-512 F.
     unsafe {
         let r: [__m512d; 8] = std::array::from_fn(|i| _mm512_loadu_pd(src[i]));
-        // lo(a, b) = [a0 b0 a2 b2 a4 b4 a6 b6], hi = [a1 b1 a3 b3 a5 b5 a7 b7].
-        let lo = |a, b| _mm512_unpacklo_pd(a, b);
-        let hi = |a, b| _mm512_unpackhi_pd(a, b);
-        let t = [
-            lo(r[0], r[1]),
-            hi(r[0], r[1]),
-            lo(r[2], r[3]),
-            hi(r[2], r[3]),
-            lo(r[4], r[5]),
-            hi(r[4], r[5]),
-            lo(r[6], r[7]),
-            hi(r[6], r[7]),
-        ];
-        let perm = |a, idx: [i64; 8], b| {
-            _mm512_permutex2var_pd(a, _mm512_loadu_si512(idx.as_ptr().cast()), b)
-        };
-        const EVEN: [i64; 8] = [0, 1, 8, 9, 4, 5, 12, 13];
-        const ODD: [i64; 8] = [2, 3, 10, 11, 6, 7, 14, 15];
-        // u[k]: rows 0–3 (v: rows 4–7) of columns (c, c + 4) for c = 0, 2, 1, 3.
-        let u = [
-            perm(t[0], EVEN, t[2]),
-            perm(t[0], ODD, t[2]),
-            perm(t[1], EVEN, t[3]),
-            perm(t[1], ODD, t[3]),
-        ];
-        let v = [
-            perm(t[4], EVEN, t[6]),
-            perm(t[4], ODD, t[6]),
-            perm(t[5], EVEN, t[7]),
-            perm(t[5], ODD, t[7]),
-        ];
-        const LOW: [i64; 8] = [0, 1, 2, 3, 8, 9, 10, 11];
-        const HIGH: [i64; 8] = [4, 5, 6, 7, 12, 13, 14, 15];
-        let cols = [
-            perm(u[0], LOW, v[0]),
-            perm(u[2], LOW, v[2]),
-            perm(u[1], LOW, v[1]),
-            perm(u[3], LOW, v[3]),
-            perm(u[0], HIGH, v[0]),
-            perm(u[2], HIGH, v[2]),
-            perm(u[1], HIGH, v[1]),
-            perm(u[3], HIGH, v[3]),
-        ];
-        for (d, c) in dst.into_iter().zip(cols) {
+        for (d, c) in dst.into_iter().zip(super::lanes::x86::transpose8(r)) {
             _mm512_storeu_pd(d, c);
         }
     }
 }
 
-/// [`transpose_rows`] for W = 4 in AVX2 registers (unpack, then swap 128-bit halves).
+/// [`transpose_rows`] for W = 4 in AVX2 registers ([`super::lanes::x86::transpose4`]).
 ///
 /// # Safety
 /// As [`transpose_rows`].
@@ -651,20 +609,10 @@ unsafe fn transpose8_rows_avx512(src: [*const f64; 8], dst: [*mut f64; 8]) {
 unsafe fn transpose4_rows_avx2(src: [*const f64; 4], dst: [*mut f64; 4]) {
     use std::arch::x86_64::*;
     // SAFETY: the caller's contract: 4 readable f64 at each source row, 4 writable at each
-    // destination row (unaligned access is allowed).
+    // destination row (unaligned access is allowed); this function has AVX2.
     unsafe {
         let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(src[i]));
-        let t0 = _mm256_unpacklo_pd(r[0], r[1]);
-        let t1 = _mm256_unpackhi_pd(r[0], r[1]);
-        let t2 = _mm256_unpacklo_pd(r[2], r[3]);
-        let t3 = _mm256_unpackhi_pd(r[2], r[3]);
-        let cols = [
-            _mm256_permute2f128_pd(t0, t2, 0x20),
-            _mm256_permute2f128_pd(t1, t3, 0x20),
-            _mm256_permute2f128_pd(t0, t2, 0x31),
-            _mm256_permute2f128_pd(t1, t3, 0x31),
-        ];
-        for (d, c) in dst.into_iter().zip(cols) {
+        for (d, c) in dst.into_iter().zip(super::lanes::x86::transpose4(r)) {
             _mm256_storeu_pd(d, c);
         }
     }

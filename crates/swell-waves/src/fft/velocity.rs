@@ -20,6 +20,8 @@
 
 use std::sync::Arc;
 
+use super::{AlignedVec, aligned};
+
 use glam::{DVec2, DVec3};
 use rustfft::num_complex::Complex;
 
@@ -107,7 +109,7 @@ impl FftLayer {
             })
             .collect();
         let grids = self.velocity_grids();
-        let mut out_grids: [Option<Vec<f64>>; 8] = Default::default();
+        let mut out_grids: [Option<AlignedVec<f64>>; 8] = Default::default();
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
         for &grid in grids {
@@ -117,7 +119,7 @@ impl FftLayer {
                 let kx = self.kx_cols[m];
                 grid.apply_column(kx, &self.kz_rows, inv_k, self.choppiness, rate, col);
             }
-            let mut out = vec![0.0; n * n];
+            let mut out = aligned(n * n, 0.0);
             self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
         }
@@ -142,7 +144,7 @@ impl FftLayer {
     fn velocity_frame_of(
         &self,
         t: f64,
-        grids: [Option<Vec<f64>>; 8],
+        grids: [Option<AlignedVec<f64>>; 8],
         transforms: usize,
         pool: Option<Arc<super::frame::GridPool>>,
     ) -> FftVelocityFrame {
@@ -202,7 +204,7 @@ impl FftLayer {
             None
         };
         let rate = 0.5 / self.time_step;
-        let mut out_grids: [Option<Vec<f64>>; 8] = Default::default();
+        let mut out_grids: [Option<AlignedVec<f64>>; 8] = Default::default();
         for &grid in grids {
             // Present in every frame: checked by `get`.
             let (Some(a), Some(b)) = (before.grid(grid), after.grid(grid)) else {
