@@ -212,28 +212,16 @@ impl FftLayer {
                     .take()
                     .filter(|g| g.len() == n * n)
                     .unwrap_or_else(|| self.grid_pool.take());
-                if grid == FftGrid::Height {
-                    // c(k) = 1: the spectrum is h̃ itself.
-                    self.transform.process(&htilde, &mut scratch, &mut out);
-                } else {
-                    // Each column's spectrum c(k)·h̃ is made just before its transform.
-                    self.transform.process_with(
-                        #[inline(always)]
-                        |m: usize, col: &mut [Complex<f64>]| {
-                            let span = m * n..(m + 1) * n;
-                            grid.apply_column(
-                                self.kx_cols[m],
-                                &self.kz_rows,
-                                &self.inv_ks[span.clone()],
-                                self.choppiness,
-                                &htilde[span],
-                                col,
-                            );
-                        },
-                        &mut scratch,
-                        &mut out,
-                    );
-                }
+                self.transform.process_grid(
+                    grid,
+                    transforms == 0,
+                    &htilde,
+                    (&self.kx_cols, &self.kz_rows, &self.inv_ks),
+                    self.choppiness,
+                    self.spread_waves.as_ref(),
+                    &mut scratch,
+                    &mut out,
+                );
                 grids[grid.index()] = Some(out);
                 transforms += 1;
             }

@@ -75,6 +75,8 @@ pub(crate) unsafe trait Lane: Copy {
     fn splat(x: f64) -> Self;
     /// Lane 0 of `from`, the other lanes of `self` (a move: no bit changes).
     fn with_lane0(self, from: Self) -> Self;
+    /// Per lane, `if key == 0.0 { a } else { b }` (IEEE equality: −0.0 is zero, NaN is not).
+    fn where_zero(key: Self, a: Self, b: Self) -> Self;
     /// Stores the transpose of the W × W block whose rows are `rows`, `dst[c][r] = rows[r][c]`,
     /// shuffling in registers (moves only: the bits are untouched).
     ///
@@ -82,6 +84,15 @@ pub(crate) unsafe trait Lane: Copy {
     /// W must be the type's lane count, and each `dst[c]` valid for writing W f64 (no
     /// alignment needed).
     unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]);
+    /// [`Lane::transpose_store`] with non-temporal stores where the type has them (they skip
+    /// reading the destination's cache lines first; follow them with [`Lane::fence`] before
+    /// the data is shared).
+    ///
+    /// # Safety
+    /// As `transpose_store`, and each `dst[c]` aligned to the vector's size.
+    unsafe fn transpose_stream<const W: usize>(rows: [Self; W], dst: [*mut f64; W]);
+    /// Orders earlier non-temporal stores before later stores (`sfence`; nothing for arrays).
+    fn fence();
 }
 
 // SAFETY: plain Rust arithmetic, valid on every CPU.
@@ -122,6 +133,17 @@ unsafe impl<const W: usize> Lane for Lanes<W> {
         self
     }
     #[inline(always)]
+    fn where_zero(key: Self, a: Self, b: Self) -> Self {
+        std::array::from_fn(|l| if key[l] == 0.0 { a[l] } else { b[l] })
+    }
+    #[inline(always)]
+    unsafe fn transpose_stream<const K: usize>(rows: [Self; K], dst: [*mut f64; K]) {
+        // SAFETY: the caller's contract.
+        unsafe { Self::transpose_store(rows, dst) }
+    }
+    #[inline(always)]
+    fn fence() {}
+    #[inline(always)]
     unsafe fn transpose_store<const K: usize>(rows: [Self; K], dst: [*mut f64; K]) {
         debug_assert_eq!(K, W);
         for (c, &d) in dst.iter().enumerate() {
@@ -143,7 +165,7 @@ pub(crate) mod x86 {
 
     macro_rules! lane {
         ($t:ty, $load:ident, $store:ident, $add:ident, $sub:ident, $mul:ident, $xor:ident,
-         $set1:ident, $lanes:literal, $lane0:ident, $transpose:ident) => {
+         $set1:ident, $lanes:literal, $lane0:ident, $select:ident, $transpose:ident, $stream:ident) => {
             // SAFETY: the trait's contract puts the CPU check on the users of these types
             // (`LaneFft::run_simd`); each method is the lane-wise IEEE operation.
             unsafe impl Lane for $t {
@@ -187,6 +209,25 @@ pub(crate) mod x86 {
                     $lane0(self, from)
                 }
                 #[inline(always)]
+                fn where_zero(key: Self, a: Self, b: Self) -> Self {
+                    $select(key, a, b)
+                }
+                #[inline(always)]
+                unsafe fn transpose_stream<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
+                    assert!(W == $lanes, "transpose_stream: lane count");
+                    let cols = $transpose(std::array::from_fn(|r| rows[r]));
+                    for (c, col) in cols.into_iter().enumerate() {
+                        // SAFETY: the caller's contract (W = the lane count, so c < W; each
+                        // destination aligned to the vector's size).
+                        unsafe { $stream(dst[c], col) };
+                    }
+                }
+                #[inline(always)]
+                fn fence() {
+                    // SAFETY: SSE is on every x86-64 CPU.
+                    unsafe { _mm_sfence() }
+                }
+                #[inline(always)]
                 unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
                     assert!(W == $lanes, "transpose_store: lane count");
                     let cols = $transpose(std::array::from_fn(|r| rows[r]));
@@ -219,6 +260,33 @@ pub(crate) mod x86 {
     fn lane0_512(a: __m512d, b: __m512d) -> __m512d {
         // SAFETY: the `Lane` contract: AVX-512 F is available where `__m512d` lanes are used.
         unsafe { _mm512_mask_blend_pd(1, a, b) }
+    }
+
+    /// `a` where `key == 0.0`, else `b` (SSE2: a compare mask, then and / andnot / or).
+    #[inline(always)]
+    fn select_128(key: __m128d, a: __m128d, b: __m128d) -> __m128d {
+        // SAFETY: SSE2 is on every x86-64 CPU.
+        unsafe {
+            let zero = _mm_cmpeq_pd(key, _mm_setzero_pd());
+            _mm_or_pd(_mm_and_pd(zero, a), _mm_andnot_pd(zero, b))
+        }
+    }
+
+    /// `a` where `key == 0.0`, else `b` (AVX, as `lane0_256`).
+    #[inline(always)]
+    fn select_256(key: __m256d, a: __m256d, b: __m256d) -> __m256d {
+        // SAFETY: the `Lane` contract: AVX is available where `__m256d` lanes are used.
+        unsafe { _mm256_blendv_pd(b, a, _mm256_cmp_pd::<_CMP_EQ_OQ>(key, _mm256_setzero_pd())) }
+    }
+
+    /// `a` where `key == 0.0`, else `b` (AVX-512 F, as `lane0_512`).
+    #[inline(always)]
+    fn select_512(key: __m512d, a: __m512d, b: __m512d) -> __m512d {
+        // SAFETY: the `Lane` contract: AVX-512 F is available where `__m512d` lanes are used.
+        unsafe {
+            let zero = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(key, _mm512_setzero_pd());
+            _mm512_mask_blend_pd(zero, b, a)
+        }
     }
 
     /// The 2 × 2 transpose of two rows (SSE2 unpacks).
@@ -310,7 +378,9 @@ pub(crate) mod x86 {
         _mm_set1_pd,
         2,
         lane0_128,
-        transpose2
+        select_128,
+        transpose2,
+        _mm_stream_pd
     );
     lane!(
         __m256d,
@@ -323,7 +393,9 @@ pub(crate) mod x86 {
         _mm256_set1_pd,
         4,
         lane0_256,
-        transpose4
+        select_256,
+        transpose4,
+        _mm256_stream_pd
     );
     lane!(
         __m512d,
@@ -336,7 +408,9 @@ pub(crate) mod x86 {
         _mm512_set1_pd,
         8,
         lane0_512,
-        transpose8
+        select_512,
+        transpose8,
+        _mm512_stream_pd
     );
 
     /// `_mm512_xor_pd` needs AVX-512 DQ; the integer xor needs only F (the level's feature).

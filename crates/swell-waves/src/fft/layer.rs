@@ -7,7 +7,7 @@ use rustfft::num_complex::Complex;
 use std::sync::Arc;
 
 use super::frame::GridPool;
-use super::transform::InverseRealFft2;
+use super::transform::{InverseRealFft2, SpreadWaves};
 use super::{DEFAULT_TIME_STEP, FftBackend, FftSpec, MIN_TIME_STEP};
 use crate::error::{SpecError, direction, finite, in_range, non_negative};
 use crate::math::{SwellRng, TAU, mode_key};
@@ -127,6 +127,9 @@ pub struct FftLayer {
     pub(crate) kx_cols: Vec<f64>,
     pub(crate) kz_rows: Vec<f64>,
     pub(crate) inv_ks: Vec<f64>,
+    /// The same parts laid out for the portable backend's column pass (`None` for the native
+    /// backend).
+    pub(crate) spread_waves: Option<SpreadWaves>,
     pub(crate) modes: usize,
     pub(crate) variance: f64,
     pub(crate) transform: InverseRealFft2,
@@ -312,15 +315,17 @@ impl FftLayer {
             .iter()
             .map(|m| [m.h0.re, m.h0.im, m.h0_neg.re, m.h0_neg.im])
             .collect();
-        let kx_cols = (0..h).map(|m| wave_vector(m, 0).x).collect();
-        let kz_rows = (0..n as i32)
+        let kx_cols: Vec<f64> = (0..h).map(|m| wave_vector(m, 0).x).collect();
+        let kz_rows: Vec<f64> = (0..n as i32)
             .map(|i| match i {
                 _ if i < h => wave_vector(0, i).y,
                 _ if i == h => 0.0,
                 _ => wave_vector(0, i - n as i32).y,
             })
             .collect();
-        let inv_ks = half.iter().map(|m| m.inv_k).collect();
+        let inv_ks: Vec<f64> = half.iter().map(|m| m.inv_k).collect();
+        let transform = InverseRealFft2::new(n, spec.backend);
+        let spread_waves = transform.spread_waves(&kx_cols, &kz_rows, &inv_ks);
         Ok(FftLayer {
             n,
             tile_size,
@@ -336,9 +341,10 @@ impl FftLayer {
             kx_cols,
             kz_rows,
             inv_ks,
+            spread_waves,
             modes,
             variance,
-            transform: InverseRealFft2::new(n, spec.backend),
+            transform,
             grid_pool: Arc::new(GridPool::new(n)),
         })
     }

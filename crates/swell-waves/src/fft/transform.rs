@@ -23,7 +23,10 @@
 //! (`m0 … m0 + W − 1`), then W row pairs. W is 1, 2, 4 or 8 by [`crate::simd::simd_level`];
 //! every width gives the same bits. Inputs are gathered straight into the plan's bit-reversed
 //! order, so no transform needs a copy of its own: the columns from the spectrum, and the row
-//! pairs from the column pass, which packs them as it finishes each block of columns.
+//! pairs from the column pass, which packs them as it finishes each block of columns. A frame
+//! gathers h̃ into lanes once and forms each grid's column spectra from them, W columns per
+//! vector operation ([`Spread`]). The buffers are 64-byte aligned, and the grid is written
+//! with non-temporal stores when it is.
 //!
 //! **Native backend.** RustFFT's run-time dispatched planner, one transform at a time; rows are
 //! packed, transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
@@ -37,6 +40,7 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
 use super::FftBackend;
+use super::FftGrid;
 use super::lanes::{C, Lane, LaneFft, Lanes};
 use super::{AlignedVec, aligned};
 use crate::simd::{SimdLevel, simd_level};
@@ -85,7 +89,7 @@ impl std::fmt::Debug for InverseRealFft2 {
 pub(crate) struct Scratch {
     /// Native backend: G[m, j] after the column pass (N/2·N, column m at `[m·N .. (m+1)·N]`).
     cols: Vec<Complex<f64>>,
-    /// Up to 8 columns' spectra (N each), filled by the caller of `process_with`.
+    /// Native backend: one column's spectrum (N), made just before its transform.
     column: AlignedVec<Complex<f64>>,
     /// Native backend: one block of packed rows (ROW_PAIRS rows of N, ROW_STRIDE_PAD apart)
     /// and its transform, and RustFFT's scratch.
@@ -105,6 +109,14 @@ pub(crate) struct Scratch {
     rows2: AlignedVec<C<2>>,
     rows4: AlignedVec<C<4>>,
     rows8: AlignedVec<C<8>>,
+    /// Portable backend: h̃ in lanes for [`Spread`] (N/2·N/W values of W lanes; block b,
+    /// columns bW … bW + W − 1, at `[b·N .. (b+1)·N]` in the plan's order), and the width it
+    /// was gathered at (0: none yet).
+    spread1: AlignedVec<C<1>>,
+    spread2: AlignedVec<C<2>>,
+    spread4: AlignedVec<C<4>>,
+    spread8: AlignedVec<C<8>>,
+    spread_width: usize,
     /// h̃(k, t) over the half plane (N/2·N), filled by the frame.
     pub(crate) htilde: AlignedVec<Complex<f64>>,
     /// `(sin, cos)` of each distinct frequency's phase at the frame's time (see
@@ -113,11 +125,41 @@ pub(crate) struct Scratch {
 }
 
 /// Where a 2-D transform's column spectra come from.
-enum Columns<'a, F> {
+#[derive(Clone, Copy)]
+enum Columns<'a> {
     /// A stored half spectrum, column m at `[m·N .. (m+1)·N]`.
     Half(&'a [Complex<f64>]),
-    /// Made on demand: `f(m, buf)` writes column m into `buf` (N entries, all of them).
-    Made(F),
+    /// One grid of a frame: `c(k)·h̃` with `h̃` and the multiplier's parts in lane layout
+    /// ([`Spread`]).
+    Spread(Spread<'a>),
+}
+
+/// A frame's grid for the portable column pass: h̃ (half plane, column m at `[m·N ..]`), the
+/// grid whose multiplier c(k) applies, and the layer's wave vectors in lane layout.
+///
+/// The first grid of a frame (`fresh`) gathers h̃ into lanes once, in the plan's order
+/// (`Scratch::spread*`, one block of W columns after another); every grid then forms its
+/// column spectra from those lanes, W columns per vector operation, straight into the
+/// transform's input. Each lane does exactly [`FftGrid::apply_column`]'s operations on its
+/// entry, so the bits are those of transforming the assembled spectrum (a test pins it).
+#[derive(Clone, Copy)]
+pub(crate) struct Spread<'a> {
+    pub(crate) htilde: &'a [Complex<f64>],
+    pub(crate) fresh: bool,
+    pub(crate) grid: FftGrid,
+    pub(crate) lambda: f64,
+    pub(crate) waves: &'a SpreadWaves,
+}
+
+/// A layer's wave-vector parts laid out for [`Spread`]: `kx[m]` (`kx_cols`), `kz[p]` the kz of
+/// the entry at plan position p (`kz_rows[gather[p]]`), and `inv_k[p·N/2 + m]` = `1/|k|` of
+/// entry (m, gather[p]) (`inv_ks`, 0 for an empty entry), so the W columns of a block are W
+/// consecutive values at every position.
+#[derive(Clone, Debug)]
+pub(crate) struct SpreadWaves {
+    kx: Vec<f64>,
+    kz: Vec<f64>,
+    inv_k: AlignedVec<f64>,
 }
 
 impl InverseRealFft2 {
@@ -168,6 +210,11 @@ impl InverseRealFft2 {
             rows2: AlignedVec::new(0),
             rows4: AlignedVec::new(0),
             rows8: AlignedVec::new(0),
+            spread1: AlignedVec::new(0),
+            spread2: AlignedVec::new(0),
+            spread4: AlignedVec::new(0),
+            spread8: AlignedVec::new(0),
+            spread_width: 0,
             htilde: aligned(half, zero),
             phases: Vec::new(),
         }
@@ -197,13 +244,9 @@ impl InverseRealFft2 {
         let n = self.n;
         debug_assert_eq!(half.len(), n / 2 * n);
         match &self.engine {
-            Engine::Lanes { fft, scatter } => self.dispatch(
-                fft,
-                scatter,
-                Columns::<fn(usize, &mut [Complex<f64>])>::Half(half),
-                scratch,
-                out,
-            ),
+            Engine::Lanes { fft, scatter } => {
+                self.dispatch(fft, scatter, Columns::Half(half), scratch, out)
+            }
             Engine::Rust(fft) => {
                 // Column pass straight from `half` into G: RustFFT's immutable form runs the
                 // same algorithm as its in-place one.
@@ -213,47 +256,106 @@ impl InverseRealFft2 {
         }
     }
 
-    /// [`InverseRealFft2::process`] of the half spectrum whose column m `column(m, buf)` writes
-    /// into `buf` (N entries, every one of them): a few columns at a time, each transformed
-    /// while it is in L1, and no N/2·N spectrum is ever stored. Same bits as `process` of the
-    /// assembled spectrum.
-    #[inline(always)]
-    pub(crate) fn process_with(
+    /// The wave-vector parts of a layer laid out for [`Spread`] (portable backend; `None` for
+    /// the native one, which multiplies column by column).
+    pub(crate) fn spread_waves(
         &self,
-        mut column: impl FnMut(usize, &mut [Complex<f64>]),
+        kx_cols: &[f64],
+        kz_rows: &[f64],
+        inv_ks: &[f64],
+    ) -> Option<SpreadWaves> {
+        let Engine::Lanes { fft, .. } = &self.engine else {
+            return None;
+        };
+        let (n, h) = (self.n, self.n / 2);
+        let gather = fft.gather_order();
+        let mut inv_k = aligned(h * n, 0.0);
+        for (p, &g) in gather.iter().enumerate() {
+            for m in 0..h {
+                inv_k[p * h + m] = inv_ks[m * n + g as usize];
+            }
+        }
+        Some(SpreadWaves {
+            kx: kx_cols.to_vec(),
+            kz: gather.iter().map(|&g| kz_rows[g as usize]).collect(),
+            inv_k,
+        })
+    }
+
+    /// One grid of a frame into `out`: the transform of the half spectrum `c(k)·h̃` of `grid`
+    /// ([`FftGrid::apply_column`] on the layer's `kx_cols`, `kz_rows`, `inv_ks`, choppiness
+    /// `lambda`). `fresh` is true for a frame's first grid: h̃ changed since the last call with
+    /// this scratch. The portable backend reads the multiplier's parts from `waves`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn process_grid(
+        &self,
+        grid: FftGrid,
+        fresh: bool,
+        htilde: &[Complex<f64>],
+        (kx_cols, kz_rows, inv_ks): (&[f64], &[f64], &[f64]),
+        lambda: f64,
+        waves: Option<&SpreadWaves>,
         scratch: &mut Scratch,
         out: &mut [f64],
     ) {
         let n = self.n;
-        match &self.engine {
-            Engine::Lanes { fft, scatter } => {
-                self.dispatch(fft, scatter, Columns::Made(column), scratch, out)
+        match (&self.engine, waves) {
+            (Engine::Lanes { fft, scatter }, Some(waves)) => {
+                let spread = Spread {
+                    htilde,
+                    fresh,
+                    grid,
+                    lambda,
+                    waves,
+                };
+                self.dispatch(fft, scatter, Columns::Spread(spread), scratch, out)
             }
-            Engine::Rust(fft) => {
+            _ if grid == FftGrid::Height => self.process(htilde, scratch, out),
+            (Engine::Rust(fft), _) => {
                 scratch.column.resize(n, Complex::new(0.0, 0.0));
                 for (m, g) in scratch.cols.chunks_exact_mut(n).enumerate() {
-                    column(m, &mut scratch.column);
+                    let span = m * n..(m + 1) * n;
+                    grid.apply_column(
+                        kx_cols[m],
+                        kz_rows,
+                        &inv_ks[span.clone()],
+                        lambda,
+                        &htilde[span],
+                        &mut scratch.column,
+                    );
                     fft.process_outofplace_with_scratch(&mut scratch.column, g, &mut scratch.fft);
                 }
                 self.row_pass_rust(fft, scratch, out);
+            }
+            (Engine::Lanes { .. }, None) => {
+                // Not reached (a portable layer always has its spread waves); the assembled
+                // spectrum gives the same bits.
+                let mut half = aligned(n / 2 * n, Complex::new(0.0, 0.0));
+                for (m, col) in half.chunks_exact_mut(n).enumerate() {
+                    let span = m * n..(m + 1) * n;
+                    let inv = &inv_ks[span.clone()];
+                    grid.apply_column(kx_cols[m], kz_rows, inv, lambda, &htilde[span], col);
+                }
+                self.process(&half, scratch, out);
             }
         }
     }
 
     /// The portable 2-D transform at the level in use: the same bits at every level.
     #[inline(always)]
-    fn dispatch<F: FnMut(usize, &mut [Complex<f64>])>(
+    fn dispatch(
         &self,
         fft: &LaneFft,
         scatter: &[u32],
-        columns: Columns<'_, F>,
+        columns: Columns<'_>,
         s: &mut Scratch,
         out: &mut [f64],
     ) {
         match simd_level() {
             SimdLevel::Scalar => {
                 // SAFETY: `[f64; 1]` lanes run on every CPU.
-                unsafe { lanes_2d::<Lanes<1>, 1, F>(fft, scatter, columns, s, out) }
+                unsafe { lanes_2d::<Lanes<1>, 1>(fft, scatter, columns, s, out) }
             }
             #[cfg(target_arch = "x86_64")]
             SimdLevel::Sse2 => {
@@ -272,7 +374,7 @@ impl InverseRealFft2 {
             }
             #[cfg(not(target_arch = "x86_64"))]
             // SAFETY: `[f64; 1]` lanes run on every CPU.
-            _ => unsafe { lanes_2d::<Lanes<1>, 1, F>(fft, scatter, columns, s, out) },
+            _ => unsafe { lanes_2d::<Lanes<1>, 1>(fft, scatter, columns, s, out) },
         }
     }
 
@@ -328,6 +430,7 @@ impl InverseRealFft2 {
 trait LaneBuf<const W: usize> {
     fn lanes(&mut self) -> &mut AlignedVec<C<W>>;
     fn rows(&mut self) -> &mut AlignedVec<C<W>>;
+    fn spread(&mut self) -> &mut AlignedVec<C<W>>;
 }
 impl LaneBuf<1> for Scratch {
     fn lanes(&mut self) -> &mut AlignedVec<C<1>> {
@@ -335,6 +438,9 @@ impl LaneBuf<1> for Scratch {
     }
     fn rows(&mut self) -> &mut AlignedVec<C<1>> {
         &mut self.rows1
+    }
+    fn spread(&mut self) -> &mut AlignedVec<C<1>> {
+        &mut self.spread1
     }
 }
 impl LaneBuf<2> for Scratch {
@@ -344,6 +450,9 @@ impl LaneBuf<2> for Scratch {
     fn rows(&mut self) -> &mut AlignedVec<C<2>> {
         &mut self.rows2
     }
+    fn spread(&mut self) -> &mut AlignedVec<C<2>> {
+        &mut self.spread2
+    }
 }
 impl LaneBuf<4> for Scratch {
     fn lanes(&mut self) -> &mut AlignedVec<C<4>> {
@@ -351,6 +460,9 @@ impl LaneBuf<4> for Scratch {
     }
     fn rows(&mut self) -> &mut AlignedVec<C<4>> {
         &mut self.rows4
+    }
+    fn spread(&mut self) -> &mut AlignedVec<C<4>> {
+        &mut self.spread4
     }
 }
 impl LaneBuf<8> for Scratch {
@@ -360,24 +472,28 @@ impl LaneBuf<8> for Scratch {
     fn rows(&mut self) -> &mut AlignedVec<C<8>> {
         &mut self.rows8
     }
+    fn spread(&mut self) -> &mut AlignedVec<C<8>> {
+        &mut self.spread8
+    }
 }
 
 /// The portable 2-D inverse real transform with W 1-D transforms per step (module docs).
 ///
-/// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order and
-/// transformed; the row pairs' packed input (`Z[m] = G_a[m] + i·G_b[m]`, exactly the scalar
-/// packing's operations, W lanes per vector operation) is made from them at once and stored,
-/// transposed to lanes of row pairs, in the plan's order (`Scratch::rows*`). Row pass: each
-/// block of W row pairs is transformed in place and unpacked into `out`.
+/// Column pass: columns `m0 … m0 + W − 1` are gathered into lanes in the plan's order (from a
+/// stored half spectrum, or for a frame's grid from h̃'s lanes times the grid's multiplier,
+/// see [`Spread`]) and transformed; the row pairs' packed input (`Z[m] = G_a[m] + i·G_b[m]`,
+/// exactly the scalar packing's operations, W lanes per vector operation) is made from them at
+/// once and stored, transposed to lanes of row pairs, in the plan's order (`Scratch::rows*`).
+/// Row pass: each block of W row pairs is transformed in place and unpacked into `out`.
 ///
 /// # Safety
 /// V must have W lanes and the CPU its instructions (see [`LaneFft::run_simd`]); W = 8 and 4
 /// also need AVX-512 F and AVX2 for the block transposes (see [`transpose_rows`]).
 #[inline(always)]
-unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])>(
+unsafe fn lanes_2d<V: Lane, const W: usize>(
     fft: &LaneFft,
     scatter: &[u32],
-    columns: Columns<'_, F>,
+    columns: Columns<'_>,
     s: &mut Scratch,
     out: &mut [f64],
 ) where
@@ -386,61 +502,41 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
     let n = fft.len();
     let h = n / 2;
     debug_assert_eq!(out.len(), n * n);
-    let zero = Complex::new(0.0, 0.0);
     let mut data = std::mem::replace(LaneBuf::<W>::lanes(s), AlignedVec::new(0));
     data.resize(n, C::ZERO);
     let mut zs = std::mem::replace(LaneBuf::<W>::rows(s), AlignedVec::new(0));
     zs.resize(h * n / W, C::ZERO);
-    let gather = fft.gather_order();
-    let mut columns = columns;
-    if matches!(columns, Columns::Made(_)) {
-        s.column.resize(W * n, zero);
-    }
+    let mut spread = std::mem::replace(LaneBuf::<W>::spread(s), AlignedVec::new(0));
+    // The grid is written with non-temporal stores when it starts on a 64-byte boundary (a
+    // frame's grids do): its N² values would otherwise be read into the cache before being
+    // overwritten, and push the transform's working set out of L2.
+    let stream = out.as_ptr().cast::<u8>().align_offset(64) == 0;
+    // A frame's first grid, or a width other than the lanes were gathered at (the level is
+    // process-wide and may change between calls), gathers h̃ again.
+    let gather_spread = match &columns {
+        Columns::Spread(sp) if sp.fresh || s.spread_width != W => {
+            spread.resize(h * n / W, C::ZERO);
+            true
+        }
+        _ => false,
+    };
     for m0 in (0..h).step_by(W) {
-        let src: &[Complex<f64>] = match &mut columns {
-            Columns::Half(half) => &half[m0 * n..(m0 + W) * n],
-            Columns::Made(f) => {
-                for (l, buf) in s.column.chunks_exact_mut(n).take(W).enumerate() {
-                    f(m0 + l, buf);
-                }
-                &s.column[..W * n]
+        let block = m0 / W * n..(m0 / W + 1) * n;
+        match &columns {
+            Columns::Half(half) => {
+                // SAFETY: V's instructions are available (this function's contract).
+                unsafe { gather_columns::<W>(&half[m0 * n..(m0 + W) * n], fft, scatter, &mut data) }
             }
-        };
-        if W >= 4 {
-            // W/2 consecutive entries of the W columns are a W × W block of f64 (re, im
-            // interleaved): transposed, its rows are the lanes' real and imaginary parts of
-            // those entries, each stored whole at the entry's place in the plan's order.
-            let half = W / 2;
-            assert!(src.len() >= W * n && data.len() >= n && scatter.len() >= n);
-            let base = data.as_mut_ptr();
-            for k0 in (0..n).step_by(half) {
-                // Complex<f64> is repr(C) (re, im): W/2 entries are W f64 in a row.
-                let from: [*const f64; W] =
-                    std::array::from_fn(|l| src[l * n + k0..][..half].as_ptr().cast::<f64>());
-                let to: [*mut f64; W] = std::array::from_fn(|c| {
-                    // SAFETY: scatter[k] < n = data.len() (a permutation of 0..n), so `d`
-                    // points to a live element of `data`.
+            Columns::Spread(sp) => {
+                let lanes = &mut spread[block];
+                if gather_spread {
+                    // SAFETY: as above.
                     unsafe {
-                        let d = base.add(scatter[k0 + c / 2] as usize);
-                        if c % 2 == 0 {
-                            std::ptr::addr_of_mut!((*d).re).cast::<f64>()
-                        } else {
-                            std::ptr::addr_of_mut!((*d).im).cast::<f64>()
-                        }
+                        gather_columns::<W>(&sp.htilde[m0 * n..(m0 + W) * n], fft, scatter, lanes)
                     }
-                });
-                // SAFETY: each source row is W f64 of `src`; each destination row is the re or
-                // im array (W f64) of a distinct element of `data` (scatter is a permutation),
-                // so none overlap, and `src` is not `data`.
-                unsafe { transpose_rows::<W>(from, to) };
-            }
-        } else {
-            for (d, &k) in data.iter_mut().zip(gather) {
-                for l in 0..W {
-                    let v = src[l * n + k as usize];
-                    d.re[l] = v.re;
-                    d.im[l] = v.im;
                 }
+                // SAFETY: as above.
+                unsafe { multiply_columns::<V, W>(sp, m0, lanes, &mut data) };
             }
         }
         // SAFETY: V's instructions are available (this function's contract).
@@ -519,24 +615,185 @@ unsafe fn lanes_2d<V: Lane, const W: usize, F: FnMut(usize, &mut [Complex<f64>])
         let out_base = block.as_mut_ptr();
         for (i0, d) in (0..n).step_by(W).zip(zblock.chunks_exact(W)) {
             for im in [false, true] {
-                let from: [*const f64; W] = std::array::from_fn(|k| {
-                    if im {
-                        d[k].im.as_ptr()
-                    } else {
-                        d[k].re.as_ptr()
-                    }
-                });
+                let mut rows = [V::splat(0.0); W];
+                for (row, x) in rows.iter_mut().zip(d) {
+                    let part = if im { &x.im } else { &x.re };
+                    // SAFETY: W f64, V's lane count (this function's contract).
+                    *row = unsafe { V::load(part.as_ptr()) };
+                }
                 // SAFETY: (2q + 1)·n + i0 + W ≤ 2·W·n for q < W and i0 + W ≤ n.
                 let to: [*mut f64; W] = std::array::from_fn(|q| unsafe {
                     out_base.add((2 * q + usize::from(im)) * n + i0)
                 });
-                // SAFETY: W rows of W f64 read from `zblock`, W disjoint rows written in `out`.
-                unsafe { transpose_rows::<W>(from, to) };
+                // SAFETY: V has W lanes; W disjoint rows of W f64 written in `out`, each
+                // aligned to W f64 where `stream` (the grid starts on a 64-byte boundary and
+                // every row offset is a multiple of W f64).
+                unsafe {
+                    if stream {
+                        V::transpose_stream(rows, to)
+                    } else {
+                        V::transpose_store(rows, to)
+                    }
+                }
             }
         }
     }
+    if stream {
+        V::fence();
+    }
     *LaneBuf::<W>::lanes(s) = data;
     *LaneBuf::<W>::rows(s) = zs;
+    *LaneBuf::<W>::spread(s) = spread;
+    if gather_spread {
+        s.spread_width = W;
+    }
+}
+
+/// Gathers W columns (`src`, N entries each, back to back) into lanes in the plan's order:
+/// `dst[scatter[k]]` lane l = `src[l·N + k]`.
+///
+/// # Safety
+/// W = 8 and 4 need AVX-512 F and AVX2 (the block transposes, see [`transpose_rows`]).
+#[inline(always)]
+unsafe fn gather_columns<const W: usize>(
+    src: &[Complex<f64>],
+    fft: &LaneFft,
+    scatter: &[u32],
+    dst: &mut [C<W>],
+) {
+    let n = fft.len();
+    if W >= 4 {
+        // W/2 consecutive entries of the W columns are a W × W block of f64 (re, im
+        // interleaved): transposed, its rows are the lanes' real and imaginary parts of
+        // those entries, each stored whole at the entry's place in the plan's order.
+        let half = W / 2;
+        assert!(src.len() >= W * n && dst.len() >= n && scatter.len() >= n);
+        let base = dst.as_mut_ptr();
+        for k0 in (0..n).step_by(half) {
+            // Complex<f64> is repr(C) (re, im): W/2 entries are W f64 in a row.
+            let from: [*const f64; W] =
+                std::array::from_fn(|l| src[l * n + k0..][..half].as_ptr().cast::<f64>());
+            let to: [*mut f64; W] = std::array::from_fn(|c| {
+                // SAFETY: scatter[k] < n = dst.len() (a permutation of 0..n), so `d`
+                // points to a live element of `dst`.
+                unsafe {
+                    let d = base.add(scatter[k0 + c / 2] as usize);
+                    if c % 2 == 0 {
+                        std::ptr::addr_of_mut!((*d).re).cast::<f64>()
+                    } else {
+                        std::ptr::addr_of_mut!((*d).im).cast::<f64>()
+                    }
+                }
+            });
+            // SAFETY: each source row is W f64 of `src`; each destination row is the re or
+            // im array (W f64) of a distinct element of `dst` (scatter is a permutation),
+            // so none overlap, and `src` is not `dst`; the caller's contract for W.
+            unsafe { transpose_rows::<W>(from, to) };
+        }
+    } else {
+        for (d, &k) in dst.iter_mut().zip(fft.gather_order()) {
+            for l in 0..W {
+                let v = src[l * n + k as usize];
+                d.re[l] = v.re;
+                d.im[l] = v.im;
+            }
+        }
+    }
+}
+
+/// The column spectra `c(k)·h̃` of columns `m0 … m0 + W − 1` for `sp.grid`, from h̃'s lanes
+/// (`lanes`, the block's N positions in the plan's order) into `data`: per lane, exactly
+/// [`FftGrid::apply_column`]'s operations (the factor formed left to right, `(−(r·h.im),
+/// r·h.re)` or `(r·h.re, r·h.im)`, and the empty entry's constant where `1/|k| = 0`).
+///
+/// # Safety
+/// V must have W lanes and the CPU its instructions.
+#[inline(always)]
+unsafe fn multiply_columns<V: Lane, const W: usize>(
+    sp: &Spread<'_>,
+    m0: usize,
+    lanes: &[C<W>],
+    data: &mut [C<W>],
+) {
+    /// `data[p] = c·h` with c = i·r (`IMAG`) or r, r = `factor(kz, 1/|k|)` per lane.
+    ///
+    /// # Safety
+    /// As [`multiply_columns`].
+    #[inline(always)]
+    unsafe fn run<V: Lane, const W: usize, const IMAG: bool>(
+        factor: impl Fn(V, V) -> V,
+        empty: Complex<f64>,
+        waves: &SpreadWaves,
+        m0: usize,
+        lanes: &[C<W>],
+        data: &mut [C<W>],
+    ) {
+        let h = waves.kx.len();
+        let n = lanes.len();
+        assert!(data.len() == n && waves.kz.len() == n && waves.inv_k.len() == h * n);
+        assert!(m0 + W <= h);
+        let (empty_re, empty_im) = (V::splat(empty.re), V::splat(empty.im));
+        for p in 0..n {
+            // SAFETY: p < n and m0 + W ≤ h (asserted), so the W values at p·h + m0 are inside
+            // `inv_k`; each lane array holds W f64, V's lane count (the caller's contract).
+            unsafe {
+                let inv_k = V::load(waves.inv_k.as_ptr().add(p * h + m0));
+                let r = factor(V::splat(*waves.kz.get_unchecked(p)), inv_k);
+                let x = lanes.get_unchecked(p);
+                let (hre, him) = (V::load(x.re.as_ptr()), V::load(x.im.as_ptr()));
+                let (re, im) = if IMAG {
+                    (r.mul(him).neg(), r.mul(hre))
+                } else {
+                    (r.mul(hre), r.mul(him))
+                };
+                let d = data.get_unchecked_mut(p);
+                V::where_zero(inv_k, empty_re, re).store(d.re.as_mut_ptr());
+                V::where_zero(inv_k, empty_im, im).store(d.im.as_mut_ptr());
+            }
+        }
+    }
+    let g = sp.grid;
+    let empty = g.apply(0.0, 0.0, 0.0, sp.lambda, Complex::new(0.0, 0.0));
+    let w = sp.waves;
+    assert!(m0 + W <= w.kx.len());
+    // SAFETY: W f64 of `kx` at m0 (asserted).
+    let kx = unsafe { V::load(w.kx.as_ptr().add(m0)) };
+    let lambda = V::splat(sp.lambda);
+    // λ·kx once per block: the same operation, so the same bits, as per entry.
+    let lkx = lambda.mul(kx);
+    // SAFETY (each arm): the caller's contract.
+    unsafe {
+        match g {
+            FftGrid::Height => data.copy_from_slice(lanes),
+            FftGrid::DisplacementX => {
+                run::<V, W, true>(|_, ik| lkx.mul(ik), empty, w, m0, lanes, data)
+            }
+            FftGrid::DisplacementZ => {
+                run::<V, W, true>(|kz, ik| lambda.mul(kz).mul(ik), empty, w, m0, lanes, data)
+            }
+            FftGrid::SlopeX => run::<V, W, true>(|_, _| kx, empty, w, m0, lanes, data),
+            FftGrid::SlopeZ => run::<V, W, true>(|kz, _| kz, empty, w, m0, lanes, data),
+            FftGrid::DxDx => {
+                run::<V, W, false>(|_, ik| lkx.mul(kx).mul(ik).neg(), empty, w, m0, lanes, data)
+            }
+            FftGrid::DzDz => run::<V, W, false>(
+                |kz, ik| lambda.mul(kz).mul(kz).mul(ik).neg(),
+                empty,
+                w,
+                m0,
+                lanes,
+                data,
+            ),
+            FftGrid::DxDz => run::<V, W, false>(
+                |kz, ik| lkx.mul(kz).mul(ik).neg(),
+                empty,
+                w,
+                m0,
+                lanes,
+                data,
+            ),
+        }
+    }
 }
 
 /// Transposes a W × W block given by row pointers, `dst[c][r] = src[r][c]`, through registers
@@ -621,46 +878,46 @@ unsafe fn transpose4_rows_avx2(src: [*const f64; 4], dst: [*mut f64; 4]) {
 /// [`lanes_2d`] with two lanes, compiled for SSE2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse2")]
-fn lanes_2d_sse2<F: FnMut(usize, &mut [Complex<f64>])>(
+fn lanes_2d_sse2(
     fft: &LaneFft,
     scatter: &[u32],
-    columns: Columns<'_, F>,
+    columns: Columns<'_>,
     s: &mut Scratch,
     out: &mut [f64],
 ) {
     // SAFETY: this function is compiled for SSE2, which its callers checked; `__m128d`
     // holds 2 f64.
-    unsafe { lanes_2d::<std::arch::x86_64::__m128d, 2, F>(fft, scatter, columns, s, out) }
+    unsafe { lanes_2d::<std::arch::x86_64::__m128d, 2>(fft, scatter, columns, s, out) }
 }
 
 /// [`lanes_2d`] with four lanes, compiled for AVX2 (never FMA).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn lanes_2d_avx2<F: FnMut(usize, &mut [Complex<f64>])>(
+fn lanes_2d_avx2(
     fft: &LaneFft,
     scatter: &[u32],
-    columns: Columns<'_, F>,
+    columns: Columns<'_>,
     s: &mut Scratch,
     out: &mut [f64],
 ) {
     // SAFETY: this function is compiled for AVX2, which its callers checked; `__m256d`
     // holds 4 f64.
-    unsafe { lanes_2d::<std::arch::x86_64::__m256d, 4, F>(fft, scatter, columns, s, out) }
+    unsafe { lanes_2d::<std::arch::x86_64::__m256d, 4>(fft, scatter, columns, s, out) }
 }
 
 /// [`lanes_2d`] with eight lanes, compiled for AVX-512 F (never FMA).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn lanes_2d_avx512<F: FnMut(usize, &mut [Complex<f64>])>(
+fn lanes_2d_avx512(
     fft: &LaneFft,
     scatter: &[u32],
-    columns: Columns<'_, F>,
+    columns: Columns<'_>,
     s: &mut Scratch,
     out: &mut [f64],
 ) {
     // SAFETY: this function is compiled for AVX-512 F, which its callers checked; `__m512d`
     // holds 8 f64.
-    unsafe { lanes_2d::<std::arch::x86_64::__m512d, 8, F>(fft, scatter, columns, s, out) }
+    unsafe { lanes_2d::<std::arch::x86_64::__m512d, 8>(fft, scatter, columns, s, out) }
 }
 
 /// Row pairs packed, transformed and unpacked per block of the row pass: 8 pairs at N = 256 is
@@ -709,47 +966,87 @@ mod tests {
     }
 
     /// Every lane width this CPU has gives the scalar grid's bits, for a stored spectrum and
-    /// for one made column by column, whatever `simd_level` says.
+    /// for each frame grid made from h̃'s lanes ([`Spread`]), whatever `simd_level` says; and
+    /// a [`Spread`] grid has the bits of transforming its assembled spectrum
+    /// (`FftGrid::apply_column`, empty entries included).
     #[test]
     fn every_width_gives_the_scalar_bits() {
-        type Made<'a> = Box<dyn FnMut(usize, &mut [Complex<f64>]) + 'a>;
-        type Run<'r> = &'r dyn Fn(Columns<'_, Made<'_>>, &mut Scratch, &mut [f64]);
+        type Run<'r> = &'r dyn Fn(Columns<'_>, &mut Scratch, &mut [f64]);
         for n in [16, 64, 256] {
+            let h = n / 2;
             let mut rng = SwellRng::new(n as u64, 4);
-            let half: Vec<Complex<f64>> = (0..n / 2 * n)
+            let mut half: Vec<Complex<f64>> = (0..h * n)
                 .map(|_| {
                     let (a, b) = rng.gaussian_pair();
                     Complex::new(a, b)
                 })
                 .collect();
+            let kx: Vec<f64> = (0..h).map(|m| m as f64 * 0.3).collect();
+            let kz: Vec<f64> = (0..n).map(|_| rng.gaussian_pair().0).collect();
+            let mut inv_k: Vec<f64> = (0..h * n)
+                .map(|i| 1.0 / (kx[i / n].powi(2) + kz[i % n].powi(2)).sqrt())
+                .collect();
+            // Empty entries as a layer stores them: 1/|k| = 0 and h̃ = 0, the DC entry among
+            // them, and a few more.
+            for i in [0, 3, n + 5, h * n - 1] {
+                inv_k[i] = 0.0;
+                half[i] = Complex::new(0.0, 0.0);
+            }
             let t = InverseRealFft2::new(n, FftBackend::Portable);
             let Engine::Lanes { fft, scatter } = &t.engine else {
                 unreachable!("a portable plan");
             };
-            for made in [false, true] {
+            let waves = t.spread_waves(&kx, &kz, &inv_k).expect("portable");
+            let lambda = 1.3;
+            let mut cases: Vec<Option<FftGrid>> = vec![None];
+            cases.extend(FftGrid::ALL.map(Some));
+            for case in cases {
+                // Each run uses a fresh scratch, so its first grid gathers h̃ (`fresh`).
                 let grid = |run: Run<'_>| -> Vec<u64> {
-                    let columns: Columns<'_, Made<'_>> = if made {
-                        Columns::Made(Box::new(|m, col: &mut [Complex<f64>]| {
-                            for (c, v) in col.iter_mut().zip(&half[m * n..(m + 1) * n]) {
-                                *c = *v * 2.0;
-                            }
-                        }))
-                    } else {
-                        Columns::Half(&half)
+                    let columns = match case {
+                        None => Columns::Half(&half),
+                        Some(grid) => Columns::Spread(Spread {
+                            htilde: &half,
+                            fresh: true,
+                            grid,
+                            lambda,
+                            waves: &waves,
+                        }),
                     };
-                    let (mut s, mut out) = (t.scratch(), vec![f64::NAN; n * n]);
-                    run(columns, &mut s, &mut out);
-                    out.iter().map(|v| v.to_bits()).collect()
+                    // Into a grid on a 64-byte boundary (non-temporal stores) and into one
+                    // 8 bytes past it (plain stores): the same bits.
+                    let mut buf = aligned(n * n + 1, f64::NAN);
+                    let mut s = t.scratch();
+                    run(columns, &mut s, &mut buf[..n * n]);
+                    let streamed: Vec<u64> = buf[..n * n].iter().map(|v| v.to_bits()).collect();
+                    let columns = match columns {
+                        Columns::Spread(sp) => Columns::Spread(Spread { fresh: false, ..sp }),
+                        c => c,
+                    };
+                    run(columns, &mut s, &mut buf[1..]);
+                    let stored: Vec<u64> = buf[1..].iter().map(|v| v.to_bits()).collect();
+                    assert!(streamed == stored, "n = {n}, {case:?}: stored != streamed");
+                    stored
                 };
                 // SAFETY: `[f64; 1]` lanes run on every CPU.
                 let want =
-                    grid(&|c, s, o| unsafe { lanes_2d::<Lanes<1>, 1, _>(fft, scatter, c, s, o) });
+                    grid(&|c, s, o| unsafe { lanes_2d::<Lanes<1>, 1>(fft, scatter, c, s, o) });
                 let check = |name: &str, got: Vec<u64>| {
-                    assert!(
-                        got == want,
-                        "n = {n}, made = {made}: {name} differs from scalar"
-                    );
+                    assert!(got == want, "n = {n}, {case:?}: {name} differs from scalar");
                 };
+                if let Some(g) = case {
+                    let mut assembled = vec![Complex::new(0.0, 0.0); h * n];
+                    for (m, col) in assembled.chunks_exact_mut(n).enumerate() {
+                        let span = m * n..(m + 1) * n;
+                        g.apply_column(kx[m], &kz, &inv_k[span.clone()], lambda, &half[span], col);
+                    }
+                    let (mut s, mut out) = (t.scratch(), vec![f64::NAN; n * n]);
+                    t.process(&assembled, &mut s, &mut out);
+                    check(
+                        "the assembled spectrum",
+                        out.iter().map(|v| v.to_bits()).collect(),
+                    );
+                }
                 #[cfg(target_arch = "x86_64")]
                 {
                     use std::arch::is_x86_feature_detected as has;
@@ -774,6 +1071,58 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A frame's later grids read h̃'s lanes gathered by its first; a scratch whose lanes were
+    /// gathered at another width (the level changed between calls) gathers them again.
+    #[test]
+    fn spread_lanes_are_regathered_for_another_width() {
+        let n = 64;
+        let mut rng = SwellRng::new(8, 2);
+        let mk = |rng: &mut SwellRng| -> Vec<Complex<f64>> {
+            (0..n / 2 * n)
+                .map(|_| {
+                    let (a, b) = rng.gaussian_pair();
+                    Complex::new(a, b)
+                })
+                .collect()
+        };
+        let (first, second) = (mk(&mut rng), mk(&mut rng));
+        let kx: Vec<f64> = (0..n / 2).map(|m| m as f64).collect();
+        let kz: Vec<f64> = (0..n).map(|q| q as f64 - 7.0).collect();
+        let inv_k = vec![0.5; n / 2 * n];
+        let t = InverseRealFft2::new(n, FftBackend::Portable);
+        let Engine::Lanes { fft, scatter } = &t.engine else {
+            unreachable!("a portable plan");
+        };
+        let waves = t.spread_waves(&kx, &kz, &inv_k).expect("portable");
+        let spread = |htilde, fresh| {
+            Columns::Spread(Spread {
+                htilde,
+                fresh,
+                grid: FftGrid::SlopeX,
+                lambda: 1.0,
+                waves: &waves,
+            })
+        };
+        let bits = |o: &[f64]| -> Vec<u64> { o.iter().map(|v| v.to_bits()).collect() };
+        let mut want = vec![0.0; n * n];
+        let mut s = t.scratch();
+        // SAFETY: `[f64; 1]` lanes run on every CPU.
+        unsafe { lanes_2d::<Lanes<1>, 1>(fft, scatter, spread(&second, true), &mut s, &mut want) };
+        // Lanes of `first` at width 1, then `second` at width 2 without `fresh`: the width
+        // changed, so `second` is gathered.
+        let mut s = t.scratch();
+        let mut out = vec![0.0; n * n];
+        // SAFETY: as above.
+        unsafe { lanes_2d::<Lanes<1>, 1>(fft, scatter, spread(&first, true), &mut s, &mut out) };
+        // SAFETY: `[f64; 2]` lanes run on every CPU.
+        unsafe { lanes_2d::<Lanes<2>, 2>(fft, scatter, spread(&second, false), &mut s, &mut out) };
+        assert_eq!(bits(&out), bits(&want));
+        // And not `fresh` at the same width: the lanes gathered last (`second`) are read.
+        // SAFETY: as above.
+        unsafe { lanes_2d::<Lanes<2>, 2>(fft, scatter, spread(&first, false), &mut s, &mut out) };
+        assert_eq!(bits(&out), bits(&want));
     }
 
     /// Random Hermitian spectrum with an empty Nyquist column, against a direct 2-D sum.
