@@ -6,7 +6,7 @@ use rustfft::num_complex::Complex;
 
 use super::fields::{FftFields, FftGrid};
 use super::layer::{FftLayer, evolve};
-use super::{AlignedVec, aligned};
+use super::{AlignedVec, Grid};
 use crate::math::{reduce_phase, sin_cos};
 
 /// The fields of an FFT layer at one time, on the layer's N×N grid.
@@ -23,7 +23,7 @@ pub struct FftFrame {
     pub(crate) fields: FftFields,
     pub(crate) n: usize,
     pub(crate) tile_size: f64,
-    pub(crate) grids: [Option<AlignedVec<f64>>; 8],
+    pub(crate) grids: [Option<Grid>; 8],
     pub(crate) transforms: usize,
     /// Where the grids go when the frame is dropped (`None`: to the allocator).
     pub(crate) pool: Option<Arc<GridPool>>,
@@ -61,7 +61,7 @@ impl Drop for FftFrame {
 pub(crate) struct GridPool {
     len: usize,
     cap: usize,
-    pub(crate) free: Mutex<Vec<AlignedVec<f64>>>,
+    pub(crate) free: Mutex<Vec<Grid>>,
 }
 
 /// Most bytes of grid buffers a layer's pool keeps: 16 MiB is one full frame at 512² (8 grids)
@@ -81,14 +81,14 @@ impl GridPool {
     }
 
     /// A buffer of N² values (contents unspecified: the caller overwrites all of them).
-    pub(crate) fn take(&self) -> AlignedVec<f64> {
+    pub(crate) fn take(&self) -> Grid {
         let pooled = self.free.lock().ok().and_then(|mut f| f.pop());
-        pooled.unwrap_or_else(|| aligned(self.len, 0.0))
+        pooled.unwrap_or_else(|| Grid::zeroed(self.len))
     }
 
     /// Keeps `grid` for a later frame if it has the pool's size and the pool has room; otherwise
     /// frees it. A poisoned lock only means the buffer is freed.
-    fn put(&self, grid: AlignedVec<f64>) {
+    fn put(&self, grid: Grid) {
         if grid.len() != self.len {
             return;
         }
@@ -198,7 +198,7 @@ impl FftLayer {
     fn frame_into_body(&self, t: f64, fields: FftFields, frame: &mut FftFrame) {
         let n = self.n;
         let t_r = t.rem_euclid(self.repeat_period);
-        let mut grids: [Option<AlignedVec<f64>>; 8] = Default::default();
+        let mut grids: [Option<Grid>; 8] = Default::default();
         let mut old = std::mem::take(&mut frame.grids);
         let old_pool = frame.pool.take();
         let mut transforms = 0;

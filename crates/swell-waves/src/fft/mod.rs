@@ -79,6 +79,49 @@ pub use velocity::FftVelocityFrame;
 /// AVX-512 frame about a fifth of its time. Alignment moves no value, so no bit changes.
 pub(crate) type AlignedVec<T> = aligned_vec::AVec<T, aligned_vec::ConstAlign<64>>;
 
+/// A grid of f64 values whose first value sits on a 64-byte boundary, in a plain `Vec` with up to
+/// 7 values of slack before it (an [`AlignedVec`] would do, but the allocator's aligned path for
+/// grid-sized blocks (512 KiB at 256²) left the server holding far more memory under frame
+/// churn). Dereferences to exactly its `len` values.
+#[derive(Debug)]
+pub(crate) struct Grid {
+    buf: Vec<f64>,
+    start: usize,
+    len: usize,
+}
+
+impl Grid {
+    /// `len` zeros.
+    pub(crate) fn zeroed(len: usize) -> Self {
+        let buf = vec![0.0; len + 7];
+        // A Vec<f64> is 8-byte aligned, so at most 7 values from a 64-byte boundary.
+        let start = buf.as_ptr().align_offset(64).min(7);
+        Self { buf, start, len }
+    }
+}
+
+impl Clone for Grid {
+    fn clone(&self) -> Self {
+        // The copy's buffer has its own address, so its own offset.
+        let mut g = Self::zeroed(self.len);
+        g.copy_from_slice(self);
+        g
+    }
+}
+
+impl std::ops::Deref for Grid {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.buf[self.start..self.start + self.len]
+    }
+}
+
+impl std::ops::DerefMut for Grid {
+    fn deref_mut(&mut self) -> &mut [f64] {
+        &mut self.buf[self.start..self.start + self.len]
+    }
+}
+
 /// `len` copies of `v` in an [`AlignedVec`].
 pub(crate) fn aligned<T: Clone>(len: usize, v: T) -> AlignedVec<T> {
     let mut a = AlignedVec::new(0);

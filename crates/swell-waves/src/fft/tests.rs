@@ -862,3 +862,24 @@ fn the_newton_jacobian_is_the_derivative_of_the_bicubic_read() {
         glam::DVec3::ZERO
     );
 }
+
+/// A frame's grids start on a 64-byte boundary (the transform writes them with non-temporal
+/// stores only then), clones too, and hold exactly their values.
+#[test]
+fn grids_start_on_a_cache_line_and_so_do_their_clones() {
+    for len in [1, 256, 65_536] {
+        let mut g = super::Grid::zeroed(len);
+        assert_eq!(g.len(), len);
+        assert_eq!(g.as_ptr() as usize % 64, 0, "len {len}");
+        g[len - 1] = 3.0;
+        let c = g.clone();
+        assert_eq!(c.as_ptr() as usize % 64, 0, "clone, len {len}");
+        assert_eq!(&*c, &*g);
+    }
+    let layer = layer_with(&spec(64, 500.0), 3, bump(60.0, 2.0));
+    let frame = layer.frame(2.0, FftFields::ALL);
+    for grid in FftGrid::ALL {
+        let g = frame.grid(grid).expect("all fields");
+        assert_eq!(g.as_ptr() as usize % 64, 0, "{grid:?}");
+    }
+}

@@ -20,7 +20,7 @@
 
 use std::sync::Arc;
 
-use super::{AlignedVec, aligned};
+use super::Grid;
 
 use glam::{DVec2, DVec3};
 use rustfft::num_complex::Complex;
@@ -109,7 +109,7 @@ impl FftLayer {
             })
             .collect();
         let grids = self.velocity_grids();
-        let mut out_grids: [Option<AlignedVec<f64>>; 8] = Default::default();
+        let mut out_grids: [Option<Grid>; 8] = Default::default();
         let mut buf = vec![zero; rate.len()];
         let mut scratch = self.transform.scratch();
         for &grid in grids {
@@ -119,7 +119,7 @@ impl FftLayer {
                 let kx = self.kx_cols[m];
                 grid.apply_column(kx, &self.kz_rows, inv_k, self.choppiness, rate, col);
             }
-            let mut out = aligned(n * n, 0.0);
+            let mut out = Grid::zeroed(n * n);
             self.transform.process(&buf, &mut scratch, &mut out);
             out_grids[grid.index()] = Some(out);
         }
@@ -144,7 +144,7 @@ impl FftLayer {
     fn velocity_frame_of(
         &self,
         t: f64,
-        grids: [Option<AlignedVec<f64>>; 8],
+        grids: [Option<Grid>; 8],
         transforms: usize,
         pool: Option<Arc<super::frame::GridPool>>,
     ) -> FftVelocityFrame {
@@ -204,7 +204,7 @@ impl FftLayer {
             None
         };
         let rate = 0.5 / self.time_step;
-        let mut out_grids: [Option<AlignedVec<f64>>; 8] = Default::default();
+        let mut out_grids: [Option<Grid>; 8] = Default::default();
         for &grid in grids {
             // Present in every frame: checked by `get`.
             let (Some(a), Some(b)) = (before.grid(grid), after.grid(grid)) else {
