@@ -507,10 +507,12 @@ unsafe fn lanes_2d<V: Lane, const W: usize>(
     let mut zs = std::mem::replace(LaneBuf::<W>::rows(s), AlignedVec::new(0));
     zs.resize(h * n / W, C::ZERO);
     let mut spread = std::mem::replace(LaneBuf::<W>::spread(s), AlignedVec::new(0));
-    // The grid is written with non-temporal stores when it starts on a 64-byte boundary (a
-    // frame's grids do): its N² values would otherwise be read into the cache before being
-    // overwritten, and push the transform's working set out of L2.
-    let stream = out.as_ptr().cast::<u8>().align_offset(64) == 0;
+    // At 8 lanes the grid is written with non-temporal stores when it starts on a 64-byte
+    // boundary (a frame's grids do): its N² values would otherwise be read into the cache
+    // before being overwritten, and push the transform's working set out of L2. Each store is
+    // then a whole cache line; at 4 lanes (half lines, eight rows in flight) streaming was
+    // slower than plain stores (1.9 against 1.4 ms a frame at the AVX2 level).
+    let stream = W == 8 && out.as_ptr().cast::<u8>().align_offset(64) == 0;
     // A frame's first grid, or a width other than the lanes were gathered at (the level is
     // process-wide and may change between calls), gathers h̃ again.
     let gather_spread = match &columns {
