@@ -25,8 +25,8 @@
 //! order, so no transform needs a copy of its own: the columns from the spectrum, and the row
 //! pairs from the column pass, which packs them as it finishes each block of columns. A frame
 //! gathers h̃ into lanes once and forms each grid's column spectra from them, W columns per
-//! vector operation ([`Spread`]). The buffers are 64-byte aligned, and the grid is written
-//! with non-temporal stores when it is.
+//! vector operation ([`Spread`]). The buffers are 64-byte aligned, and at 8 lanes a grid that
+//! is aligned too (a frame's are) is written with non-temporal stores.
 //!
 //! **Native backend.** RustFFT's run-time dispatched planner, one transform at a time; rows are
 //! packed, transformed and unpacked in blocks that stay in cache (`ROW_PAIRS`).
