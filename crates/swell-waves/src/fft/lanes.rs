@@ -77,20 +77,43 @@ pub(crate) unsafe trait Lane: Copy {
     fn with_lane0(self, from: Self) -> Self;
     /// Per lane, `if key == 0.0 { a } else { b }` (IEEE equality: −0.0 is zero, NaN is not).
     fn where_zero(key: Self, a: Self, b: Self) -> Self;
-    /// Stores the transpose of the W × W block whose rows are `rows`, `dst[c][r] = rows[r][c]`,
-    /// shuffling in registers (moves only: the bits are untouched).
+    /// The transpose of the W × W block whose rows are `rows`, `out[c]` lane r = `rows[r]`
+    /// lane c, shuffled in registers (moves only: the bits are untouched).
+    ///
+    /// # Panics
+    /// If W is not the type's lane count.
+    fn transposed<const W: usize>(rows: [Self; W]) -> [Self; W];
+    /// Stores the lanes at `p` with a non-temporal store where the type has one (it skips
+    /// reading the destination's cache line first; follow such stores with [`Lane::fence`]
+    /// before the data is shared); a plain store otherwise.
+    ///
+    /// # Safety
+    /// `p` must be valid for writing the lanes' f64 and aligned to the vector's size.
+    unsafe fn store_stream(self, p: *mut f64);
+    /// Stores the transpose of the block whose rows are `rows` ([`Lane::transposed`]):
+    /// `dst[c][r] = rows[r][c]`.
     ///
     /// # Safety
     /// W must be the type's lane count, and each `dst[c]` valid for writing W f64 (no
     /// alignment needed).
-    unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]);
-    /// [`Lane::transpose_store`] with non-temporal stores where the type has them (they skip
-    /// reading the destination's cache lines first; follow them with [`Lane::fence`] before
-    /// the data is shared).
+    #[inline(always)]
+    unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
+        for (col, d) in Self::transposed(rows).into_iter().zip(dst) {
+            // SAFETY: the caller's contract.
+            unsafe { col.store(d) };
+        }
+    }
+    /// [`Lane::transpose_store`] with [`Lane::store_stream`].
     ///
     /// # Safety
     /// As `transpose_store`, and each `dst[c]` aligned to the vector's size.
-    unsafe fn transpose_stream<const W: usize>(rows: [Self; W], dst: [*mut f64; W]);
+    #[inline(always)]
+    unsafe fn transpose_stream<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
+        for (col, d) in Self::transposed(rows).into_iter().zip(dst) {
+            // SAFETY: the caller's contract.
+            unsafe { col.store_stream(d) };
+        }
+    }
     /// Orders earlier non-temporal stores before later stores (`sfence`; nothing for arrays).
     fn fence();
 }
@@ -137,22 +160,17 @@ unsafe impl<const W: usize> Lane for Lanes<W> {
         std::array::from_fn(|l| if key[l] == 0.0 { a[l] } else { b[l] })
     }
     #[inline(always)]
-    unsafe fn transpose_stream<const K: usize>(rows: [Self; K], dst: [*mut f64; K]) {
+    fn transposed<const K: usize>(rows: [Self; K]) -> [Self; K] {
+        assert!(K == W, "transposed: lane count");
+        std::array::from_fn(|c| std::array::from_fn(|r| rows[r][c]))
+    }
+    #[inline(always)]
+    unsafe fn store_stream(self, p: *mut f64) {
         // SAFETY: the caller's contract.
-        unsafe { Self::transpose_store(rows, dst) }
+        unsafe { self.store(p) }
     }
     #[inline(always)]
     fn fence() {}
-    #[inline(always)]
-    unsafe fn transpose_store<const K: usize>(rows: [Self; K], dst: [*mut f64; K]) {
-        debug_assert_eq!(K, W);
-        for (c, &d) in dst.iter().enumerate() {
-            for (r, row) in rows.iter().enumerate() {
-                // SAFETY: the caller's contract (c, r < W).
-                unsafe { *d.add(r) = row[c] };
-            }
-        }
-    }
 }
 
 /// The x86-64 vector [`Lane`]s: `__m128d` (SSE2, W = 2), `__m256d` (AVX, W = 4) and `__m512d`
@@ -213,28 +231,20 @@ pub(crate) mod x86 {
                     $select(key, a, b)
                 }
                 #[inline(always)]
-                unsafe fn transpose_stream<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
-                    assert!(W == $lanes, "transpose_stream: lane count");
+                fn transposed<const W: usize>(rows: [Self; W]) -> [Self; W] {
+                    assert!(W == $lanes, "transposed: lane count");
                     let cols = $transpose(std::array::from_fn(|r| rows[r]));
-                    for (c, col) in cols.into_iter().enumerate() {
-                        // SAFETY: the caller's contract (W = the lane count, so c < W; each
-                        // destination aligned to the vector's size).
-                        unsafe { $stream(dst[c], col) };
-                    }
+                    std::array::from_fn(|c| cols[c])
+                }
+                #[inline(always)]
+                unsafe fn store_stream(self, p: *mut f64) {
+                    // SAFETY: the caller's contract (aligned to the vector's size).
+                    unsafe { $stream(p, self) }
                 }
                 #[inline(always)]
                 fn fence() {
                     // SAFETY: SSE is on every x86-64 CPU.
                     unsafe { _mm_sfence() }
-                }
-                #[inline(always)]
-                unsafe fn transpose_store<const W: usize>(rows: [Self; W], dst: [*mut f64; W]) {
-                    assert!(W == $lanes, "transpose_store: lane count");
-                    let cols = $transpose(std::array::from_fn(|r| rows[r]));
-                    for (c, col) in cols.into_iter().enumerate() {
-                        // SAFETY: the caller's contract (W = the lane count, so c < W).
-                        unsafe { $store(dst[c], col) };
-                    }
                 }
             }
         };
@@ -991,6 +1001,53 @@ mod tests {
             }
             if std::arch::is_x86_feature_detected!("avx512f") {
                 check::<__m512d, 8>(&fft, bits);
+            }
+        }
+    }
+
+    /// The block transposes move every value to its transposed place, through plain and
+    /// non-temporal stores, for every lane type (the vector ones where the CPU has them).
+    #[test]
+    fn block_transposes_transpose() {
+        fn check<V: Lane, const W: usize>() {
+            #[repr(C, align(64))]
+            struct Block<const W: usize>([[f64; W]; W]);
+            let m: [[f64; W]; W] =
+                std::array::from_fn(|r| std::array::from_fn(|c| (r * W + c) as f64));
+            // SAFETY: each row holds W f64, V's lane count.
+            let rows: [V; W] = std::array::from_fn(|r| unsafe { V::load(m[r].as_ptr()) });
+            let want: [[f64; W]; W] = std::array::from_fn(|c| std::array::from_fn(|r| m[r][c]));
+            for stream in [false, true] {
+                let mut out = Block([[0.0; W]; W]);
+                let base = out.0.as_mut_ptr();
+                // SAFETY: `base.add(c)` for c < W is a row of `out`.
+                let dst: [*mut f64; W] =
+                    std::array::from_fn(|c| unsafe { (*base.add(c)).as_mut_ptr() });
+                // SAFETY: W disjoint rows of W f64, each aligned to W·8 bytes (the block is
+                // 64-byte aligned and W·8 divides 64); the caller checked the CPU.
+                unsafe {
+                    if stream {
+                        V::transpose_stream(rows, dst);
+                        V::fence();
+                    } else {
+                        V::transpose_store(rows, dst);
+                    }
+                }
+                assert_eq!(out.0, want, "W = {W}, stream {stream}");
+            }
+        }
+        check::<Lanes<1>, 1>();
+        check::<Lanes<2>, 2>();
+        check::<Lanes<8>, 8>();
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{__m128d, __m256d, __m512d};
+            check::<__m128d, 2>();
+            if std::arch::is_x86_feature_detected!("avx2") {
+                check::<__m256d, 4>();
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                check::<__m512d, 8>();
             }
         }
     }

@@ -488,7 +488,7 @@ impl LaneBuf<8> for Scratch {
 ///
 /// # Safety
 /// V must have W lanes and the CPU its instructions (see [`LaneFft::run_simd`]); W = 8 and 4
-/// also need AVX-512 F and AVX2 for the block transposes (see [`transpose_rows`]).
+/// mean AVX-512 F and AVX2 (the levels that use them).
 #[inline(always)]
 unsafe fn lanes_2d<V: Lane, const W: usize>(
     fft: &LaneFft,
@@ -527,14 +527,21 @@ unsafe fn lanes_2d<V: Lane, const W: usize>(
         match &columns {
             Columns::Half(half) => {
                 // SAFETY: V's instructions are available (this function's contract).
-                unsafe { gather_columns::<W>(&half[m0 * n..(m0 + W) * n], fft, scatter, &mut data) }
+                unsafe {
+                    gather_columns::<V, W>(&half[m0 * n..(m0 + W) * n], fft, scatter, &mut data)
+                }
             }
             Columns::Spread(sp) => {
                 let lanes = &mut spread[block];
                 if gather_spread {
                     // SAFETY: as above.
                     unsafe {
-                        gather_columns::<W>(&sp.htilde[m0 * n..(m0 + W) * n], fft, scatter, lanes)
+                        gather_columns::<V, W>(
+                            &sp.htilde[m0 * n..(m0 + W) * n],
+                            fft,
+                            scatter,
+                            lanes,
+                        )
                     }
                 }
                 // SAFETY: as above.
@@ -655,16 +662,16 @@ unsafe fn lanes_2d<V: Lane, const W: usize>(
 /// `dst[scatter[k]]` lane l = `src[l·N + k]`.
 ///
 /// # Safety
-/// W = 8 and 4 need AVX-512 F and AVX2 (the block transposes, see [`transpose_rows`]).
+/// V must have W lanes and the CPU its instructions.
 #[inline(always)]
-unsafe fn gather_columns<const W: usize>(
+unsafe fn gather_columns<V: Lane, const W: usize>(
     src: &[Complex<f64>],
     fft: &LaneFft,
     scatter: &[u32],
     dst: &mut [C<W>],
 ) {
     let n = fft.len();
-    if W >= 4 {
+    if W >= 2 {
         // W/2 consecutive entries of the W columns are a W × W block of f64 (re, im
         // interleaved): transposed, its rows are the lanes' real and imaginary parts of
         // those entries, each stored whole at the entry's place in the plan's order.
@@ -672,9 +679,13 @@ unsafe fn gather_columns<const W: usize>(
         assert!(src.len() >= W * n && dst.len() >= n && scatter.len() >= n);
         let base = dst.as_mut_ptr();
         for k0 in (0..n).step_by(half) {
-            // Complex<f64> is repr(C) (re, im): W/2 entries are W f64 in a row.
-            let from: [*const f64; W] =
-                std::array::from_fn(|l| src[l * n + k0..][..half].as_ptr().cast::<f64>());
+            let mut rows = [V::splat(0.0); W];
+            for (l, row) in rows.iter_mut().enumerate() {
+                // Complex<f64> is repr(C) (re, im): W/2 entries are W f64 in a row.
+                let from = src[l * n + k0..][..half].as_ptr().cast::<f64>();
+                // SAFETY: W f64 of `src` (asserted above), V's lane count.
+                *row = unsafe { V::load(from) };
+            }
             let to: [*mut f64; W] = std::array::from_fn(|c| {
                 // SAFETY: scatter[k] < n = dst.len() (a permutation of 0..n), so `d`
                 // points to a live element of `dst`.
@@ -687,10 +698,9 @@ unsafe fn gather_columns<const W: usize>(
                     }
                 }
             });
-            // SAFETY: each source row is W f64 of `src`; each destination row is the re or
-            // im array (W f64) of a distinct element of `dst` (scatter is a permutation),
-            // so none overlap, and `src` is not `dst`; the caller's contract for W.
-            unsafe { transpose_rows::<W>(from, to) };
+            // SAFETY: V has W lanes; each destination row is the re or im array (W f64) of a
+            // distinct element of `dst` (scatter is a permutation).
+            unsafe { V::transpose_store(rows, to) };
         }
     } else {
         for (d, &k) in dst.iter_mut().zip(fft.gather_order()) {
@@ -798,85 +808,6 @@ unsafe fn multiply_columns<V: Lane, const W: usize>(
     }
 }
 
-/// Transposes a W × W block given by row pointers, `dst[c][r] = src[r][c]`, through registers
-/// (moves only: the bits are untouched). W = 8 and 4 use AVX-512 / AVX2 shuffles.
-///
-/// # Safety
-/// Each `src[r]` must be valid for reading W f64 and each `dst[c]` for writing W f64; no
-/// destination row may overlap a source row or another destination row. W = 8 needs AVX-512 F
-/// and W = 4 AVX2: `lanes_2d::<8>` and `lanes_2d::<4>` run only inside [`lanes_2d_avx512`] and
-/// [`lanes_2d_avx2`], whose callers checked the CPU.
-#[inline(always)]
-unsafe fn transpose_rows<const W: usize>(src: [*const f64; W], dst: [*mut f64; W]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if W == 8 {
-            // SAFETY: the caller's contract, with W = 8.
-            unsafe {
-                transpose8_rows_avx512(
-                    std::array::from_fn(|i| src[i]),
-                    std::array::from_fn(|i| dst[i]),
-                )
-            };
-            return;
-        }
-        if W == 4 {
-            // SAFETY: the caller's contract, with W = 4.
-            unsafe {
-                transpose4_rows_avx2(
-                    std::array::from_fn(|i| src[i]),
-                    std::array::from_fn(|i| dst[i]),
-                )
-            };
-            return;
-        }
-    }
-    for (c, &d) in dst.iter().enumerate() {
-        for (r, &s) in src.iter().enumerate() {
-            // SAFETY: the caller's contract (c, r < W).
-            unsafe { *d.add(r) = *s.add(c) };
-        }
-    }
-}
-
-/// [`transpose_rows`] for W = 8 in AVX-512 registers ([`super::lanes::x86::transpose8`]).
-///
-/// # Safety
-/// As [`transpose_rows`].
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn transpose8_rows_avx512(src: [*const f64; 8], dst: [*mut f64; 8]) {
-    use std::arch::x86_64::*;
-    // SAFETY: the caller's contract: 8 readable f64 at each source row, 8 writable at each
-    // destination row (unaligned access is allowed); this function has AVX-512 F.
-    unsafe {
-        let r: [__m512d; 8] = std::array::from_fn(|i| _mm512_loadu_pd(src[i]));
-        for (d, c) in dst.into_iter().zip(super::lanes::x86::transpose8(r)) {
-            _mm512_storeu_pd(d, c);
-        }
-    }
-}
-
-/// [`transpose_rows`] for W = 4 in AVX2 registers ([`super::lanes::x86::transpose4`]).
-///
-/// # Safety
-/// As [`transpose_rows`].
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn transpose4_rows_avx2(src: [*const f64; 4], dst: [*mut f64; 4]) {
-    use std::arch::x86_64::*;
-    // SAFETY: the caller's contract: 4 readable f64 at each source row, 4 writable at each
-    // destination row (unaligned access is allowed); this function has AVX2.
-    unsafe {
-        let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(src[i]));
-        for (d, c) in dst.into_iter().zip(super::lanes::x86::transpose4(r)) {
-            _mm256_storeu_pd(d, c);
-        }
-    }
-}
-
 /// [`lanes_2d`] with two lanes, compiled for SSE2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse2")]
@@ -935,37 +866,6 @@ const ROW_STRIDE_PAD: usize = 4;
 mod tests {
     use super::*;
     use crate::math::{SwellRng, TAU, sin_cos};
-
-    /// The block transposes move every value to its transposed place, at every width (the
-    /// shuffle ones where the CPU has them).
-    #[test]
-    fn block_transposes_transpose() {
-        fn check<const W: usize>() {
-            let m: [[f64; W]; W] =
-                std::array::from_fn(|r| std::array::from_fn(|c| (r * W + c) as f64));
-            let mut out = [[0.0; W]; W];
-            let src: [*const f64; W] = std::array::from_fn(|r| m[r].as_ptr());
-            let base = out.as_mut_ptr();
-            // SAFETY: rows of two separate arrays; `base.add(c)` for c < W is in `out`.
-            let dst: [*mut f64; W] =
-                std::array::from_fn(|c| unsafe { (*base.add(c)).as_mut_ptr() });
-            // SAFETY: W rows of W f64 each, disjoint; the caller below checked the CPU.
-            unsafe { transpose_rows::<W>(src, dst) };
-            let want: [[f64; W]; W] = std::array::from_fn(|c| std::array::from_fn(|r| m[r][c]));
-            assert_eq!(out, want, "W = {W}");
-        }
-        check::<1>();
-        check::<2>();
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                check::<4>();
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                check::<8>();
-            }
-        }
-    }
 
     /// Every lane width this CPU has gives the scalar grid's bits, for a stored spectrum and
     /// for each frame grid made from h̃'s lanes ([`Spread`]), whatever `simd_level` says; and
