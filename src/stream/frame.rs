@@ -19,9 +19,9 @@
 use std::sync::OnceLock;
 
 use axum::extract::ws::Message;
-use bytes::{BufMut as _, Bytes, BytesMut};
+use bytes::{BufMut as _, Bytes};
 use prost::Message as _;
-use prost::encoding::{WireType, encode_key, encode_varint, encoded_len_varint};
+use prost::encoding::{WireType, encode_key, encode_varint, encoded_len_varint, key_len};
 
 use crate::service::finite::ensure_finite;
 use crate::service::types::{BodyState, Tick};
@@ -255,48 +255,64 @@ impl SharedTick {
             .as_deref()
     }
 
-    /// Positions in the frame of the bodies `interest` wants, in frame order. A list of ids is
-    /// looked up in the frame (ids × log bodies) rather than the frame scanned against the list.
-    fn chosen(&self, interest: &Interest) -> Vec<usize> {
+    /// Positions in the frame of the bodies `interest` wants, in frame order, into `out`
+    /// (cleared first: a writer keeps one and reuses it every frame). A list of ids is looked up
+    /// in the frame (ids × log bodies) rather than the frame scanned against the list.
+    fn choose(&self, interest: &Interest, out: &mut Vec<usize>) {
+        out.clear();
         let bodies = &self.tick.bodies;
         if interest.is_all() {
-            return (0..bodies.len()).collect();
-        }
-        if interest.region.is_none()
+            out.extend(0..bodies.len());
+        } else if interest.region.is_none()
             && let Some(ids) = self.sorted_ids()
         {
-            return interest
-                .bodies
-                .iter()
-                .filter_map(|id| ids.binary_search(id).ok())
-                .collect();
+            out.extend(
+                interest
+                    .bodies
+                    .iter()
+                    .filter_map(|id| ids.binary_search(id).ok()),
+            );
+        } else {
+            out.extend(
+                bodies
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, b)| interest.wants(b))
+                    .map(|(i, _)| i),
+            );
         }
-        bodies
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| interest.wants(b))
-            .map(|(i, _)| i)
-            .collect()
     }
 
     /// The message for a subscriber of `codec` following `interest`. A frame whose chosen
     /// states hold a non-finite number becomes an error message, as every outgoing message does
     /// ([`Outgoing::finite_or_error`]).
+    #[cfg(test)]
     pub fn message(&self, codec: Codec, interest: &Interest) -> Message {
+        self.message_with(codec, interest, &mut Vec::new())
+    }
+
+    /// [`SharedTick::message`] with the caller's scratch for the chosen positions, so that a
+    /// writer sending a frame a tick allocates nothing but the frame itself.
+    pub fn message_with(
+        &self,
+        codec: Codec,
+        interest: &Interest,
+        chosen: &mut Vec<usize>,
+    ) -> Message {
         let finite = self.finite();
-        let chosen = self.chosen(interest);
+        self.choose(interest, chosen);
         if !self.tick.t.is_finite() || chosen.iter().any(|&i| !finite[i]) {
-            return self.checked_slow_path(codec, &chosen);
+            return self.checked_slow_path(codec, chosen);
         }
         let form = Form::of(codec, interest);
         let all = interest.bodies.is_empty() && interest.region.is_none();
         let bytes = if all {
             self.encoded(form)
                 .full
-                .get_or_init(|| self.assemble(form, &chosen))
+                .get_or_init(|| self.assemble(form, chosen))
                 .clone()
         } else {
-            self.assemble(form, &chosen)
+            self.assemble(form, chosen)
         };
         wrap(codec, bytes)
     }
@@ -311,8 +327,11 @@ impl SharedTick {
         } = self.parts(form);
         match form {
             Form::Json => {
-                let len: usize = chosen.iter().map(|&i| parts[i].len() + 1).sum();
-                let mut out = BytesMut::with_capacity(len + head.len() + tail.len());
+                let len = head.len()
+                    + chosen.iter().map(|&i| parts[i].len()).sum::<usize>()
+                    + chosen.len().saturating_sub(1)
+                    + tail.len();
+                let mut out = Vec::with_capacity(len);
                 out.put_slice(head);
                 for (n, &i) in chosen.iter().enumerate() {
                     if n > 0 {
@@ -321,7 +340,7 @@ impl SharedTick {
                     out.put_slice(&parts[i]);
                 }
                 out.put_slice(tail);
-                out.freeze()
+                exact(out, len)
             }
             Form::Protobuf | Form::Compact => {
                 // Tick: its scalar fields as prost writes them (defaults omitted), then each body
@@ -337,7 +356,9 @@ impl SharedTick {
                         body_len
                     }
                     + tail.len();
-                let mut out = BytesMut::with_capacity(tick_len + 12);
+                let len =
+                    key_len(SERVER_MESSAGE_TICK) + encoded_len_varint(tick_len as u64) + tick_len;
+                let mut out = Vec::with_capacity(len);
                 encode_key(SERVER_MESSAGE_TICK, WireType::LengthDelimited, &mut out);
                 encode_varint(tick_len as u64, &mut out);
                 out.put_slice(head);
@@ -357,7 +378,7 @@ impl SharedTick {
                     out.put_slice(&parts[i]);
                 }
                 out.put_slice(tail);
-                out.freeze()
+                exact(out, len)
             }
         }
     }
@@ -409,6 +430,14 @@ fn tail_protobuf(tick: &Tick) -> Vec<u8> {
         ..Default::default()
     }
     .encode_to_vec()
+}
+
+/// An assembled frame as `Bytes`. Its capacity was computed to be its length, so the `Vec`
+/// becomes `Bytes` without a second allocation (`Bytes::from` a `Vec` with spare capacity
+/// allocates a shared header, and its drop is an atomic decrement: per subscriber, per frame).
+fn exact(out: Vec<u8>, len: usize) -> Bytes {
+    debug_assert_eq!(out.len(), len, "frame length computed wrong");
+    Bytes::from(out)
 }
 
 fn wrap(codec: Codec, bytes: Bytes) -> Message {
@@ -475,6 +504,8 @@ mod tests {
                 anchor_tick: (tick_no % 2 == 0).then_some(tick_no - 3),
             };
             let shared = SharedTick::new(tick.clone());
+            // One scratch for every set, as a writer keeps (left longer by a bigger set).
+            let mut chosen = Vec::new();
             for codec in [Codec::Json, Codec::Protobuf] {
                 // Everything, twice (the second from the shared bytes).
                 for _ in 0..2 {
@@ -494,7 +525,7 @@ mod tests {
                     };
                     let set = Interest::new(interest.to_vec(), None);
                     assert_eq!(
-                        bytes(shared.message(codec, &set)),
+                        bytes(shared.message_with(codec, &set, &mut chosen)),
                         expected(codec, &filtered),
                         "{codec:?} {interest:?}"
                     );

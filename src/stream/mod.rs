@@ -401,6 +401,12 @@ impl Writer {
         W: Sink<Message> + Unpin,
     {
         let mut sub: Option<Subscription> = None;
+        // The frame's chosen bodies, reused every frame.
+        let mut chosen = Vec::new();
+        // Armed once, not once per message: a fresh wait per loop locks the token and registers
+        // and drops a waiter, a thousand times a tick.
+        let slow = self.slow.clone().cancelled_owned();
+        tokio::pin!(slow);
         loop {
             // A large answer's charge, given back when it has been sent (or dropped).
             let mut _held: Option<Charge> = None;
@@ -408,7 +414,7 @@ impl Writer {
             let msg = tokio::select! {
                 biased;
                 // The queue overflowed: the client is not reading.
-                () = self.slow.cancelled() => return self.not_reading(sink).await,
+                () = &mut slow => return self.not_reading(sink).await,
                 out = rx.recv() => match out {
                     None => break,
                     Some(Out::Message(m)) => m,
@@ -434,7 +440,7 @@ impl Writer {
                     Some(t) => {
                         let all = Interest::default();
                         let interest = sub.as_ref().map_or(&all, |s| &s.interest);
-                        t.message(self.codec, interest)
+                        t.message_with(self.codec, interest, &mut chosen)
                     }
                     None => {
                         sub = None;
@@ -463,7 +469,7 @@ impl Writer {
                     Poll::Ready(ok) => Ok(ok),
                     Poll::Pending => tokio::select! {
                         r = tokio::time::timeout(self.stall, send) => r.map(|r| r.is_ok()).map_err(|_| ()),
-                        () = self.slow.cancelled() => Err(()),
+                        () = &mut slow => Err(()),
                     },
                 }
             };
