@@ -240,13 +240,16 @@ fn a_resumed_world_continues_to_the_same_bits() {
     assert!((sa.position - sc.position).length() < 1e-3);
 }
 
-/// A world stepped with the run-time AVX2 path (the whole hull's loads, the sea's wave kernel and
-/// FFT reads inlined into it) and with the baseline build's loops ends in the same bits: boats of
-/// three sizes on a steep Gerstner cascade and on Gerstner waves over an FFT layer, 40 ticks.
+/// A world stepped at every SIMD level this CPU has ends in the bits of the baseline build's
+/// loops: the run-time AVX2 path (the whole hull's loads, the sea's wave kernel and FFT reads
+/// inlined into it, four cells a block) and the AVX-512 one (eight cells a block on an analytic
+/// sea). Boats of three sizes on a steep Gerstner cascade and on Gerstner waves over an FFT
+/// layer, 40 ticks.
 #[test]
-fn body_step_uses_the_same_bits_with_and_without_avx2() {
+fn body_step_gives_the_same_bits_at_every_simd_level() {
     use swell_waves::body::{BodySpec, BodyState, HullSpec, World, WorldSettings};
-    if !common::avx2_or_skip("body_step_uses_the_same_bits_with_and_without_avx2") {
+    use swell_waves::simd::{SimdLevel, force_simd_level};
+    if !common::avx2_or_skip("body_step_gives_the_same_bits_at_every_simd_level") {
         return;
     }
     let mut with_fft = gerstner_spec(8, 6, 0.5);
@@ -259,8 +262,8 @@ fn body_step_uses_the_same_bits_with_and_without_avx2() {
     for spec in [gerstner_spec(31, 16, 0.8), with_fft] {
         let surface = Surface::new(&spec).unwrap();
         let options = QueryOptions::default();
-        let run = |simd: bool| {
-            swell_waves::surface::set_simd_dispatch(simd);
+        let run = |level: SimdLevel| {
+            force_simd_level(Some(level));
             let mut world = World::new(WorldSettings::default()).unwrap();
             for (i, (length, mass)) in [(3.0, 400.0), (8.0, 3000.0), (20.0, 40_000.0)]
                 .into_iter()
@@ -293,8 +296,11 @@ fn body_step_uses_the_same_bits_with_and_without_avx2() {
                 .map(|(_, b)| format!("{:?}", b.state()))
                 .collect::<Vec<_>>()
         };
-        let (on, off) = (run(true), run(false));
-        swell_waves::surface::set_simd_dispatch(true);
-        assert_eq!(on, off);
+        let levels = SimdLevel::available();
+        let states: Vec<_> = levels.iter().map(|&l| run(l)).collect();
+        force_simd_level(None);
+        for (level, got) in levels.iter().zip(&states).skip(1) {
+            assert_eq!(got, &states[0], "{} against {}", level.name(), levels[0].name());
+        }
     }
 }
