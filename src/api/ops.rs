@@ -437,6 +437,9 @@ fn schemas() -> Value {
                     "items": {"type": "object", "required": ["kind"],
                         "properties": {"kind": {"enum": ["sine", "gerstner", "fft", "particles"]}}}}}},
         "ClockUpdate": {"type": "object", "additionalProperties": false,
+            "description": "Applied in the order seek, rate, pause. The clock never leaves \
+                [-limits.max_time, max_time]: one that reaches either end holds there, reading \
+                paused: true with its rate kept, until a seek or a rate brings it back inside.",
             "properties": {"rate": num, "paused": {"type": "boolean"}, "t": num}},
         "SampleRequest": {"type": "object", "required": ["points"], "properties": {
             "t": num, "origin": xz, "points": {"type": "array", "items": xz},
