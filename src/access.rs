@@ -158,10 +158,10 @@ fn parse_file(path: &Path, text: &str) -> Result<Vec<(Digest32, Role)>, TokensEr
             Some(hex) => {
                 parse_hex32(hex).ok_or_else(|| err("sha256: needs 64 hex digits".to_owned()))?
             }
-            None if token.len() < 16 => {
-                return Err(err(
-                    "a token shorter than 16 characters is too easy to guess".into(),
-                ));
+            None if token.len() < MIN_TOKEN_BYTES => {
+                return Err(err(format!(
+                    "a token shorter than {MIN_TOKEN_BYTES} characters is too easy to guess"
+                )));
             }
             None => digest(token),
         };
@@ -325,6 +325,118 @@ pub fn hashed(token: &str) -> String {
     format!("sha256:{hex}")
 }
 
+/// Shortest plain token accepted, bytes. 16 bytes of a random alphabet (`openssl rand -hex 16`
+/// gives 32) put a guess beyond any rate of tries a server answers; shorter ones are words and
+/// dates an attacker tries first. The tokens file holds every plain token to it; tokens given
+/// on the command line or in the environment are held to it when the server listens beyond
+/// loopback ([`check_given_tokens`]).
+pub const MIN_TOKEN_BYTES: usize = 16;
+
+/// A token given on the command line or in the environment that is shorter than
+/// [`MIN_TOKEN_BYTES`]. Its `Display` names the option, never the token.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ShortToken {
+    /// The option that gave it, with its variable: `--admin-token (SWELL_ADMIN_TOKEN)`.
+    pub option: &'static str,
+    /// Its place in a comma-separated list (1-based); `None` for a single-token option.
+    pub index: Option<usize>,
+    /// Its length, bytes.
+    pub len: usize,
+}
+
+impl std::fmt::Display for ShortToken {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let which = match self.index {
+            Some(i) => format!("token {i} of {}", self.option),
+            None => format!("the token of {}", self.option),
+        };
+        write!(
+            f,
+            "{which} is {} bytes, shorter than the {MIN_TOKEN_BYTES} bytes a token needs",
+            self.len
+        )
+    }
+}
+
+/// A short token ([`ShortToken`]) on a server that listens beyond loopback: it must not start.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "{token} when the server listens beyond loopback ({bind} {addr}); give a longer one \
+    (`openssl rand -hex 16`) or listen on loopback only"
+)]
+pub struct ExposedShortToken {
+    /// The first short token.
+    pub token: ShortToken,
+    /// The option of the first address that is not loopback (`--bind`, `--probe-bind`).
+    pub bind: &'static str,
+    /// That address.
+    pub addr: std::net::SocketAddr,
+}
+
+/// What a token option gave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Given<'a> {
+    /// One token, as it is (`--admin-token`: a comma is part of it).
+    One(&'a str),
+    /// A comma-separated list, split as [`Access::new`] splits it: whitespace trimmed, empty
+    /// entries skipped (`--game-tokens`).
+    List(&'a str),
+}
+
+/// Whether `addr` reaches this host only: `127.0.0.0/8`, `::1`, or an IPv4-mapped loopback
+/// address. `0.0.0.0` and `::` listen on every interface, so they are not.
+pub fn is_loopback(addr: &std::net::SocketAddr) -> bool {
+    addr.ip().to_canonical().is_loopback()
+}
+
+/// Checks tokens given on the command line or in the environment against [`MIN_TOKEN_BYTES`],
+/// the rule of the tokens file. `given` pairs each option (with its variable) with what it
+/// gave; `binds` pairs each listening option with its address.
+///
+/// Short tokens are what tests, examples and local scripts use (`--admin-token tok`), and on a
+/// loopback address only this host can try them, so there they are allowed and returned for
+/// the caller to warn about.
+///
+/// # Errors
+/// [`ExposedShortToken`] naming the first short token and the first address beyond loopback,
+/// when there are both.
+pub fn check_given_tokens(
+    given: &[(&'static str, Given<'_>)],
+    binds: &[(&'static str, std::net::SocketAddr)],
+) -> Result<Vec<ShortToken>, ExposedShortToken> {
+    let mut short = Vec::new();
+    for &(option, value) in given {
+        match value {
+            Given::One(t) if t.len() < MIN_TOKEN_BYTES => short.push(ShortToken {
+                option,
+                index: None,
+                len: t.len(),
+            }),
+            Given::One(_) => {}
+            Given::List(list) => {
+                let tokens = list.split(',').map(str::trim).filter(|t| !t.is_empty());
+                for (i, t) in tokens.enumerate() {
+                    if t.len() < MIN_TOKEN_BYTES {
+                        short.push(ShortToken {
+                            option,
+                            index: Some(i + 1),
+                            len: t.len(),
+                        });
+                    }
+                }
+            }
+        }
+    }
+    match (short.first(), binds.iter().find(|(_, a)| !is_loopback(a))) {
+        (Some(token), Some(&(bind, addr))) => Err(ExposedShortToken {
+            token: token.clone(),
+            bind,
+            addr,
+        }),
+        _ => Ok(short),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -415,5 +527,81 @@ mod tests {
         assert_eq!(entries[0], (digest("s3cr#t-token-0000001"), Role::Game));
         // A short token with a `#` in it is refused as short, not cut.
         assert!(parse_file(p, "game s3cr#t\n").is_err());
+    }
+
+    /// The CLI/env rule: short tokens pass with a report on loopback, and stop a server that
+    /// listens anywhere else, whichever listener it is; IPv4-mapped loopback is loopback, the
+    /// unspecified addresses are not.
+    #[test]
+    fn short_given_tokens_pass_on_loopback_only() {
+        use std::net::SocketAddr;
+        let addr = |s: &str| s.parse::<SocketAddr>().unwrap();
+        for a in [
+            "127.0.0.1:80",
+            "127.0.0.2:0",
+            "[::1]:8080",
+            "[::ffff:127.0.0.1]:1",
+        ] {
+            assert!(is_loopback(&addr(a)), "{a}");
+        }
+        for a in [
+            "0.0.0.0:80",
+            "[::]:80",
+            "10.0.0.1:80",
+            "[::ffff:10.0.0.1]:1",
+        ] {
+            assert!(!is_loopback(&addr(a)), "{a}");
+        }
+        let given = [
+            ("--admin-token (SWELL_ADMIN_TOKEN)", Given::One("tok,en")),
+            (
+                "--game-tokens (SWELL_GAME_TOKENS)",
+                Given::List(" game-token-0123456789 , ,zq9,"),
+            ),
+            ("--reader-tokens (SWELL_READER_TOKENS)", Given::List("")),
+        ];
+        let local = [
+            ("--bind", addr("127.0.0.1:0")),
+            ("--probe-bind", addr("[::1]:9")),
+        ];
+        let short = check_given_tokens(&given, &local).unwrap();
+        assert_eq!(
+            short,
+            [
+                ShortToken {
+                    option: "--admin-token (SWELL_ADMIN_TOKEN)",
+                    index: None,
+                    len: 6
+                },
+                ShortToken {
+                    option: "--game-tokens (SWELL_GAME_TOKENS)",
+                    index: Some(2),
+                    len: 3
+                },
+            ]
+        );
+        assert_eq!(
+            short[1].to_string(),
+            "token 2 of --game-tokens (SWELL_GAME_TOKENS) is 3 bytes, shorter than the 16 bytes \
+            a token needs"
+        );
+        let exposed = [
+            ("--bind", addr("127.0.0.1:0")),
+            ("--probe-bind", addr("0.0.0.0:9")),
+        ];
+        let e = check_given_tokens(&given, &exposed).unwrap_err();
+        assert_eq!((e.bind, e.addr), ("--probe-bind", addr("0.0.0.0:9")));
+        let msg = e.to_string();
+        assert!(
+            msg.contains("--admin-token") && msg.contains("(--probe-bind 0.0.0.0:9)"),
+            "{msg}"
+        );
+        assert!(!msg.contains("tok,en"), "{msg}");
+        // Long tokens pass anywhere, with nothing to report.
+        let long = [(
+            "--admin-token (SWELL_ADMIN_TOKEN)",
+            Given::One("admin-token-0123456789"),
+        )];
+        assert_eq!(check_given_tokens(&long, &exposed), Ok(Vec::new()));
     }
 }

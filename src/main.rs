@@ -157,6 +157,54 @@ fn say(line: &str) {
     let _ = writeln!(out, "{line}").and_then(|()| out.flush());
 }
 
+/// A warning line on stderr, outside the log (which `RUST_LOG` may silence): the operator
+/// should see it whatever the log level. A stderr that cannot be written loses the line.
+fn warn_line(line: &str) {
+    use std::io::Write as _;
+    let mut err = std::io::stderr().lock();
+    let _ = writeln!(err, "{line}").and_then(|()| err.flush());
+}
+
+/// The tokens file's length rule ([`swell::access::MIN_TOKEN_BYTES`]) for the tokens given as
+/// options or variables: a short one stops startup when any listener (`--bind`,
+/// `--probe-bind`) is beyond loopback, and is allowed with a warning when every one is on
+/// loopback (tests and local scripts use `--admin-token tok`).
+fn check_token_lengths(args: &ServeArgs) -> anyhow::Result<()> {
+    use swell::access::Given;
+    let given: Vec<(&'static str, Given<'_>)> = [
+        (
+            "--admin-token (SWELL_ADMIN_TOKEN)",
+            args.admin_token.as_deref().map(Given::One),
+        ),
+        (
+            "--admin-tokens (SWELL_ADMIN_TOKENS)",
+            args.admin_tokens.as_deref().map(Given::List),
+        ),
+        (
+            "--game-tokens (SWELL_GAME_TOKENS)",
+            args.game_tokens.as_deref().map(Given::List),
+        ),
+        (
+            "--reader-tokens (SWELL_READER_TOKENS)",
+            args.reader_tokens.as_deref().map(Given::List),
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(option, g)| g.map(|g| (option, g)))
+    .collect();
+    let mut binds = vec![("--bind", args.bind)];
+    binds.extend(args.probe_bind.map(|a| ("--probe-bind", a)));
+    for short in swell::access::check_given_tokens(&given, &binds)? {
+        let on: Vec<String> = binds.iter().map(|(o, a)| format!("{o} {a}")).collect();
+        warn_line(&format!(
+            "warning: {short}; allowed because every listener is on loopback ({}), refused on \
+            any other address",
+            on.join(", ")
+        ));
+    }
+    Ok(())
+}
+
 fn parse_store(s: &str) -> Result<swell::store::StoreUrl, String> {
     swell::store::StoreUrl::parse(s)
 }
@@ -173,6 +221,7 @@ async fn serve(args: ServeArgs) -> anyhow::Result<()> {
             "--admin-token (SWELL_ADMIN_TOKEN) is empty or blank; give a token or leave it out to get a random one"
         );
     }
+    check_token_lengths(&args)?;
     let mut config = swell::Config {
         bind: args.bind,
         data_dir: Some(args.data_dir),

@@ -4,7 +4,9 @@
 //! utoipa: it keeps the build lean and the API is small. So it cannot drift from the handlers
 //! unnoticed, `tests/server/api.rs` checks that every route the router serves is listed, that
 //! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
-//! carry statuses the document declares.
+//! carry statuses the document declares; `tests/server/openapi.rs` checks the sample and
+//! orientation request and answer schemas field by field against what the server takes and
+//! answers.
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -378,7 +380,8 @@ pub fn openapi_document() -> Value {
         };
         if let Some(a) = answer {
             op["responses"]["200"] = json!({"description": "ok (JSON, or protobuf with Accept: application/x-protobuf)",
-                "content": {"application/json": {}, "application/x-protobuf": protobuf_content(a)}});
+                "content": {"application/json": {"schema": {"$ref": format!("#/components/schemas/{a}")}},
+                    "application/x-protobuf": protobuf_content(a)}});
         }
         if *path == "/v1/scenes/{id}/stream" {
             op["description"] = json!(
@@ -410,13 +413,22 @@ pub fn openapi_document() -> Value {
     })
 }
 
-/// The request schemas, field for field as serde reads the request types: a field with
-/// `#[serde(default)]` (or an `Option`) is optional, every other one is `required`, and a type
-/// with `deny_unknown_fields` has `additionalProperties: false`.
+/// The request and answer schemas, field for field as serde reads and writes the types: a
+/// field with `#[serde(default)]` (or an `Option`) is optional, every other one is `required`;
+/// an `Option` also takes `null` (its type lists `"null"`, and an enum of one lists `null`
+/// among its values); a type with `deny_unknown_fields` has `additionalProperties: false`; an
+/// answer field skipped when `None` is optional. `tests/server/openapi.rs` checks the sample
+/// and orientation ones against the server, field by field.
 fn schemas() -> Value {
     let num = json!({"type": "number"});
     let xz = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
     let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
+    let nullable_enum = |values: &[&str], description: &str| {
+        let mut e: Vec<Value> = values.iter().map(|v| json!(v)).collect();
+        e.push(Value::Null);
+        json!({"type": ["string", "null"], "enum": e, "description": description})
+    };
+    let fields: Vec<&str> = crate::service::types::FIELD_NAMES.to_vec();
     json!({
         "Error": {"type": "object", "properties": {"error": {"type": "object",
             "required": ["code", "message"],
@@ -437,20 +449,74 @@ fn schemas() -> Value {
                     "items": {"type": "object", "required": ["kind"],
                         "properties": {"kind": {"enum": ["sine", "gerstner", "fft", "particles"]}}}}}},
         "ClockUpdate": {"type": "object", "additionalProperties": false,
+            "description": "Applied in the order seek, rate, pause. The clock never leaves \
+                [-limits.max_time, max_time]: one that reaches either end holds there, reading \
+                paused: true with its rate kept, until a seek or a rate brings it back inside.",
             "properties": {"rate": num, "paused": {"type": "boolean"}, "t": num}},
-        "SampleRequest": {"type": "object", "required": ["points"], "properties": {
-            "t": num, "origin": xz, "points": {"type": "array", "items": xz},
-            "fields": {"type": "array", "items": {"enum": ["height", "normal", "displacement", "jacobian", "residual"]}},
-            "accuracy": {"type": "object", "properties": {
-                "method": {"enum": ["newton", "fixed_point"]}, "iterations": {"type": "integer"},
-                "tolerance": num, "filter": {"enum": ["nearest", "bilinear", "bicubic"]},
-                "precision": {"enum": ["f64", "f32"]},
-                "time": {"enum": ["grid", "exact"]}}}}},
-        "OrientationRequest": {"type": "object", "required": ["bodies"], "properties": {
-            "t": num, "bodies": {"type": "array", "items": {"type": "object",
-                "required": ["position", "length", "beam"], "properties": {
-                    "position": xz, "yaw": num, "length": num, "beam": num,
-                    "probes": {"type": "array", "items": xz}}}}}},
+        // crate::service::types::SampleRequest and Accuracy.
+        "SampleRequest": {"type": "object", "required": ["points"], "additionalProperties": false,
+            "properties": {
+                "t": {"type": ["number", "null"], "description": "scene time, s (default: the clock's now)"},
+                "origin": {"type": ["array", "null"], "items": {"type": "number"}, "minItems": 2, "maxItems": 2,
+                    "description": "world offset [x, z] added (in f64) to every point, m (default [0, 0])"},
+                "points": {"type": "array", "items": xz, "description": "points [x, z], m"},
+                "fields": {"type": ["array", "null"], "items": {"type": "string", "enum": fields},
+                    "description": "the fields to answer (default, and when empty: [\"height\"])"},
+                "accuracy": {"type": ["object", "null"], "additionalProperties": false,
+                    "description": "accuracy settings (default: Newton, 8 iterations, 1e-5 m, bicubic, f64, grid)",
+                    "properties": {
+                        "method": nullable_enum(&["newton", "fixed_point"], "inversion method"),
+                        "iterations": {"type": ["integer", "null"], "minimum": 0,
+                            "maximum": swell_waves::query::MAX_ITERATIONS, "description": "most inversion steps"},
+                        "tolerance": {"type": ["number", "null"], "minimum": 0, "description": "inversion tolerance, m"},
+                        "filter": nullable_enum(&["nearest", "bilinear", "bicubic"], "FFT grid filter"),
+                        "precision": nullable_enum(&["f64", "f32"], "evaluation precision"),
+                        "time": nullable_enum(&["grid", "exact"], "FFT time sampling")}}}},
+        // crate::service::types::SampleResponse: only the fields asked for, one entry per point.
+        "SampleResponse": {"type": "object", "required": ["t"], "additionalProperties": false,
+            "properties": {
+                "t": {"type": "number", "description": "the scene time used, s"},
+                "height": {"type": "array", "items": num, "description": "heights, m (with \"height\")"},
+                "normal": {"type": "array", "items": xyz, "description": "unit normals [x, y, z] (with \"normal\")"},
+                "displacement": {"type": "array", "items": xyz,
+                    "description": "displacements [Dx, y, Dz] of the points taken as undisplaced, m (with \"displacement\")"},
+                "jacobian": {"type": "array", "items": num,
+                    "description": "Jacobian determinants of the horizontal map (with \"jacobian\")"},
+                "folded": {"type": "array", "items": {"type": "boolean"},
+                    "description": "jacobian <= 0: the surface folds (with \"jacobian\")"},
+                "residual": {"type": "array", "items": num, "description": "inversion residuals, m (with \"residual\")"}}},
+        // crate::service::types::OrientationRequest and Body.
+        "OrientationRequest": {"type": "object", "required": ["bodies"], "additionalProperties": false,
+            "properties": {
+                "t": {"type": ["number", "null"], "description": "scene time, s (default: the clock's now)"},
+                "bodies": {"type": "array", "items": {"type": "object",
+                    "required": ["position", "length", "beam"], "additionalProperties": false,
+                    "properties": {
+                        "position": {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2,
+                            "description": "world [x, z] of the body origin, m"},
+                        "yaw": {"type": "number", "default": 0, "description": "rad, about +y"},
+                        "length": {"type": "number", "description": "m"},
+                        "beam": {"type": "number", "description": "m"},
+                        "probes": {"type": ["array", "null"], "items": xz,
+                            "description": "probes [u, v] in the body frame, m (default: a 3×3 grid over the footprint)"}}}}}},
+        // crate::service::types::OrientationResponse and BodyOrientation.
+        "OrientationResponse": {"type": "object", "required": ["t", "bodies"], "additionalProperties": false,
+            "properties": {
+                "t": {"type": "number", "description": "the scene time used, s"},
+                "bodies": {"type": "array", "description": "one per body, in order", "items": {"type": "object",
+                    "required": ["heave", "rotation", "normal", "pitch", "roll"], "additionalProperties": false,
+                    "properties": {
+                        "heave": {"type": "number", "description": "height of the fitted plane at the body origin, m"},
+                        "rotation": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4,
+                            "description": "world rotation quaternion [x, y, z, w]"},
+                        "normal": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+                            "description": "world unit normal [x, y, z]"},
+                        "pitch": {"type": "number", "description": "rad, bow up positive"},
+                        "roll": {"type": "number", "description": "rad"}}}}}},
+        // crate::service::types::HeightResponse.
+        "HeightResponse": {"type": "object", "required": ["t", "height"], "additionalProperties": false,
+            "properties": {"t": {"type": "number", "description": "the scene time used, s"},
+                "height": {"type": "number", "description": "height of the surface above (x, z), m"}}},
         // swell_waves::body::SpawnSpec (crate::bodies::SpawnRequest).
         "SpawnRequest": {"type": "object", "required": ["mass", "hull", "position"],
             "additionalProperties": false, "properties": {

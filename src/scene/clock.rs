@@ -19,6 +19,17 @@
 //! So replicas and restarts agree on it without a counter of their own (a local counter would
 //! count the changes each process happened to apply: a replica that joined later, or a restart
 //! from a snapshot, would disagree). A clock started from the scene's epoch is generation 0.
+//!
+//! # The time limit
+//! Every client time is bounded by `limits.max_time` ([`crate::Limits::check_time`]), so a
+//! clock never runs past it either: a server gives its clocks that bound
+//! ([`Clock::within`]), and a running clock that reaches ±bound *holds* there. It reads
+//! exactly ±bound, as paused (its [`ClockReading::paused`] is true, so a client following the
+//! clock stops too), with its rate and pause setting kept: a seek back inside, or a rate
+//! towards the inside, runs it again from there. The hold is a pure function of the clock
+//! record and the bound (no event marks it), so every replica with the same limits and every
+//! restart reads the same `t`. A clock whose record lies beyond the bound (a bound lowered
+//! since, an epoch far from now) reads ±bound, held, until its time comes back inside.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -90,6 +101,8 @@ pub struct Clock {
     rate: f64,
     paused: bool,
     generation: u64,
+    /// Largest |t| the clock reads (see the module docs); infinite until [`Clock::within`].
+    bound: f64,
 }
 
 /// A clock's state at one instant, as the API reports it.
@@ -103,7 +116,8 @@ pub struct ClockReading {
     pub tick_hz: f64,
     /// Scene seconds per real second (negative runs backwards).
     pub rate: f64,
-    /// Whether t is frozen.
+    /// Whether t is frozen: paused by an admin, or held at ±`limits.max_time` (see the module
+    /// docs: t reads exactly ±`max_time` then).
     pub paused: bool,
     /// Unix time of the reading, s: `t` at another Unix time `u` is
     /// `t + rate·(u − unix)` (unless paused), so a client can follow the clock on its own.
@@ -121,6 +135,7 @@ impl Clock {
             rate: 1.0,
             paused: false,
             generation: 0,
+            bound: f64::INFINITY,
         }
     }
 
@@ -133,6 +148,7 @@ impl Clock {
             rate,
             paused,
             generation: 0,
+            bound: f64::INFINITY,
         }
     }
 
@@ -140,6 +156,14 @@ impl Clock {
     #[must_use]
     pub fn with_generation(self, generation: u64) -> Clock {
         Clock { generation, ..self }
+    }
+
+    /// The same clock, holding at ±`max_t` (the server's `limits.max_time`; see the module
+    /// docs). A `max_t` that is not a positive number leaves it unbounded.
+    #[must_use]
+    pub fn within(self, max_t: f64) -> Clock {
+        let bound = if max_t > 0.0 { max_t } else { f64::INFINITY };
+        Clock { bound, ..self }
     }
 
     /// The clock's generation (see the module docs).
@@ -158,13 +182,27 @@ impl Clock {
         Clock::starting_at(epoch, 0.0)
     }
 
-    /// Scene time at `now`, s.
+    /// Scene time at `now`, s, within ±the bound ([`Clock::within`]).
     pub fn t(&self, now: f64) -> f64 {
-        if self.paused {
+        let t = if self.paused {
             self.offset
         } else {
             self.offset + self.rate * (now - self.anchor)
+        };
+        // min/max rather than clamp: no panic whatever the numbers.
+        t.min(self.bound).max(-self.bound)
+    }
+
+    /// Whether the clock runs but is held at ±the bound at `now` (see the module docs): it has
+    /// reached the bound in the direction it runs, or its record lies beyond the bound.
+    pub fn held(&self, now: f64) -> bool {
+        if self.paused {
+            return false;
         }
+        let raw = self.offset + self.rate * (now - self.anchor);
+        (raw >= self.bound && self.rate > 0.0)
+            || (raw <= -self.bound && self.rate < 0.0)
+            || raw.abs() > self.bound
     }
 
     /// The rate.
@@ -200,7 +238,7 @@ impl Clock {
         self.offset = t;
     }
 
-    /// The reading at `now`.
+    /// The reading at `now`: `paused` while the clock is paused or held ([`Clock::held`]).
     pub fn read(&self, now: f64, tick_hz: f64) -> ClockReading {
         let t = self.t(now);
         ClockReading {
@@ -208,7 +246,7 @@ impl Clock {
             tick: tick_of(t, tick_hz),
             tick_hz,
             rate: self.rate,
-            paused: self.paused,
+            paused: self.paused || self.held(now),
             unix: now,
             generation: self.generation,
         }
@@ -347,6 +385,48 @@ mod tests {
             600.0,
             "runs again after catching up"
         );
+    }
+
+    /// A running clock that reaches its bound holds there and reads as paused, keeping its
+    /// rate; it used to run on past `limits.max_time`, so a client that echoed its `t` was
+    /// refused. A rate back towards the inside runs it again from the bound.
+    #[test]
+    fn a_clock_holds_at_its_bound_and_a_rate_inwards_runs_it_again() {
+        let mut c = Clock::starting_at(0.0, 90.0).within(100.0);
+        assert_eq!((c.t(5.0), c.held(5.0)), (95.0, false));
+        assert_eq!((c.t(10.0), c.held(10.0)), (100.0, true), "reached");
+        assert_eq!((c.t(1e6), c.held(1e6)), (100.0, true), "holds");
+        let r = c.read(1e6, 10.0);
+        assert_eq!((r.t, r.tick, r.rate, r.paused), (100.0, 1000, 1.0, true));
+        c.set_rate(1e6, -2.0);
+        assert_eq!((c.t(1e6 + 1.0), c.held(1e6 + 1.0)), (98.0, false));
+        // Backwards to the lower bound, exactly.
+        assert_eq!((c.t(1e6 + 100.0), c.held(1e6 + 100.0)), (-100.0, true));
+        assert_eq!(c.t(1e9), -100.0);
+        // A seek to exactly the bound at rate 0 is frozen, not held; paused is paused.
+        c.seek(1e9, 100.0);
+        c.set_rate(1e9, 0.0);
+        assert_eq!((c.t(2e9), c.held(2e9)), (100.0, false));
+        c.set_rate(2e9, 5.0);
+        c.set_paused(2e9, true);
+        let r = c.read(3e9, 10.0);
+        assert_eq!((r.t, r.paused, c.held(3e9)), (100.0, true, false));
+        // Unbounded by default, and a bound that is not positive leaves it unbounded.
+        let free = Clock::starting_at(0.0, 90.0);
+        assert_eq!(free.t(1e6), 1e6 + 90.0);
+        assert_eq!(free.within(0.0).t(1e6), 1e6 + 90.0);
+        assert_eq!(free.within(f64::NAN).t(1e6), 1e6 + 90.0);
+    }
+
+    /// A record beyond the bound (an epoch far from now, a bound lowered since) reads the bound,
+    /// held, whichever way it runs, until its time comes back inside.
+    #[test]
+    fn a_record_beyond_the_bound_reads_the_bound_until_it_comes_back() {
+        let c = Clock::with_state(0.0, 150.0, -1.0, false).within(100.0);
+        assert_eq!((c.t(10.0), c.held(10.0)), (100.0, true));
+        assert_eq!((c.t(60.0), c.held(60.0)), (90.0, false));
+        let c = Clock::from_epoch(1e11).within(1e10);
+        assert_eq!((c.t(BUILTIN_EPOCH), c.held(BUILTIN_EPOCH)), (-1e10, true));
     }
 
     #[test]

@@ -252,6 +252,8 @@ impl AppState {
     /// can both write the same next generation (the feed's order decides which clock every
     /// replica ends with), and clients still hear of the second.
     pub fn replace_clock(&self, entry: &SceneEntry, clock: Clock) {
+        // Every clock a scene holds comes through here or `insert_loaded`: both bound it.
+        let clock = clock.within(self.limits.max_time);
         let before = std::mem::replace(
             &mut *entry.clock.lock().unwrap_or_else(|p| p.into_inner()),
             clock,
@@ -265,8 +267,9 @@ impl AppState {
     /// Inserts a scene at start-up (no persistence, no lock), with `clock` or one started from
     /// the scene's epoch ([`BUILTIN_EPOCH`] if it gives none).
     pub fn insert_loaded(&self, scene: Scene, clock: Option<Clock>) {
-        let clock =
-            clock.unwrap_or_else(|| Clock::from_epoch(scene.spec.epoch.unwrap_or(BUILTIN_EPOCH)));
+        let clock = clock
+            .unwrap_or_else(|| Clock::from_epoch(scene.spec.epoch.unwrap_or(BUILTIN_EPOCH)))
+            .within(self.limits.max_time);
         let id = scene.id.clone();
         let old = self.write_scenes().insert(
             id,
@@ -388,7 +391,9 @@ impl AppState {
             .await
     }
 
-    /// Applies a clock update (seek, then rate, then pause) and returns the new reading.
+    /// Applies a clock update (seek, then rate, then pause) and returns the new reading. The
+    /// clock holds at ±[`Limits::max_time`] (see [`crate::scene::clock`]): a seek to exactly
+    /// the limit, or a rate that takes the clock there, leaves it reading the limit, held.
     ///
     /// # Errors
     /// [`StateError::SceneNotFound`]; [`StateError::Clock`] for a non-finite or out-of-range `t`

@@ -70,6 +70,81 @@ async fn fast_forward_runs_faster() {
     s.stop().await;
 }
 
+/// A clock sought to exactly `limits.max_time` (1e10 s by default) used to run on past it, so a
+/// client that echoed the clock's `t` back (a height at now, a sample, the impacts at now) was
+/// refused with 400 (`t` out of range). It holds at the limit now and reads as paused (rate
+/// kept), and its `t` is accepted everywhere; a rate back inwards runs it again, and a fast
+/// rate that reaches the other end holds it there too.
+#[tokio::test]
+async fn a_clock_at_max_time_holds_there_and_its_t_is_accepted() {
+    let s = TestServer::start(config()).await;
+    let max = swell::Limits::default().max_time;
+    let (st, c) = s.put_clock("calm", &json!({"t": max})).await;
+    assert_eq!(st, 200, "{c}");
+    assert_eq!(c["t"], json!(max));
+    assert_eq!(
+        (&c["rate"], &c["paused"]),
+        (&json!(1.0), &json!(true)),
+        "{c}"
+    );
+    tokio::time::sleep(std::time::Duration::from_millis(30)).await;
+    let (_, c) = s.get_json("/v1/scenes/calm/clock").await;
+    assert_eq!(c["t"], json!(max), "held at max_time: {c}");
+    assert_eq!(c["paused"], json!(true), "{c}");
+    assert_eq!(c["tick"], json!(max as i64 * 30), "{c}");
+    let now = c["t"].as_f64().unwrap();
+
+    // The clock's t, echoed back, is a valid time everywhere; a query without t runs at it.
+    let (st, h) = s
+        .get_json(&format!("/v1/scenes/calm/height?x=1&z=2&t={now}"))
+        .await;
+    assert_eq!(st, 200, "{h}");
+    let (_, at_now) = s.get_json("/v1/scenes/calm/height?x=1&z=2").await;
+    assert_eq!(at_now["t"], json!(max));
+    assert_eq!(bits(&at_now["height"]), bits(&h["height"]));
+    let (st, v) = s
+        .post_json(
+            "/v1/scenes/calm/sample",
+            &json!({"t": now, "points": [[1, 2]]}),
+        )
+        .await;
+    assert_eq!((st, &v["t"]), (200, &json!(max)), "{v}");
+    let (st, v) = s
+        .get_json(&format!("/v1/scenes/harbour/impacts?t={now}"))
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let (st, v) = s
+        .get_json(&format!("/v1/scenes/calm/uniforms?t={now}"))
+        .await;
+    assert_eq!(st, 200, "{v}");
+
+    // A rate inwards runs it again, from the limit.
+    let (st, c) = s.put_clock("calm", &json!({"rate": -1.0})).await;
+    assert_eq!(st, 200, "{c}");
+    assert_eq!(c["paused"], json!(false), "{c}");
+    let t = c["t"].as_f64().unwrap();
+    assert!(t <= max && t > max - 1.0, "from the limit: {c}");
+    tokio::time::sleep(std::time::Duration::from_millis(30)).await;
+    let (_, c) = s.get_json("/v1/scenes/calm/clock").await;
+    let t = c["t"].as_f64().unwrap();
+    assert!(t < max && t > max - 10.0, "runs back from the limit: {c}");
+
+    // A rate that reaches the other end holds there too.
+    let (st, c) = s
+        .put_clock("lake", &json!({"t": -max + 1.0, "rate": -1000.0}))
+        .await;
+    assert_eq!(st, 200, "{c}");
+    tokio::time::sleep(std::time::Duration::from_millis(30)).await;
+    let (_, c) = s.get_json("/v1/scenes/lake/clock").await;
+    assert_eq!((&c["t"], &c["paused"]), (&json!(-max), &json!(true)), "{c}");
+    assert_eq!(c["rate"], json!(-1000.0));
+    let (st, h) = s
+        .get_json(&format!("/v1/scenes/lake/height?x=1&z=2&t={}", -max))
+        .await;
+    assert_eq!(st, 200, "{h}");
+    s.stop().await;
+}
+
 /// Reads text frames until one of type `ty` (skipping tick frames and anything else).
 async fn next_of_type(ws: &mut common::Ws, ty: &str) -> serde_json::Value {
     use futures_util::StreamExt;

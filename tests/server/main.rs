@@ -30,6 +30,7 @@ mod native;
 mod native_body_impacts;
 mod native_impacts;
 mod native_reconcile;
+mod openapi;
 mod process;
 mod protobuf;
 mod shader;

@@ -327,3 +327,195 @@ async fn sigterm_turns_readyz_503_then_exits_within_the_deadline() {
     assert!(status.success(), "{status:?}");
     drop(slow);
 }
+
+/// The `SWELL_` variables the token rule reads, removed from a child so the test's own
+/// environment cannot change what it is told.
+const SWELL_VARS: &[&str] = &[
+    "SWELL_BIND",
+    "SWELL_PROBE_BIND",
+    "SWELL_ADMIN_TOKEN",
+    "SWELL_ADMIN_TOKENS",
+    "SWELL_GAME_TOKENS",
+    "SWELL_READER_TOKENS",
+    "SWELL_TOKENS_FILE",
+    "SWELL_DATA_DIR",
+    "SWELL_CONFIG",
+];
+
+/// `swell serve` with `args` and `env` on a fresh data dir: `Some(status)` if it exited within
+/// 20 s, `None` if it started serving (it printed its listening line; then it is killed); and
+/// its stdout and stderr.
+fn serve_briefly(
+    args: &[&str],
+    env: &[(&str, &str)],
+) -> (Option<std::process::ExitStatus>, String, String) {
+    use std::io::{BufRead as _, Read as _};
+    let dir = tempfile::tempdir().unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_swell"));
+    cmd.arg("serve")
+        .args(args)
+        .arg("--data-dir")
+        .arg(dir.path())
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    for v in SWELL_VARS {
+        cmd.env_remove(v);
+    }
+    cmd.envs(env.iter().copied());
+    let mut guard = Killed(cmd.spawn().expect("the swell binary starts"));
+    let stdout = guard.0.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let start = Instant::now();
+    let mut out = String::new();
+    let status = loop {
+        match rx.recv_timeout(Duration::from_millis(50)) {
+            Ok(line) => {
+                out.push_str(&line);
+                out.push('\n');
+                if line.starts_with("swell listening on") {
+                    break None;
+                }
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                if let Some(s) = guard.0.try_wait().unwrap() {
+                    break Some(s);
+                }
+                assert!(
+                    start.elapsed() < Duration::from_secs(20),
+                    "{args:?}: neither serving nor exited after 20 s"
+                );
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                break Some(guard.0.wait().unwrap());
+            }
+        }
+    };
+    let _ = guard.0.kill();
+    let _ = guard.0.wait();
+    let _ = reader.join();
+    let mut err = String::new();
+    guard
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    (status, out, err)
+}
+
+/// Tokens given on the command line or in the environment shorter than 16 bytes, the tokens
+/// file's rule, used to be accepted on any address. A server that listens beyond loopback
+/// (`--bind` or `--probe-bind`) now refuses them (exit 1, naming the option, the rule and the
+/// address, never the token); one that listens on loopback only takes them with a warning
+/// on stderr, as every test and script does with `--admin-token tok`.
+#[test]
+fn a_short_cli_or_env_token_is_refused_beyond_loopback_and_warned_about_on_it() {
+    const LONG: &str = "admin-token-0123456789";
+    const SHORT: &str = "zq9";
+    // (args, env, the option the message names, the bind option and address it names).
+    type Case<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], &'a str, &'a str);
+    let refused: &[Case] = &[
+        (
+            &["--bind", "0.0.0.0:0", "--admin-token", SHORT],
+            &[],
+            "--admin-token",
+            "--bind 0.0.0.0:0",
+        ),
+        (
+            &["--bind", "127.0.0.1:0", "--probe-bind", "0.0.0.0:0"],
+            &[("SWELL_ADMIN_TOKEN", SHORT)],
+            "--admin-token",
+            "--probe-bind 0.0.0.0:0",
+        ),
+        (
+            &["--bind", "[::]:0", "--admin-token", LONG],
+            &[("SWELL_GAME_TOKENS", "game-token-0123456789, zq9")],
+            "--game-tokens",
+            "--bind [::]:0",
+        ),
+        (
+            &["--admin-token", LONG],
+            &[("SWELL_BIND", "0.0.0.0:0"), ("SWELL_READER_TOKENS", SHORT)],
+            "--reader-tokens",
+            "--bind 0.0.0.0:0",
+        ),
+        (
+            &[
+                "--bind",
+                "0.0.0.0:0",
+                "--admin-tokens",
+                "admin-token-0123456789,zq9",
+            ],
+            &[],
+            "--admin-tokens",
+            "--bind 0.0.0.0:0",
+        ),
+    ];
+    for (args, env, option, bind) in refused {
+        let (status, _, err) = serve_briefly(args, env);
+        assert_eq!(
+            status.and_then(|s| s.code()),
+            Some(1),
+            "{args:?} {env:?}: {status:?}\n{err}"
+        );
+        for want in [*option, "16 bytes", *bind] {
+            assert!(
+                err.contains(want),
+                "{args:?} {env:?}: no {want:?} in\n{err}"
+            );
+        }
+        assert!(!err.contains(SHORT), "the token itself is printed:\n{err}");
+    }
+
+    // Loopback only: served, with one warning line per short token.
+    let warned: &[Case] = &[
+        (
+            &["--bind", "127.0.0.1:0", "--admin-token", SHORT],
+            &[],
+            "--admin-token",
+            "",
+        ),
+        (
+            &[
+                "--bind",
+                "127.0.0.1:0",
+                "--probe-bind",
+                "127.0.0.2:0",
+                "--admin-token",
+                LONG,
+            ],
+            &[("SWELL_GAME_TOKENS", SHORT)],
+            "--game-tokens",
+            "",
+        ),
+    ];
+    for (args, env, option, _) in warned {
+        let (status, out, err) = serve_briefly(args, env);
+        assert_eq!(status, None, "{args:?} {env:?}: exited\n{out}\n{err}");
+        let lines: Vec<&str> = err.lines().filter(|l| l.contains("16 bytes")).collect();
+        assert_eq!(lines.len(), 1, "{args:?} {env:?}: {err}");
+        assert!(
+            lines[0].contains("warning")
+                && lines[0].contains(option)
+                && lines[0].contains("loopback"),
+            "{args:?} {env:?}: {}",
+            lines[0]
+        );
+        assert!(!err.contains(SHORT), "the token itself is printed:\n{err}");
+    }
+
+    // Long tokens beyond loopback: served, no warning.
+    let (status, out, err) = serve_briefly(&["--bind", "0.0.0.0:0", "--admin-token", LONG], &[]);
+    assert_eq!(status, None, "{out}\n{err}");
+    assert!(!err.contains("16 bytes"), "{err}");
+}
