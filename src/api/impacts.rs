@@ -50,7 +50,8 @@ pub struct ImpactAccepted {
 /// applied by every replica from the change feed (this one before it answers).
 ///
 /// # Errors
-/// 400 `invalid_value` naming the field; 422 `invalid_spec` for a scene without a particle
+/// 400 `invalid_value` naming the field (`t` beyond `limits.max_time` too, which is where a
+/// clock held at that limit puts the default next tick); 422 `invalid_spec` for a scene without a particle
 /// layer; 409 `too_many_impacts` over a limit; 404 for an unknown scene; 503
 /// `store_unavailable` in a fleet whose Redis is unreachable.
 pub async fn create(
@@ -71,6 +72,9 @@ pub async fn create(
         Some(t) => t,
         None => (state.read_clock(&entry).tick + 1) as f64 / hz,
     };
+    // Every client time is bounded by `max_time`, an impact's too (the list refuses a t past
+    // it): a clock held at the limit has no next tick to splash at.
+    let t = state.limits.check_time(t, "t")?;
     let impact = Impact {
         t,
         position: req.position,

@@ -113,6 +113,37 @@ async fn a_clock_at_max_time_holds_there_and_its_t_is_accepted() {
         .get_json(&format!("/v1/scenes/harbour/impacts?t={now}"))
         .await;
     assert_eq!(st, 200, "{v}");
+    // Impacts: at the held t, and not past it (the default t, the next tick, is past it).
+    let (st, h) = s.put_clock("harbour", &json!({"t": max})).await;
+    assert_eq!(st, 200, "{h}");
+    let splash = |t: Option<f64>| {
+        let mut b = json!({"position": [0.0, 0.0], "strength": 0.5, "radius": 2.0});
+        if let Some(t) = t {
+            b["t"] = json!(t);
+        }
+        b
+    };
+    let server = &s;
+    let post = |b: serde_json::Value| async move {
+        server
+            .admin(
+                reqwest::Method::POST,
+                "/v1/scenes/harbour/impacts",
+                Some(&b),
+                Some(common::TOKEN),
+            )
+            .await
+    };
+    let (st, v) = post(splash(Some(max))).await;
+    assert_eq!((st, &v["t"]), (202, &json!(max)), "{v}");
+    for past in [Some(max + 1.0), None] {
+        let (st, v) = post(splash(past)).await;
+        assert_eq!(
+            (st, &v["error"]["field"]),
+            (400, &json!("t")),
+            "{past:?}: {v}"
+        );
+    }
     let (st, v) = s
         .get_json(&format!("/v1/scenes/calm/uniforms?t={now}"))
         .await;

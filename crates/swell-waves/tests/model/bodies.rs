@@ -300,7 +300,13 @@ fn body_step_gives_the_same_bits_at_every_simd_level() {
         let states: Vec<_> = levels.iter().map(|&l| run(l)).collect();
         force_simd_level(None);
         for (level, got) in levels.iter().zip(&states).skip(1) {
-            assert_eq!(got, &states[0], "{} against {}", level.name(), levels[0].name());
+            assert_eq!(
+                got,
+                &states[0],
+                "{} against {}",
+                level.name(),
+                levels[0].name()
+            );
         }
     }
 }
