@@ -1,7 +1,7 @@
 //! A tick frame shared by every subscriber, encoded once.
 //!
 //! A scene's tick loop broadcasts one [`SharedTick`] per tick. Each subscriber asks it for the
-//! message of its codec and interest set ([`SharedTick::message`]); the work that does not depend
+//! message of its codec and interest set ([`SharedTick::message_with`]); the work that does not depend
 //! on the subscriber is done once per frame, by whichever subscriber asks first:
 //! - each body state is encoded once per codec (a JSON object, a protobuf `BodyState`) and
 //!   checked for non-finite numbers once;
@@ -283,16 +283,16 @@ impl SharedTick {
         }
     }
 
-    /// The message for a subscriber of `codec` following `interest`. A frame whose chosen
-    /// states hold a non-finite number becomes an error message, as every outgoing message does
-    /// ([`Outgoing::finite_or_error`]).
+    /// [`SharedTick::message_with`] with a scratch of its own.
     #[cfg(test)]
     pub fn message(&self, codec: Codec, interest: &Interest) -> Message {
         self.message_with(codec, interest, &mut Vec::new())
     }
 
-    /// [`SharedTick::message`] with the caller's scratch for the chosen positions, so that a
-    /// writer sending a frame a tick allocates nothing but the frame itself.
+    /// The message for a subscriber of `codec` following `interest`. A frame whose chosen
+    /// states hold a non-finite number becomes an error message, as every outgoing message does
+    /// ([`Outgoing::finite_or_error`]). `chosen` is the caller's scratch for the chosen
+    /// positions (a writer keeps one), so a frame a tick allocates nothing but the frame.
     pub fn message_with(
         &self,
         codec: Codec,
