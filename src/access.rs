@@ -160,7 +160,7 @@ fn parse_file(path: &Path, text: &str) -> Result<Vec<(Digest32, Role)>, TokensEr
             }
             None if token.len() < MIN_TOKEN_BYTES => {
                 return Err(err(format!(
-                    "a token shorter than {MIN_TOKEN_BYTES} characters is too easy to guess"
+                    "a token shorter than {MIN_TOKEN_BYTES} bytes is too easy to guess"
                 )));
             }
             None => digest(token),
@@ -511,7 +511,7 @@ mod tests {
             .to_string();
         assert!(e.contains("t:2") && e.contains("unknown role"), "{e}");
         let e = parse_file(p, "game short\n").unwrap_err().to_string();
-        assert!(e.contains("16 characters"), "{e}");
+        assert!(e.contains("shorter than 16 bytes"), "{e}");
         let e = parse_file(p, "game sha256:abc\n").unwrap_err().to_string();
         assert!(e.contains("64 hex"), "{e}");
     }
