@@ -220,7 +220,7 @@ impl Access {
             fixed.add_plain(Role::Admin, admin_token);
         }
         for (role, list) in env {
-            for t in list.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            for t in list_tokens(list) {
                 fixed.add_plain(*role, t);
             }
         }
@@ -378,9 +378,16 @@ pub struct ExposedShortToken {
 pub enum Given<'a> {
     /// One token, as it is (`--admin-token`: a comma is part of it).
     One(&'a str),
-    /// A comma-separated list, split as [`Access::new`] splits it: whitespace trimmed, empty
-    /// entries skipped (`--game-tokens`).
+    /// A comma-separated list, split as [`Access::new`] splits it ([`list_tokens`];
+    /// `--game-tokens`).
     List(&'a str),
+}
+
+/// The tokens of a comma-separated list option (`--game-tokens a,b`): whitespace trimmed,
+/// empty entries skipped. One rule for [`Access::new`], which adds them, and
+/// [`check_given_tokens`], which measures them.
+fn list_tokens(list: &str) -> impl Iterator<Item = &str> {
+    list.split(',').map(str::trim).filter(|t| !t.is_empty())
 }
 
 /// Whether `addr` reaches this host only: `127.0.0.0/8`, `::1`, or an IPv4-mapped loopback
@@ -414,8 +421,7 @@ pub fn check_given_tokens(
             }),
             Given::One(_) => {}
             Given::List(list) => {
-                let tokens = list.split(',').map(str::trim).filter(|t| !t.is_empty());
-                for (i, t) in tokens.enumerate() {
+                for (i, t) in list_tokens(list).enumerate() {
                     if t.len() < MIN_TOKEN_BYTES {
                         short.push(ShortToken {
                             option,

@@ -184,13 +184,17 @@ impl Clock {
 
     /// Scene time at `now`, s, within ±the bound ([`Clock::within`]).
     pub fn t(&self, now: f64) -> f64 {
-        let t = if self.paused {
+        // min/max rather than clamp: no panic whatever the numbers.
+        self.unbounded(now).min(self.bound).max(-self.bound)
+    }
+
+    /// Scene time at `now` from the record alone, before the bound.
+    fn unbounded(&self, now: f64) -> f64 {
+        if self.paused {
             self.offset
         } else {
             self.offset + self.rate * (now - self.anchor)
-        };
-        // min/max rather than clamp: no panic whatever the numbers.
-        t.min(self.bound).max(-self.bound)
+        }
     }
 
     /// Whether the clock runs but is held at ±the bound at `now` (see the module docs): it has
@@ -199,7 +203,7 @@ impl Clock {
         if self.paused {
             return false;
         }
-        let raw = self.offset + self.rate * (now - self.anchor);
+        let raw = self.unbounded(now);
         (raw >= self.bound && self.rate > 0.0)
             || (raw <= -self.bound && self.rate < 0.0)
             || raw.abs() > self.bound
