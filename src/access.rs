@@ -378,8 +378,8 @@ pub struct ExposedShortToken {
 pub enum Given<'a> {
     /// One token, as it is (`--admin-token`: a comma is part of it).
     One(&'a str),
-    /// A comma-separated list, split as [`Access::new`] splits it ([`list_tokens`];
-    /// `--game-tokens`).
+    /// A comma-separated list, split as [`Access::new`] splits it: whitespace trimmed, empty
+    /// entries skipped (`--game-tokens`).
     List(&'a str),
 }
 
