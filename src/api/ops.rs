@@ -4,9 +4,9 @@
 //! utoipa: it keeps the build lean and the API is small. So it cannot drift from the handlers
 //! unnoticed, `tests/server/api.rs` checks that every route the router serves is listed, that
 //! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
-//! carry statuses the document declares; `tests/server/openapi.rs` checks the sample and
-//! orientation request and answer schemas field by field against what the server takes and
-//! answers.
+//! carry statuses the document declares; `tests/server/openapi.rs` checks the sample,
+//! orientation and clock request and answer schemas field by field against what the server
+//! takes and answers.
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -53,9 +53,9 @@ pub async fn metrics(State(state): State<AppState>) -> Response {
     r
 }
 
-/// `GET /openapi.json`.
-pub async fn openapi() -> axum::Json<Value> {
-    axum::Json(openapi_document())
+/// `GET /openapi.json`: this server's document (the ranges that are limits are its limits).
+pub async fn openapi(State(state): State<AppState>) -> axum::Json<Value> {
+    axum::Json(openapi_document(&state.limits))
 }
 
 /// Every route as `(method, path)`, in the order of the docs.
@@ -323,8 +323,9 @@ fn request_body(method: &str, path: &str) -> Option<(&'static str, bool)> {
     }
 }
 
-/// The OpenAPI 3.1 document.
-pub fn openapi_document() -> Value {
+/// The OpenAPI 3.1 document of a server with `limits` (a range the server enforces from its
+/// limits, such as a clock seek's `t` within ±`max_time`, is documented with its value).
+pub fn openapi_document(limits: &crate::Limits) -> Value {
     let mut paths = serde_json::Map::new();
     for (method, path, summary) in ROUTES {
         let entry = paths.entry(path.to_string()).or_insert_with(|| json!({}));
@@ -372,16 +373,26 @@ pub fn openapi_document() -> Value {
             }
             op["requestBody"] = json!({"required": true, "content": content});
         }
+        // The 200 answer's schema, and whether it may also be protobuf (the query answers;
+        // the clock's reading is JSON only, `src/api/scenes.rs`).
         let answer = match *path {
-            "/v1/scenes/{id}/sample" => Some("SampleResponse"),
-            "/v1/scenes/{id}/orientation" => Some("OrientationResponse"),
-            "/v1/scenes/{id}/height" => Some("HeightResponse"),
+            "/v1/scenes/{id}/sample" => Some(("SampleResponse", true)),
+            "/v1/scenes/{id}/orientation" => Some(("OrientationResponse", true)),
+            "/v1/scenes/{id}/height" => Some(("HeightResponse", true)),
+            "/v1/scenes/{id}/clock" => Some(("ClockReading", false)),
             _ => None,
         };
-        if let Some(a) = answer {
-            op["responses"]["200"] = json!({"description": "ok (JSON, or protobuf with Accept: application/x-protobuf)",
-                "content": {"application/json": {"schema": {"$ref": format!("#/components/schemas/{a}")}},
-                    "application/x-protobuf": protobuf_content(a)}});
+        match answer {
+            Some((a, true)) => {
+                op["responses"]["200"] = json!({"description": "ok (JSON, or protobuf with Accept: application/x-protobuf)",
+                    "content": {"application/json": {"schema": {"$ref": format!("#/components/schemas/{a}")}},
+                        "application/x-protobuf": protobuf_content(a)}});
+            }
+            Some((a, false)) => {
+                op["responses"]["200"] = json!({"description": "ok",
+                    "content": {"application/json": {"schema": {"$ref": format!("#/components/schemas/{a}")}}}});
+            }
+            None => {}
         }
         if *path == "/v1/scenes/{id}/stream" {
             op["description"] = json!(
@@ -408,7 +419,7 @@ pub fn openapi_document() -> Value {
         "paths": paths,
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"}},
-            "schemas": schemas(),
+            "schemas": schemas(limits),
         },
     })
 }
@@ -417,9 +428,10 @@ pub fn openapi_document() -> Value {
 /// field with `#[serde(default)]` (or an `Option`) is optional, every other one is `required`;
 /// an `Option` also takes `null` (its type lists `"null"`, and an enum of one lists `null`
 /// among its values); a type with `deny_unknown_fields` has `additionalProperties: false`; an
-/// answer field skipped when `None` is optional. `tests/server/openapi.rs` checks the sample
-/// and orientation ones against the server, field by field.
-fn schemas() -> Value {
+/// answer field skipped when `None` is optional; a range the server checks is `minimum` and
+/// `maximum` (from `limits` where it is one). `tests/server/openapi.rs` checks the sample,
+/// orientation and clock ones against the server, field by field.
+fn schemas(limits: &crate::Limits) -> Value {
     let num = json!({"type": "number"});
     let xz = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
     let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
@@ -429,6 +441,17 @@ fn schemas() -> Value {
         json!({"type": ["string", "null"], "enum": e, "description": description})
     };
     let fields: Vec<&str> = crate::service::types::FIELD_NAMES.to_vec();
+    let max_rate = crate::scene::clock::MAX_RATE;
+    // A scene time is within ±limits.max_time (`crate::Limits::check_time`, and the clocks
+    // hold there: `Clock::within`); a limit that is not a positive finite number bounds no
+    // clock, and is no range to document.
+    let within_max_time = |mut s: Value| {
+        if limits.max_time.is_finite() && limits.max_time > 0.0 {
+            s["minimum"] = json!(-limits.max_time);
+            s["maximum"] = json!(limits.max_time);
+        }
+        s
+    };
     json!({
         "Error": {"type": "object", "properties": {"error": {"type": "object",
             "required": ["code", "message"],
@@ -448,11 +471,34 @@ fn schemas() -> Value {
                 "layers": {"type": "array", "minItems": 1, "maxItems": swell_waves::surface::MAX_LAYERS,
                     "items": {"type": "object", "required": ["kind"],
                         "properties": {"kind": {"enum": ["sine", "gerstner", "fft", "particles"]}}}}}},
+        // crate::service::types::ClockUpdate: every field an Option (absent or null: unchanged),
+        // the numbers checked by ClockUpdate::validate.
         "ClockUpdate": {"type": "object", "additionalProperties": false,
             "description": "Applied in the order seek, rate, pause. The clock never leaves \
                 [-limits.max_time, max_time]: one that reaches either end holds there, reading \
                 paused: true with its rate kept, until a seek or a rate brings it back inside.",
-            "properties": {"rate": num, "paused": {"type": "boolean"}, "t": num}},
+            "properties": {
+                "rate": {"type": ["number", "null"], "minimum": -max_rate, "maximum": max_rate,
+                    "description": "scene seconds per real second, negative runs backwards (absent or null: unchanged)"},
+                "paused": {"type": ["boolean", "null"],
+                    "description": "pause (true) or resume (false) (absent or null: unchanged)"},
+                "t": within_max_time(json!({"type": ["number", "null"],
+                    "description": "seek to this scene time, s, within ±limits.max_time (absent or null: unchanged)"}))}},
+        // crate::scene::clock::ClockReading: GET and PUT …/clock.
+        "ClockReading": {"type": "object", "additionalProperties": false,
+            "required": ["t", "tick", "tick_hz", "rate", "paused", "unix", "generation"],
+            "properties": {
+                "t": within_max_time(json!({"type": "number", "description": "scene time, s"})),
+                "tick": {"type": "integer", "description": "floor(t·tick_hz)"},
+                "tick_hz": {"type": "number", "description": "ticks per scene second"},
+                "rate": {"type": "number", "minimum": -max_rate, "maximum": max_rate,
+                    "description": "scene seconds per real second (negative runs backwards)"},
+                "paused": {"type": "boolean",
+                    "description": "t is frozen: paused by an admin, or held at ±limits.max_time"},
+                "unix": {"type": "number",
+                    "description": "Unix time of the reading, s: t at Unix time u is t + rate·(u − unix) unless paused"},
+                "generation": {"type": "integer", "minimum": 0, "maximum": u64::MAX,
+                    "description": "one more after every admin change of the clock"}}},
         // crate::service::types::SampleRequest and Accuracy.
         "SampleRequest": {"type": "object", "required": ["points"], "additionalProperties": false,
             "properties": {

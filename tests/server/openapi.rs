@@ -4,7 +4,8 @@
 
 use crate::common;
 
-use common::{TestServer, config};
+use common::{TOKEN, TestServer, config};
+use reqwest::Method;
 use serde_json::{Map, Value, json};
 
 /// The schema `s` stands for: itself, or the component its `$ref` names.
@@ -113,8 +114,8 @@ fn join(path: &str, key: &str) -> String {
     }
 }
 
-/// Values the schema `s` forbids, built from `base` (a valid value): the wrong JSON type, a
-/// value outside an enum, an integer's fraction, one item too many or too few, a number just
+/// Values the schema `s` forbids, built from `base` (a valid value): the wrong JSON type (a
+/// string, a number, a boolean), a value outside an enum, an integer's fraction, one item too many or too few, a number just
 /// outside a documented range, and (recursively) an array with one bad item. Nulls are checked
 /// on their own.
 fn forbidden(doc: &Value, s: &Value, base: &Value) -> Vec<Value> {
@@ -133,6 +134,9 @@ fn forbidden(doc: &Value, s: &Value, base: &Value) -> Vec<Value> {
     }
     if !ts.iter().any(|t| ["number", "integer"].contains(t)) {
         out.push(json!(7));
+    }
+    if !ts.contains(&"boolean") {
+        out.push(json!(true));
     }
     if ts.contains(&"integer") && !ts.contains(&"number") {
         out.push(json!(1.5));
@@ -193,21 +197,26 @@ fn path_of(steps: &[Step]) -> String {
     p
 }
 
-/// One query endpoint's bodies against the document.
+/// One endpoint's bodies against the document: `method` on `url`, with `token` as the bearer
+/// token (none for the public queries, the admin token for admin bodies).
 struct Endpoint<'a> {
     s: &'a TestServer,
     doc: &'a Value,
+    method: Method,
     url: String,
+    token: Option<&'a str>,
 }
 
 impl Endpoint<'_> {
-    async fn post(&self, body: &Value) -> (u16, Value) {
-        self.s.post_json(&self.url, body).await
+    async fn send(&self, body: &Value) -> (u16, Value) {
+        self.s
+            .admin(self.method.clone(), &self.url, Some(body), self.token)
+            .await
     }
 
     /// The server takes `body`, and the document says it may.
     async fn accepted(&self, schema: &Value, body: &Value, what: &str) -> Value {
-        let (st, v) = self.post(body).await;
+        let (st, v) = self.send(body).await;
         assert_eq!(
             st, 200,
             "{} {what}: the server refused {body}: {v}",
@@ -224,7 +233,7 @@ impl Endpoint<'_> {
 
     /// The server refuses `body` naming `path` (or a field inside it), and so does the document.
     async fn refused(&self, schema: &Value, body: &Value, path: &str, what: &str) {
-        let (st, v) = self.post(body).await;
+        let (st, v) = self.send(body).await;
         assert!(
             st == 400 || st == 422,
             "{} {what}: the server answered {st} to {body}: {v}",
@@ -247,8 +256,8 @@ impl Endpoint<'_> {
     /// against `schema`, the object's schema: the documented names are the ones sent; a
     /// documented required field is one the server cannot do without; a documented type is
     /// what the server takes (null only where the type says `null`); an unknown field is
-    /// refused where the document says `additionalProperties: false`; then each object inside,
-    /// recursively.
+    /// refused, the error naming it, where the document says `additionalProperties: false`;
+    /// then each object inside, recursively.
     async fn walk(&self, root: &Value, full: &Value, schema: &Value, steps: Vec<Step>) {
         let s = resolve(self.doc, schema);
         let here = path_of(&steps);
@@ -280,14 +289,23 @@ impl Endpoint<'_> {
         // Unknown fields.
         let mut body = full.clone();
         at_mut(&mut body, &steps)["no_such_field"] = json!(1);
-        let (st, v) = self.post(&body).await;
+        let (st, v) = self.send(&body).await;
+        let closed = s["additionalProperties"] == false;
         assert_eq!(
-            s["additionalProperties"] == false,
+            closed,
             st == 400,
             "{} {here}: an unknown field was answered {st} ({v}); additionalProperties: {}",
             self.url,
             s["additionalProperties"]
         );
+        if closed {
+            assert_eq!(
+                v["error"]["field"],
+                json!(join(&here, "no_such_field")),
+                "{} {here}: the error does not name the unknown field: {v}",
+                self.url
+            );
+        }
 
         for (name, value) in &object {
             let mut keyed = steps.clone();
@@ -348,9 +366,9 @@ impl Endpoint<'_> {
     }
 }
 
-/// The `content` schema `$ref` of a request body or a 200 answer.
-fn content_ref<'a>(doc: &'a Value, path: &str, body: bool) -> &'a Value {
-    let op = &doc["paths"][path]["post"];
+/// The `content` schema `$ref` of an operation's request body or 200 answer.
+fn content_ref<'a>(doc: &'a Value, method: &str, path: &str, body: bool) -> &'a Value {
+    let op = &doc["paths"][path][method];
     let content = if body {
         &op["requestBody"]["content"]
     } else {
@@ -408,14 +426,16 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
 
     // Sample: minimal (points only) and every field.
     let path = "/v1/scenes/{id}/sample";
-    let req = content_ref(&doc, path, true);
+    let req = content_ref(&doc, "post", path, true);
     assert_eq!(req["$ref"], "#/components/schemas/SampleRequest");
-    let answer = content_ref(&doc, path, false);
+    let answer = content_ref(&doc, "post", path, false);
     assert_eq!(answer["$ref"], "#/components/schemas/SampleResponse");
     let e = Endpoint {
         s: &s,
         doc: &doc,
+        method: Method::POST,
         url: "/v1/scenes/calm/sample".into(),
+        token: None,
     };
     let minimal = json!({"points": [[1.5, -2.0], [3.0, 4.0]]});
     let full = json!({"t": 12.5, "origin": [100.0, -200.0], "points": [[1.5, -2.0], [3.0, 4.0]],
@@ -436,14 +456,16 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
 
     // Orientation: minimal (a footprint) and every field.
     let path = "/v1/scenes/{id}/orientation";
-    let req = content_ref(&doc, path, true);
+    let req = content_ref(&doc, "post", path, true);
     assert_eq!(req["$ref"], "#/components/schemas/OrientationRequest");
-    let answer = content_ref(&doc, path, false);
+    let answer = content_ref(&doc, "post", path, false);
     assert_eq!(answer["$ref"], "#/components/schemas/OrientationResponse");
     let e = Endpoint {
         s: &s,
         doc: &doc,
+        method: Method::POST,
         url: "/v1/scenes/calm/orientation".into(),
+        token: None,
     };
     let minimal = json!({"bodies": [{"position": [5.0, 5.0], "length": 12.0, "beam": 4.0}]});
     let full = json!({"t": 7.25, "bodies": [{"position": [5.0, 5.0], "yaw": 0.3, "length": 12.0,
@@ -459,5 +481,66 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
     let height = &doc["paths"]["/v1/scenes/{id}/height"]["get"]["responses"]["200"]["content"]["application/json"]
         ["schema"];
     check_answers(&doc, height, &[h.clone(), h], "height answer");
+    s.stop().await;
+}
+
+/// The clock body of `/openapi.json` (`PUT …/clock`, admin) against the server, and its answer.
+/// The document used to type `rate` and `t` as plain numbers and `paused` as a plain boolean,
+/// where the server also takes null for each (an `Option`: the setting stays as it is), leave
+/// out the ranges the server checks (|rate| <= 86400, |t| <= `limits.max_time`), and describe
+/// no answer for `GET` or `PUT …/clock`.
+#[tokio::test]
+async fn openapi_clock_body_matches_the_server_field_by_field() {
+    let s = TestServer::start(config()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let path = "/v1/scenes/{id}/clock";
+    let req = content_ref(&doc, "put", path, true);
+    assert_eq!(req["$ref"], "#/components/schemas/ClockUpdate");
+    let answer = content_ref(&doc, "put", path, false);
+    assert_eq!(answer["$ref"], "#/components/schemas/ClockReading");
+    assert_eq!(content_ref(&doc, "get", path, false), answer);
+    // The documented range of `t` is this server's limit.
+    let max = swell::Limits::default().max_time;
+    let t = &resolve(&doc, req)["properties"]["t"];
+    assert_eq!((&t["minimum"], &t["maximum"]), (&json!(-max), &json!(max)));
+
+    let e = Endpoint {
+        s: &s,
+        doc: &doc,
+        method: Method::PUT,
+        url: "/v1/scenes/calm/clock".into(),
+        token: Some(TOKEN),
+    };
+    let full = json!({"t": 12.5, "rate": 2.0, "paused": true});
+    let a_min = e.accepted(req, &json!({}), "minimal").await;
+    let a_full = e.accepted(req, &full, "full").await;
+    let (st, a_get) = s.get_json("/v1/scenes/calm/clock").await;
+    assert_eq!(st, 200, "{a_get}");
+    // The ends of the documented ranges are taken; at the limit, running outwards, the clock
+    // holds: the answer reads exactly the limit, paused.
+    let max_rate = swell::scene::clock::MAX_RATE;
+    let a_edge = e
+        .accepted(
+            req,
+            &json!({"t": max, "rate": -max_rate, "paused": false}),
+            "at the ends of the ranges",
+        )
+        .await;
+    let a_held = e
+        .accepted(req, &json!({"t": max, "rate": max_rate}), "held")
+        .await;
+    assert_eq!(
+        (&a_held["t"], &a_held["paused"]),
+        (&json!(max), &json!(true)),
+        "{a_held}"
+    );
+    check_answers(
+        &doc,
+        answer,
+        &[a_min, a_full, a_get, a_edge, a_held],
+        "clock answer",
+    );
+    e.walk(req, &full, req, Vec::new()).await;
     s.stop().await;
 }
