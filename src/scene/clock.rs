@@ -27,9 +27,14 @@
 //! exactly ±bound, as paused (its [`ClockReading::paused`] is true, so a client following the
 //! clock stops too), with its rate and pause setting kept: a seek back inside, or a rate
 //! towards the inside, runs it again from there. The hold is a pure function of the clock
-//! record and the bound (no event marks it), so every replica with the same limits and every
+//! record and the bound (no record marks it), so every replica with the same limits and every
 //! restart reads the same `t`. A clock whose record lies beyond the bound (a bound lowered
 //! since, an epoch far from now) reads ±bound, held, until its time comes back inside.
+//!
+//! When the hold starts or ends is a pure function too ([`Clock::next_hold_change`]): each
+//! process times it on its own ([`Clock::until_hold_change`]), and every stream session of the
+//! scene tells its client with a `clock` event ([`crate::stream`]), as for an admin change, so
+//! a client following the clock stops at the bound instead of running past it.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -209,6 +214,49 @@ impl Clock {
             || raw.abs() > self.bound
     }
 
+    /// Unix time at which [`Clock::held`] next changes after `now`, while the record stays as it
+    /// is: when a running clock reaches the bound in its direction (`offset + rate·(u − anchor)
+    /// = ±bound`), or when one whose record lies beyond the bound behind it comes back inside.
+    /// `None` when it never changes: paused, rate 0, unbounded, or held at the bound ahead.
+    /// Rounding may put the answer a hair before the change (or before `now`): a caller looks
+    /// again at the time it gives, and again after that if the hold has not changed yet.
+    pub fn next_hold_change(&self, now: f64) -> Option<f64> {
+        if self.paused || self.rate == 0.0 || !self.bound.is_finite() {
+            return None;
+        }
+        // The bound the clock runs towards, and the one it runs away from.
+        let (ahead, behind) = if self.rate > 0.0 {
+            (self.bound, -self.bound)
+        } else {
+            (-self.bound, self.bound)
+        };
+        let target = if !self.held(now) {
+            ahead
+        } else if (self.unbounded(now) - behind) * self.rate < 0.0 {
+            // Beyond the bound behind it: comes back inside there.
+            behind
+        } else {
+            return None;
+        };
+        Some(self.anchor + (target - self.offset) / self.rate)
+    }
+
+    /// Real time until a look at whether the hold changed ([`Clock::next_hold_change`]): a hair
+    /// past the change, at least [`MIN_SLEEP`] (a change rounding put before `now` is looked at
+    /// again without spinning) and at most [`HOLD_RECHECK`]. `None` when it never changes while
+    /// the record stays as it is.
+    pub fn until_hold_change(&self, now: f64) -> Option<Duration> {
+        let at = self.next_hold_change(now)?;
+        // Past the change by as much as a tick wait is (`until_next_tick`); a span that does not
+        // fit a Duration is either behind `now` or far ahead.
+        let wait = Duration::try_from_secs_f64(at - now + 1e-4).unwrap_or(if at > now {
+            HOLD_RECHECK
+        } else {
+            MIN_SLEEP
+        });
+        Some(wait.clamp(MIN_SLEEP, HOLD_RECHECK))
+    }
+
     /// The rate.
     pub fn rate(&self) -> f64 {
         self.rate
@@ -272,6 +320,13 @@ pub const MAX_SLEEP: Duration = Duration::from_millis(50);
 /// Shortest sleep: bounds the loop's wake-ups at 1 kHz (the highest tick rate a scene may ask
 /// for) even when the clock is fast-forwarded.
 pub const MIN_SLEEP: Duration = Duration::from_millis(1);
+/// Longest real time between two looks at whether a clock's hold changed
+/// ([`Clock::until_hold_change`]). The timer runs on the monotonic clock and the scene clock on
+/// the system's, so a system clock stepped forwards (or a clock record replaced without an
+/// announced change, as a put that moves a scene's epoch does) brings a hold nearer than the
+/// timer planned: the look after that is at most this late. One wake-up per 10 s per stream
+/// session costs nothing beside its traffic; a shorter bound only makes that rare case less late.
+pub const HOLD_RECHECK: Duration = Duration::from_secs(10);
 
 /// Real time until the clock crosses the next tick boundary in its direction, clamped to
 /// [`MIN_SLEEP`, `MAX_SLEEP`]. The body loop sleeps the same way, so both wake together.
@@ -431,6 +486,60 @@ mod tests {
         assert_eq!((c.t(60.0), c.held(60.0)), (90.0, false));
         let c = Clock::from_epoch(1e11).within(1e10);
         assert_eq!((c.t(BUILTIN_EPOCH), c.held(BUILTIN_EPOCH)), (-1e10, true));
+    }
+
+    /// When the hold starts and ends, as a pure function of the record: the time a running
+    /// clock reaches the bound ahead, or a record beyond the bound behind comes back inside;
+    /// none while paused, frozen, unbounded or held at the bound ahead. `held` changes there.
+    #[test]
+    fn the_hold_changes_when_the_record_reaches_a_bound() {
+        let flips = |c: &Clock, at: f64| !c.held(at - 1e-6) && c.held(at + 1e-6);
+        // Forwards from 90 towards 100 at rate 2: held from now + 5.
+        let c = Clock::with_state(1000.0, 90.0, 2.0, false).within(100.0);
+        assert_eq!(c.next_hold_change(1000.0), Some(1005.0));
+        assert_eq!(c.next_hold_change(1004.0), Some(1005.0));
+        assert!(flips(&c, 1005.0));
+        assert_eq!(c.next_hold_change(1005.0), None, "held at the bound ahead");
+        assert_eq!(c.next_hold_change(2000.0), None);
+        // Backwards to the lower bound, from exactly the upper one (not held: it runs inwards).
+        let c = Clock::with_state(0.0, 100.0, -4.0, false).within(100.0);
+        assert_eq!(c.next_hold_change(0.0), Some(50.0));
+        assert!(flips(&c, 50.0));
+        // Beyond the bound behind: held until it comes back inside, then the bound ahead.
+        let c = Clock::with_state(0.0, -150.0, 1.0, false).within(100.0);
+        assert!(c.held(10.0));
+        assert_eq!(c.next_hold_change(10.0), Some(50.0));
+        assert!(
+            c.held(50.0 - 1e-6) && !c.held(50.0 + 1e-6),
+            "runs again there"
+        );
+        assert_eq!(c.next_hold_change(60.0), Some(250.0));
+        // Beyond the bound ahead: held, for good.
+        let c = Clock::with_state(0.0, 150.0, 1.0, false).within(100.0);
+        assert_eq!(c.next_hold_change(0.0), None);
+        // Never: paused, rate 0, unbounded.
+        for c in [
+            Clock::with_state(0.0, 90.0, 1.0, true).within(100.0),
+            Clock::with_state(0.0, 90.0, 0.0, false).within(100.0),
+            Clock::with_state(0.0, 90.0, 1.0, false),
+        ] {
+            assert_eq!(c.next_hold_change(0.0), None, "{c:?}");
+            assert_eq!(c.until_hold_change(0.0), None, "{c:?}");
+        }
+        // The timer: a hair past the change, clamped to [MIN_SLEEP, HOLD_RECHECK].
+        let c = Clock::with_state(0.0, 99.0, 1.0, false).within(100.0);
+        let d = c.until_hold_change(0.5).unwrap().as_secs_f64();
+        assert!((d - (0.5 + 1e-4)).abs() < 1e-9, "{d}");
+        assert_eq!(c.until_hold_change(0.99995), Some(MIN_SLEEP));
+        assert_eq!(c.until_hold_change(2.0), None, "held by then");
+        let far = Clock::from_epoch(0.0).within(1e10);
+        assert_eq!(far.until_hold_change(1.0), Some(HOLD_RECHECK));
+        let slow = Clock::with_state(0.0, 0.0, 1e-300, false).within(1e10);
+        assert_eq!(
+            slow.until_hold_change(0.0),
+            Some(HOLD_RECHECK),
+            "beyond a Duration"
+        );
     }
 
     #[test]
