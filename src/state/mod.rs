@@ -241,8 +241,15 @@ impl AppState {
 
     /// A scene's clock reading now.
     pub fn read_clock(&self, entry: &SceneEntry) -> ClockReading {
+        let (clock, now) = self.clock_now(entry);
+        clock.read(now, entry.scene.spec.tick_hz)
+    }
+
+    /// A scene's clock and the Unix time now, read together: for a caller that needs more of
+    /// the clock at that instant than its reading (whether it is held, when that changes).
+    pub fn clock_now(&self, entry: &SceneEntry) -> (Clock, f64) {
         let clock = *entry.clock.lock().unwrap_or_else(|p| p.into_inner());
-        clock.read(self.now(), entry.scene.spec.tick_hz)
+        (clock, self.now())
     }
 
     /// Sets a scene's clock: every path that changes a clock (a local admin change, the

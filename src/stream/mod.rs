@@ -51,6 +51,15 @@
 //! rate, pause flag and generation too, so a client that misses the event still restarts its
 //! clock fit at the next pong.
 //!
+//! A running clock that reaches ±`limits.max_time` holds there, reading as paused
+//! ([`crate::scene::clock`]), with no change to announce: the hold is a pure function of the
+//! clock record and the time. So each session times it itself (`ClockWatch`: one timer, armed
+//! at each change for the moment the hold starts or ends, no work per tick) and sends one
+//! `clock` event, the same reading an admin change's would be (`paused: true`, `t` exactly the
+//! limit, the generation unchanged), each time the clock starts holding (or, for a record beyond
+//! the limit, stops). Every process does the same from the same record, so in a fleet the
+//! sessions of every replica hear of it.
+//!
 //! # Shutdown
 //! Each session watches the server's shutdown token ([`shutdown`](crate::state::Inner::shutdown) field): when it
 //! fires, the session queues a Close frame (1001, going away), lets the writer flush it (up to
@@ -81,6 +90,7 @@ use tokio_util::sync::CancellationToken;
 use crate::error::{ApiError, ErrorCode};
 use crate::lanes::Offence;
 use crate::peers::{Budget, Charge};
+use crate::scene::Clock;
 use crate::service::error::QueryError;
 use crate::service::json::DECODE_OFF_REACTOR_BYTES;
 use crate::service::query::{
@@ -587,16 +597,18 @@ where
         state.limits.ws_messages_burst,
     );
     // Clock changes of any scene ([`crate::state::Inner::clock_changes`]); this session tells
-    // its client about its own scene's, once per change it sees.
+    // its client about its own scene's, once per change it sees, and when its clock starts or
+    // stops holding at the time limit ([`ClockWatch`]).
     let mut clock_changes = state.clock_changes.subscribe();
+    let mut clock_watch = ClockWatch::new(&state, &scene_id);
     let end = loop {
-        // Pinged at half the idle timeout, closed at the end of it; and the read check's
-        // pings and deadlines.
+        // Pinged at half the idle timeout, closed at the end of it; the read check's pings and
+        // deadlines; and the next look at the clock's hold.
         let idle_wake = idle.map(|d| last_heard + if pinged { d } else { d / 2 });
-        let wake = match (idle_wake, check.wake()) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
+        let wake = [idle_wake, check.wake(), clock_watch.next]
+            .into_iter()
+            .flatten()
+            .min();
         // Biased: shutdown and overflow win over more work. (Ticks are the writer's: see
         // `Writer::run`.)
         tokio::select! {
@@ -606,6 +618,9 @@ where
             () = gone.cancelled() => break End::SceneGone,
             () = sleep_until(wake) => {
                 let now = tokio::time::Instant::now();
+                if clock_watch.next.is_some_and(|at| at <= now) {
+                    clock_watch.tell(&state, &scene_id, &queue, false);
+                }
                 match check.poll(now) {
                     Err(Behind) => {
                         // The writer says why (Close 1008) before the session drops the client;
@@ -626,10 +641,12 @@ where
                 }
             }
             changed = clock_changes.recv() => match changed {
-                Ok(scene) if *scene == *scene_id => clock_event(&state, &scene_id, &queue),
+                Ok(scene) if *scene == *scene_id => clock_watch.tell(&state, &scene_id, &queue, true),
                 Ok(_) => {}
                 // Missed some: one of them may have been this scene's.
-                Err(broadcast::error::RecvError::Lagged(_)) => clock_event(&state, &scene_id, &queue),
+                Err(broadcast::error::RecvError::Lagged(_)) => {
+                    clock_watch.tell(&state, &scene_id, &queue, true);
+                }
                 // The state holds the sender for as long as any session runs.
                 Err(broadcast::error::RecvError::Closed) => break End::Shutdown,
             },
@@ -950,14 +967,56 @@ fn wrong_frame(got: &str, protocol: &str, want: &str) -> DecodeError {
     }
 }
 
-/// Queues a `clock` event with the scene's clock now (nothing if the scene is gone: the
-/// client hears of that from its next request or the end of its tick frames).
-fn clock_event(state: &AppState, scene_id: &str, queue: &Queue) {
-    if let Ok(entry) = state.scene(scene_id) {
-        queue.push(Outgoing {
-            id: None,
-            event: Event::Clock(state.read_clock(&entry)),
-        });
+/// A session's watch on its scene's clock hold (see the module docs, "Clock changes"): whether
+/// the clock was held when the session last read it, and when to look again.
+#[derive(Debug)]
+struct ClockWatch {
+    /// [`Clock::held`] at the session's last read of the clock.
+    held: bool,
+    /// When the hold may next start or end ([`Clock::until_hold_change`]); `None`: not while the
+    /// clock record stays as it is (the next change re-arms it).
+    next: Option<tokio::time::Instant>,
+}
+
+impl ClockWatch {
+    /// The clock as the session starts (its client learns that much from its first pong).
+    fn new(state: &AppState, scene_id: &str) -> ClockWatch {
+        let mut watch = ClockWatch {
+            held: false,
+            next: None,
+        };
+        if let Ok(entry) = state.scene(scene_id) {
+            let (clock, now) = state.clock_now(&entry);
+            watch.saw(&clock, now);
+        }
+        watch
+    }
+
+    fn saw(&mut self, clock: &Clock, now: f64) {
+        self.held = clock.held(now);
+        self.next = clock
+            .until_hold_change(now)
+            .map(|wait| tokio::time::Instant::now() + wait);
+    }
+
+    /// Reads the scene's clock now and queues a `clock` event with its reading: always after a
+    /// change (`changed`), otherwise only if the clock started or stopped holding since the last
+    /// read, so a hold is told once. Nothing if the scene is gone: the client hears of that from
+    /// its next request or the end of its tick frames.
+    fn tell(&mut self, state: &AppState, scene_id: &str, queue: &Queue, changed: bool) {
+        let Ok(entry) = state.scene(scene_id) else {
+            self.next = None;
+            return;
+        };
+        let (clock, now) = state.clock_now(&entry);
+        let news = changed || clock.held(now) != self.held;
+        self.saw(&clock, now);
+        if news {
+            queue.push(Outgoing {
+                id: None,
+                event: Event::Clock(clock.read(now, entry.scene.spec.tick_hz)),
+            });
+        }
     }
 }
 

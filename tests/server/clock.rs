@@ -338,3 +338,106 @@ async fn the_generation_survives_a_restart() {
     assert_eq!(c["generation"], json!(4), "counts on from the record");
     s.stop().await;
 }
+
+/// Sends a ping and returns the `type` of every text message that came before its pong (the
+/// session queues its messages in order, so an event queued before the ping is among them).
+async fn types_before_pong(ws: &mut common::Ws, id: u64) -> Vec<String> {
+    use futures_util::{SinkExt, StreamExt};
+    use tokio_tungstenite::tungstenite::Message;
+    let ping = json!({"type": "ping", "id": id, "client_time": 1.5});
+    ws.send(Message::Text(ping.to_string().into()))
+        .await
+        .unwrap();
+    let mut seen = Vec::new();
+    loop {
+        let m = tokio::time::timeout(std::time::Duration::from_secs(10), ws.next())
+            .await
+            .expect("a message within 10 s")
+            .expect("socket open")
+            .expect("frame");
+        if let Message::Text(t) = m {
+            let v: serde_json::Value = serde_json::from_str(t.as_str()).expect("JSON");
+            if v["type"] == "pong" && v["id"] == json!(id) {
+                return seen;
+            }
+            seen.push(v["type"].as_str().unwrap_or("").to_owned());
+        }
+    }
+}
+
+/// Issue 27: a running clock that reached ±`max_time` held there, reading as paused, but stream
+/// sessions sent a `clock` event on admin changes only, so a client following the clock on its
+/// own ran past the limit until a pong said otherwise (and a pong of the same generation does
+/// not restart a client's fit). Every session of the scene, subscribed to ticks or not, now
+/// gets one `clock` event when the hold starts: `paused: true`, `t` exactly the limit, the rate
+/// and generation unchanged; one per hold, not one per tick or per look.
+#[tokio::test]
+async fn a_clock_reaching_max_time_sends_every_session_one_clock_event() {
+    use futures_util::SinkExt;
+    use std::time::{Duration, Instant};
+    let s = TestServer::start(config()).await;
+    let max = swell::Limits::default().max_time;
+    let mut quiet = common::ws_connect(s.addr, "calm", None).await;
+    let mut ticking = common::ws_connect(s.addr, "calm", None).await;
+    let subscribe = json!({"type": "subscribe", "ticks": true});
+    ticking
+        .send(tokio_tungstenite::tungstenite::Message::Text(
+            subscribe.to_string().into(),
+        ))
+        .await
+        .unwrap();
+    // Both sessions run (and listen for clock changes) once they have answered a ping.
+    ping_json(&mut quiet, 1).await;
+    ping_json(&mut ticking, 1).await;
+
+    // 30 scene seconds from each end at 100 per second: held 0.3 s after each change.
+    let rate = 100.0;
+    for (round, (from, limit, rate)) in [
+        (max - 30.0, max, rate),
+        (max - 30.0, max, rate),
+        (-max + 30.0, -max, -rate),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let generation = json!(round + 1);
+        let changed = Instant::now();
+        let (st, c) = s.put_clock("calm", &json!({"t": from, "rate": rate})).await;
+        assert_eq!(st, 200, "{c}");
+        assert_eq!(
+            (&c["paused"], &c["generation"]),
+            (&json!(false), &generation)
+        );
+        for ws in [&mut quiet, &mut ticking] {
+            let ev = next_of_type(ws, "clock").await;
+            assert_eq!(
+                (&ev["paused"], &ev["generation"]),
+                (&json!(false), &generation),
+                "round {round}: the change itself: {ev}"
+            );
+            let ev = next_of_type(ws, "clock").await;
+            let waited = changed.elapsed();
+            assert!(
+                waited >= Duration::from_millis(250) && waited < Duration::from_secs(5),
+                "round {round}: the hold's event came {waited:?} after the change: {ev}"
+            );
+            assert!(ev.get("id").is_none(), "unprompted: {ev}");
+            assert_eq!(
+                (&ev["t"], &ev["paused"], &ev["rate"], &ev["generation"]),
+                (&json!(limit), &json!(true), &json!(rate), &generation),
+                "round {round}: held at the limit: {ev}"
+            );
+            assert_eq!(ev["tick"], json!(limit as i64 * 30), "{ev}");
+        }
+        // Once: nothing more while it holds (the sessions looked at the clock again since).
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        for ws in [&mut quiet, &mut ticking] {
+            let before = types_before_pong(ws, 10 + round as u64).await;
+            assert!(
+                !before.iter().any(|t| t == "clock"),
+                "round {round}: a second clock event for one hold: {before:?}"
+            );
+        }
+    }
+    s.stop().await;
+}
