@@ -401,7 +401,8 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
                 orientation {id, ...}, subscribe {ticks, bodies?}; server: pong, sample_result, \
                 orientation_result, tick {tick, t, bodies, impacts? [{tick, t, position, strength, radius, \
                 body_tick?}], anchor_tick?}, error {id?, code, message, field?}, \
-                clock {t, tick, tick_hz, rate, paused, unix, generation} when the clock changes). \
+                clock {t, tick, tick_hz, rate, paused, unix, generation} when the clock changes, and \
+                once when it starts holding at ±limits.max_time). \
                 swell.v1.protobuf: binary frames of swell.v1.ClientMessage / ServerMessage \
                 (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \
                 upgrade or with an unknown subprotocol, before the upgrade."
