@@ -103,12 +103,20 @@ impl AppState {
     }
 
     /// Puts a built scene, keeping the clock of the scene it replaces unless its epoch moved.
+    /// A moved epoch is a clock change like an admin's: stream sessions of the scene are told
+    /// ([`AppState::replace_clock`]'s announcement), on every process that applies the put.
     fn put_built(&self, scene: Scene) {
-        let clock = self
-            .scene(&scene.id)
-            .ok()
+        let old = self.scene(&scene.id).ok();
+        let clock = old
+            .as_ref()
             .filter(|e| scene.spec.epoch.is_none() || scene.spec.epoch == e.scene.spec.epoch)
             .map(|e| *e.clock.lock().unwrap_or_else(|p| p.into_inner()));
+        let moved = old.is_some() && clock.is_none();
+        let id = scene.id.clone();
         self.insert_loaded(scene, clock);
+        if moved {
+            // An error only means no session is listening.
+            let _ = self.clock_changes.send(std::sync::Arc::from(id.as_str()));
+        }
     }
 }

@@ -441,3 +441,39 @@ async fn a_clock_reaching_max_time_sends_every_session_one_clock_event() {
     }
     s.stop().await;
 }
+
+/// A scene put that moves the scene's epoch restarts its clock (from the new epoch) without an
+/// admin clock change: sessions were not told, and a client following the clock on its own
+/// ran on the old one until its fit caught up. Now every session of the scene gets a `clock`
+/// event with the new reading; a put that keeps the epoch keeps the clock and sends none.
+#[tokio::test]
+async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
+    let s = TestServer::start(config()).await;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    let mut spec = common::small_spec();
+    spec["epoch"] = json!(now - 100.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 201);
+    let mut ws = common::ws_connect(s.addr, "moved", None).await;
+    let before = ping_json(&mut ws, 1).await;
+    let t0 = before["scene_time"].as_f64().unwrap();
+    assert!((t0 - 100.0).abs() < 5.0, "{before}");
+
+    // The same epoch, another description: the clock stays, nothing to tell.
+    spec["description"] = json!("the same sea, renamed");
+    assert_eq!(s.put_scene("moved", &spec).await.0, 200);
+    let seen = types_before_pong(&mut ws, 2).await;
+    assert!(!seen.iter().any(|t| t == "clock"), "{seen:?}");
+
+    // 1,000 s earlier: the clock jumps forward by as much, and the session says so.
+    spec["epoch"] = json!(now - 1100.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 200);
+    let ev = next_of_type(&mut ws, "clock").await;
+    let t = ev["t"].as_f64().unwrap();
+    assert!((t - 1100.0).abs() < 5.0, "the new epoch's reading: {ev}");
+    assert!(ev.get("id").is_none(), "unprompted: {ev}");
+    assert_eq!(ev["paused"], json!(false), "{ev}");
+    s.stop().await;
+}
