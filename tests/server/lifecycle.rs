@@ -121,8 +121,26 @@ async fn graceful_shutdown_finishes_in_flight_requests() {
     let client = s.client.clone();
     let url = s.url("/v1/scenes/storm/sample");
     let inflight = tokio::spawn(async move { client.post(url).json(&body).send().await });
-    // Let the request reach the server before the shutdown starts.
-    tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    // The shutdown starts once the server is reading the body (its bytes are charged to the
+    // byte budget): a fixed wait was not enough on a loaded machine, where the client had not
+    // even sent the head yet, so the server closed an idle connection under it.
+    let reading = async {
+        loop {
+            let text = s.get("/metrics").await.text().await.unwrap();
+            let charged = text
+                .lines()
+                .find_map(|l| l.strip_prefix("swell_buffered_bytes "))
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .unwrap_or(0.0);
+            if charged > 0.0 || inflight.is_finished() {
+                return;
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+        }
+    };
+    tokio::time::timeout(std::time::Duration::from_secs(30), reading)
+        .await
+        .expect("the request reaches the server");
     let stopped = s.begin_stop();
     let resp = inflight
         .await
