@@ -5,8 +5,10 @@
 //! unnoticed, `tests/server/api.rs` checks that every route the router serves is listed, that
 //! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
 //! carry statuses the document declares; `tests/server/openapi.rs` checks the sample,
-//! orientation and clock request and answer schemas field by field against what the server
-//! takes and answers.
+//! orientation, clock and impact request schemas field by field against what the server takes,
+//! the answers against what it answers, and every range of those
+//! bodies, of a spawn's position and of the query strings' `t`, `x` and `z` at its ends (taken)
+//! and just past them (refused).
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -14,6 +16,10 @@ use axum::response::{Html, IntoResponse, Response};
 use serde_json::{Value, json};
 
 use swell_shaders::{Entry, Lang};
+use swell_waves::body::{MAX_FOOTPRINT, MAX_PROBES, MAX_YAW};
+use swell_waves::particles::ripple::{
+    MAX_IMPACT_COORD, MAX_IMPACT_RADIUS, MAX_IMPACT_TIME, MAX_STRENGTH, MIN_IMPACT_RADIUS,
+};
 
 use crate::access::Role;
 use crate::error::{ApiError, ErrorCode};
@@ -236,8 +242,10 @@ fn path_names(path: &str) -> impl Iterator<Item = &str> {
 }
 
 /// The query parameters an operation reads, as its handler's query struct declares them
-/// (`HeightQuery`, `ShaderQuery`, `UniformsQuery`, `SpectrumQuery`, `impacts::ListQuery`).
-fn query_parameters(method: &str, path: &str) -> Vec<Value> {
+/// (`HeightQuery`, `ShaderQuery`, `UniformsQuery`, `SpectrumQuery`, `impacts::ListQuery`), with
+/// the ranges the handlers check from `limits`: every `t` within ±`max_time`
+/// ([`crate::Limits::check_time`]), `x` and `z` within ±`max_coordinate`.
+fn query_parameters(limits: &crate::Limits, method: &str, path: &str) -> Vec<Value> {
     let q = |name: &str, required: bool, schema: Value, description: &str| {
         json!({"name": name, "in": "query", "required": required, "description": description,
             "schema": schema})
@@ -247,14 +255,22 @@ fn query_parameters(method: &str, path: &str) -> Vec<Value> {
         q(
             "t",
             false,
-            num(),
-            "scene time, s (default: the scene clock's now)",
+            within(limits.max_time, num()),
+            "scene time, s, within ±limits.max_time (default: the scene clock's now)",
+        )
+    };
+    let coord = |name: &str, description: &str| {
+        q(
+            name,
+            true,
+            within(limits.max_coordinate, num()),
+            description,
         )
     };
     match (method, path) {
         ("get", "/v1/scenes/{id}/height") => vec![
-            q("x", true, num(), "world x, m"),
-            q("z", true, num(), "world z, m"),
+            coord("x", "world x, m, within ±limits.max_coordinate"),
+            coord("z", "world z, m, within ±limits.max_coordinate"),
             t(),
         ],
         ("get", "/v1/scenes/{id}/shader") => {
@@ -294,7 +310,7 @@ fn query_parameters(method: &str, path: &str) -> Vec<Value> {
                 "origin",
                 false,
                 json!({"type": "string", "pattern": "^[^,]+,[^,]+$"}),
-                "world origin `x,z`, m (default 0,0)",
+                "world origin `x,z`, m, each within ±limits.max_coordinate (default 0,0)",
             ),
         ],
         ("get", "/v1/scenes/{id}/spectrum") => vec![q(
@@ -306,6 +322,17 @@ fn query_parameters(method: &str, path: &str) -> Vec<Value> {
         ("get", "/v1/scenes/{id}/impacts") => vec![t()],
         _ => Vec::new(),
     }
+}
+
+/// `schema` with the range ±`max`, a limit the server checks as `|v| <= max`. A limit that is
+/// not a positive finite number is no range to document (`f64::INFINITY`: any finite value),
+/// and `schema` is left open.
+fn within(max: f64, mut schema: Value) -> Value {
+    if max.is_finite() && max > 0.0 {
+        schema["minimum"] = json!(-max);
+        schema["maximum"] = json!(max);
+    }
+    schema
 }
 
 /// The request body of an operation: its schema in `components` and whether it may also be
@@ -338,7 +365,7 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
         let mut op = json!({"summary": summary, "responses": responses});
         let parameters: Vec<Value> = path_names(path)
             .map(path_parameter)
-            .chain(query_parameters(method, path))
+            .chain(query_parameters(limits, method, path))
             .collect();
         if !parameters.is_empty() {
             op["parameters"] = Value::Array(parameters);
@@ -430,11 +457,10 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
 /// an `Option` also takes `null` (its type lists `"null"`, and an enum of one lists `null`
 /// among its values); a type with `deny_unknown_fields` has `additionalProperties: false`; an
 /// answer field skipped when `None` is optional; a range the server checks is `minimum` and
-/// `maximum` (from `limits` where it is one). `tests/server/openapi.rs` checks the sample,
-/// orientation and clock ones against the server, field by field.
+/// `maximum` (`exclusiveMinimum` where the check is `>`), and a count it checks `maxItems`,
+/// from `limits` where it is one. `tests/server/openapi.rs` checks them against the server.
 fn schemas(limits: &crate::Limits) -> Value {
     let num = json!({"type": "number"});
-    let xz = json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2});
     let xyz = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
     let nullable_enum = |values: &[&str], description: &str| {
         let mut e: Vec<Value> = values.iter().map(|v| json!(v)).collect();
@@ -446,13 +472,12 @@ fn schemas(limits: &crate::Limits) -> Value {
     // A scene time is within ±limits.max_time (`crate::Limits::check_time`, and the clocks
     // hold there: `Clock::within`); a limit that is not a positive finite number bounds no
     // clock, and is no range to document.
-    let within_max_time = |mut s: Value| {
-        if limits.max_time.is_finite() && limits.max_time > 0.0 {
-            s["minimum"] = json!(-limits.max_time);
-            s["maximum"] = json!(limits.max_time);
-        }
-        s
-    };
+    let within_max_time = |s: Value| within(limits.max_time, s);
+    // A world coordinate a query or a body takes is within ±limits.max_coordinate
+    // (`crate::service::query::check_coord`).
+    let coord = || within(limits.max_coordinate, json!({"type": "number"}));
+    // `[x, z]` whose coordinates are each within ±max.
+    let xz_within = |max: f64| json!({"type": "array", "items": within(max, json!({"type": "number"})), "minItems": 2, "maxItems": 2});
     json!({
         "Error": {"type": "object", "properties": {"error": {"type": "object",
             "required": ["code", "message"],
@@ -500,13 +525,17 @@ fn schemas(limits: &crate::Limits) -> Value {
                     "description": "Unix time of the reading, s: t at Unix time u is t + rate·(u − unix) unless paused"},
                 "generation": {"type": "integer", "minimum": 0, "maximum": u64::MAX,
                     "description": "one more after every admin change of the clock"}}},
-        // crate::service::types::SampleRequest and Accuracy.
+        // crate::service::types::SampleRequest and Accuracy; the limits as `run_sample` checks
+        // them (`origin + point` too, which no schema can say).
         "SampleRequest": {"type": "object", "required": ["points"], "additionalProperties": false,
             "properties": {
-                "t": {"type": ["number", "null"], "description": "scene time, s (default: the clock's now)"},
-                "origin": {"type": ["array", "null"], "items": {"type": "number"}, "minItems": 2, "maxItems": 2,
-                    "description": "world offset [x, z] added (in f64) to every point, m (default [0, 0])"},
-                "points": {"type": "array", "items": xz, "description": "points [x, z], m"},
+                "t": within_max_time(json!({"type": ["number", "null"],
+                    "description": "scene time, s, within ±limits.max_time (default: the clock's now)"})),
+                "origin": {"type": ["array", "null"], "items": coord(), "minItems": 2, "maxItems": 2,
+                    "description": "world offset [x, z] added (in f64) to every point, m, each within \
+                    ±limits.max_coordinate, and so is every sum origin + point (default [0, 0])"},
+                "points": {"type": "array", "items": xz_within(limits.max_coordinate), "maxItems": limits.max_points,
+                    "description": "points [x, z], m, each within ±limits.max_coordinate; at most limits.max_points"},
                 "fields": {"type": ["array", "null"], "items": {"type": "string", "enum": fields},
                     "description": "the fields to answer (default, and when empty: [\"height\"])"},
                 "accuracy": {"type": ["object", "null"], "additionalProperties": false,
@@ -532,19 +561,27 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "folded": {"type": "array", "items": {"type": "boolean"},
                     "description": "jacobian <= 0: the surface folds (with \"jacobian\")"},
                 "residual": {"type": "array", "items": num, "description": "inversion residuals, m (with \"residual\")"}}},
-        // crate::service::types::OrientationRequest and Body.
+        // crate::service::types::OrientationRequest and Body; the limits as `run_orientation`
+        // and swell_waves::body::BodyFootprint::probes check them. A body has one probe at
+        // least (9 by default), so more bodies than limits.max_points are refused whatever
+        // limits.max_bodies says.
         "OrientationRequest": {"type": "object", "required": ["bodies"], "additionalProperties": false,
             "properties": {
-                "t": {"type": ["number", "null"], "description": "scene time, s (default: the clock's now)"},
-                "bodies": {"type": "array", "items": {"type": "object",
+                "t": within_max_time(json!({"type": ["number", "null"],
+                    "description": "scene time, s, within ±limits.max_time (default: the clock's now)"})),
+                "bodies": {"type": "array", "maxItems": limits.max_bodies.min(limits.max_points),
+                    "description": "at most limits.max_bodies, with at most limits.max_points probes in all",
+                    "items": {"type": "object",
                     "required": ["position", "length", "beam"], "additionalProperties": false,
                     "properties": {
-                        "position": {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2,
-                            "description": "world [x, z] of the body origin, m"},
-                        "yaw": {"type": "number", "default": 0, "description": "rad, about +y"},
-                        "length": {"type": "number", "description": "m"},
-                        "beam": {"type": "number", "description": "m"},
-                        "probes": {"type": ["array", "null"], "items": xz,
+                        "position": {"type": "array", "items": coord(), "minItems": 2, "maxItems": 2,
+                            "description": "world [x, z] of the body origin, m, each within ±limits.max_coordinate"},
+                        "yaw": {"type": "number", "default": 0, "minimum": -MAX_YAW, "maximum": MAX_YAW,
+                            "description": "rad, about +y"},
+                        "length": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_FOOTPRINT, "description": "m"},
+                        "beam": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_FOOTPRINT, "description": "m"},
+                        "probes": {"type": ["array", "null"], "items": xz_within(MAX_FOOTPRINT),
+                            "minItems": 1, "maxItems": MAX_PROBES.min(limits.max_points),
                             "description": "probes [u, v] in the body frame, m (default: a 3×3 grid over the footprint)"}}}}}},
         // crate::service::types::OrientationResponse and BodyOrientation.
         "OrientationResponse": {"type": "object", "required": ["t", "bodies"], "additionalProperties": false,
@@ -569,8 +606,9 @@ fn schemas(limits: &crate::Limits) -> Value {
             "additionalProperties": false, "properties": {
                 "mass": {"type": "number", "description": "kg"},
                 "hull": {"$ref": "#/components/schemas/HullSpec"},
-                "position": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
-                    "description": "world position of the body origin [x, y, z], m"},
+                "position": {"type": "array", "items": coord(), "minItems": 3, "maxItems": 3,
+                    "description": "world position of the body origin [x, y, z], m, each within \
+                    ±limits.max_coordinate (where queries may look, `src/api/bodies.rs`)"},
                 "yaw": {"type": "number", "default": 0, "description": "rad, about +y"},
                 "center_of_mass": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
                     "description": "in the body frame, m (default: the hull centre)"},
@@ -599,13 +637,17 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "default": [0, 0, 0], "description": "in the body frame, N·m (y: yaw)"},
             "from_tick": {"type": ["integer", "null"], "description": "first scene tick it acts on (default: the next)"},
             "ticks": {"type": ["integer", "null"], "minimum": 1, "maximum": 10_000_000, "default": 1}}},
-        // crate::api::impacts::ImpactRequest.
+        // crate::api::impacts::ImpactRequest: `t` checked against limits.max_time, then the
+        // impact as swell_waves::particles::Impact::validate checks it (its own bounds on t and
+        // position, not the server's limits).
         "ImpactRequest": {"type": "object", "required": ["position", "strength", "radius"],
             "additionalProperties": false, "properties": {
-                "position": xz,
-                "t": {"type": ["number", "null"], "description": "scene time, s (default: the start of the next tick)"},
-                "strength": {"type": "number", "exclusiveMinimum": 0, "maximum": 100, "description": "splash height, m"},
-                "radius": {"type": "number", "minimum": 0.01, "maximum": 1000, "description": "particle radius, m"}}},
+                "position": xz_within(MAX_IMPACT_COORD),
+                "t": within(limits.max_time.min(MAX_IMPACT_TIME), json!({"type": ["number", "null"],
+                    "description": "scene time, s, within ±limits.max_time (default: the start of the next tick)"})),
+                "strength": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_STRENGTH, "description": "splash height, m"},
+                "radius": {"type": "number", "minimum": MIN_IMPACT_RADIUS, "maximum": MAX_IMPACT_RADIUS,
+                    "description": "particle radius, m"}}},
     })
 }
 
@@ -661,6 +703,55 @@ mod tests {
             .unwrap();
         let names: Vec<&str> = Lang::ALL.iter().map(|l| l.name()).collect();
         assert_eq!(langs, names.join("|"));
+    }
+
+    /// The ranges that are limits are the given limits, and a limit that bounds nothing (not a
+    /// positive finite number) gives no range.
+    #[test]
+    fn ranges_follow_the_limits() {
+        let limits = crate::Limits {
+            max_time: 5.0,
+            max_coordinate: 7.0,
+            max_points: 300,
+            max_bodies: 2,
+            ..Default::default()
+        };
+        let doc = openapi_document(&limits);
+        let s = &doc["components"]["schemas"];
+        let sample = &s["SampleRequest"]["properties"];
+        assert_eq!(sample["t"]["maximum"], json!(5.0));
+        assert_eq!(sample["points"]["maxItems"], json!(300));
+        assert_eq!(sample["points"]["items"]["items"]["minimum"], json!(-7.0));
+        let orientation = &s["OrientationRequest"]["properties"];
+        assert_eq!(orientation["bodies"]["maxItems"], json!(2));
+        let probes = &orientation["bodies"]["items"]["properties"]["probes"];
+        assert_eq!(probes["maxItems"], json!(MAX_PROBES));
+        let height = &doc["paths"]["/v1/scenes/{id}/height"]["get"]["parameters"];
+        let x = height.as_array().unwrap().iter().find(|p| p["name"] == "x");
+        assert_eq!(x.unwrap()["schema"]["maximum"], json!(7.0));
+
+        // Fewer points than one body's probes: a body cannot have more probes than that.
+        let few = crate::Limits {
+            max_points: 10,
+            ..limits
+        };
+        let doc = openapi_document(&few);
+        let orientation = &doc["components"]["schemas"]["OrientationRequest"]["properties"];
+        let probes = &orientation["bodies"]["items"]["properties"]["probes"];
+        assert_eq!(probes["maxItems"], json!(10));
+
+        let open = crate::Limits {
+            max_time: f64::INFINITY,
+            max_coordinate: f64::INFINITY,
+            ..Default::default()
+        };
+        let doc = openapi_document(&open);
+        let sample = &doc["components"]["schemas"]["SampleRequest"]["properties"];
+        assert!(sample["t"].get("maximum").is_none(), "{}", sample["t"]);
+        assert!(sample["origin"]["items"].get("minimum").is_none());
+        // An impact's t is still bounded by the model.
+        let impact = &doc["components"]["schemas"]["ImpactRequest"]["properties"];
+        assert_eq!(impact["t"]["maximum"], json!(MAX_IMPACT_TIME));
     }
 
     #[test]
