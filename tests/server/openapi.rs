@@ -46,7 +46,8 @@ fn type_of(v: &Value) -> &'static str {
 
 /// Whether `v` is valid under schema `s` (the subset of JSON Schema the document uses: `$ref`,
 /// `type`, `enum`, `const`, `required`, `properties`, `additionalProperties: false`, `items`,
-/// `minItems`, `maxItems`, `minimum`, `maximum`); `Err` says where and why not.
+/// `minItems`, `maxItems`, `minimum`, `maximum`, `exclusiveMinimum`, `exclusiveMaximum`); `Err`
+/// says where and why not.
 fn validate(doc: &Value, s: &Value, v: &Value, path: &str) -> Result<(), String> {
     let s = resolve(doc, s);
     if let Some(values) = s["enum"].as_array()
@@ -65,7 +66,9 @@ fn validate(doc: &Value, s: &Value, v: &Value, path: &str) -> Result<(), String>
     }
     if let Some(x) = v.as_f64()
         && (s["minimum"].as_f64().is_some_and(|m| x < m)
-            || s["maximum"].as_f64().is_some_and(|m| x > m))
+            || s["maximum"].as_f64().is_some_and(|m| x > m)
+            || s["exclusiveMinimum"].as_f64().is_some_and(|m| x <= m)
+            || s["exclusiveMaximum"].as_f64().is_some_and(|m| x >= m))
     {
         return Err(format!("{path}: {x} is out of the documented range"));
     }
@@ -114,10 +117,37 @@ fn join(path: &str, key: &str) -> String {
     }
 }
 
+/// Whether schema `s` takes integers only.
+fn integer_only(s: &Value) -> bool {
+    let ts = types(s);
+    ts.contains(&"integer") && !ts.contains(&"number")
+}
+
+/// The value next to the bound `m` of schema `s`, above it (`up`) or below: the next integer
+/// for an integer, else the next `f64` (a range checked `<=` where the schema says `<` shows
+/// there, and no other number does).
+fn next_to(s: &Value, m: f64, up: bool) -> Value {
+    match (integer_only(s), up) {
+        (true, true) => json!(m as i64 + 1),
+        (true, false) => json!(m as i64 - 1),
+        (false, true) => json!(m.next_up()),
+        (false, false) => json!(m.next_down()),
+    }
+}
+
+/// The bound `m` of schema `s` as a JSON value of its type (`64`, not `64.0`, for an integer).
+fn bound(s: &Value, m: f64) -> Value {
+    if integer_only(s) {
+        json!(m as i64)
+    } else {
+        json!(m)
+    }
+}
+
 /// Values the schema `s` forbids, built from `base` (a valid value): the wrong JSON type (a
-/// string, a number, a boolean), a value outside an enum, an integer's fraction, one item too many or too few, a number just
-/// outside a documented range, and (recursively) an array with one bad item. Nulls are checked
-/// on their own.
+/// string, a number, a boolean), a value outside an enum, an integer's fraction, one item too
+/// many or too few, the number just outside a documented range (or at an exclusive bound), and
+/// (recursively) an array with one bad item. Nulls are checked on their own.
 fn forbidden(doc: &Value, s: &Value, base: &Value) -> Vec<Value> {
     let s = resolve(doc, s);
     let ts = types(s);
@@ -142,10 +172,15 @@ fn forbidden(doc: &Value, s: &Value, base: &Value) -> Vec<Value> {
         out.push(json!(1.5));
     }
     if let Some(m) = s["maximum"].as_f64() {
-        out.push(json!(m + 1.0));
+        out.push(next_to(s, m, true));
     }
     if let Some(m) = s["minimum"].as_f64() {
-        out.push(json!(m - 1.0));
+        out.push(next_to(s, m, false));
+    }
+    for key in ["exclusiveMaximum", "exclusiveMinimum"] {
+        if let Some(m) = s[key].as_f64() {
+            out.push(bound(s, m));
+        }
     }
     if let Value::Array(items) = base
         && let Some(first) = items.first()
@@ -168,11 +203,34 @@ fn forbidden(doc: &Value, s: &Value, base: &Value) -> Vec<Value> {
     out
 }
 
+/// `v` as JSON text, cut to its first 300 characters (a request at `maxItems` has thousands).
+fn short(v: &Value) -> String {
+    let text = v.to_string();
+    match text.char_indices().nth(300) {
+        Some((i, _)) => format!("{}… ({} characters)", &text[..i], text.len()),
+        None => text,
+    }
+}
+
 /// Where a value sits in a request: the keys and indices from the root.
 #[derive(Clone)]
 enum Step {
     Key(String),
     Index(usize),
+}
+
+fn at<'a>(v: &'a Value, steps: &[Step]) -> &'a Value {
+    steps.iter().fold(v, |v, s| match s {
+        Step::Key(k) => &v[k.as_str()],
+        Step::Index(i) => &v[*i],
+    })
+}
+
+/// `v` with the value at `steps` replaced by `x`.
+fn with(v: &Value, steps: &[Step], x: Value) -> Value {
+    let mut v = v.clone();
+    *at_mut(&mut v, steps) = x;
+    v
 }
 
 fn at_mut<'a>(v: &'a mut Value, steps: &[Step]) -> &'a mut Value {
@@ -198,13 +256,15 @@ fn path_of(steps: &[Step]) -> String {
 }
 
 /// One endpoint's bodies against the document: `method` on `url`, with `token` as the bearer
-/// token (none for the public queries, the admin token for admin bodies).
+/// token (none for the public queries, the admin token for admin and game bodies); `ok` is the
+/// status of a body it takes (200, 201 for a spawn, 202 for an impact).
 struct Endpoint<'a> {
     s: &'a TestServer,
     doc: &'a Value,
     method: Method,
     url: String,
     token: Option<&'a str>,
+    ok: u16,
 }
 
 impl Endpoint<'_> {
@@ -218,26 +278,32 @@ impl Endpoint<'_> {
     async fn accepted(&self, schema: &Value, body: &Value, what: &str) -> Value {
         let (st, v) = self.send(body).await;
         assert_eq!(
-            st, 200,
-            "{} {what}: the server refused {body}: {v}",
-            self.url
+            st,
+            self.ok,
+            "{} {what}: the server refused {}: {v}",
+            self.url,
+            short(body)
         );
         validate(self.doc, schema, body, "").unwrap_or_else(|e| {
             panic!(
-                "{} {what}: accepted, but the document refuses {body}: {e}",
-                self.url
+                "{} {what}: accepted, but the document refuses {}: {e}",
+                self.url,
+                short(body)
             )
         });
         v
     }
 
     /// The server refuses `body` naming `path` (or a field inside it), and so does the document.
+    /// The refusal is a 400 or 422, or a 413 for a count past a limit (`too_many_points`,
+    /// `too_many_bodies`).
     async fn refused(&self, schema: &Value, body: &Value, path: &str, what: &str) {
         let (st, v) = self.send(body).await;
         assert!(
-            st == 400 || st == 422,
-            "{} {what}: the server answered {st} to {body}: {v}",
-            self.url
+            st == 400 || st == 422 || st == 413,
+            "{} {what}: the server answered {st} to {}: {v}",
+            self.url,
+            short(body)
         );
         let field = v["error"]["field"].as_str().unwrap_or("");
         assert!(
@@ -247,8 +313,9 @@ impl Endpoint<'_> {
         );
         assert!(
             validate(self.doc, schema, body, "").is_err(),
-            "{} {what}: refused ({v}), but the document allows {body}",
-            self.url
+            "{} {what}: refused ({v}), but the document allows {}",
+            self.url,
+            short(body)
         );
     }
 
@@ -366,6 +433,122 @@ impl Endpoint<'_> {
     }
 }
 
+impl Endpoint<'_> {
+    /// Every documented range met in `base` (a request the server takes; the value at `steps`
+    /// is the one looked at, with `schema` its schema) against the server, recursively: a number
+    /// at a `minimum` or `maximum` is taken, and the next number beyond it refused, the error
+    /// naming it; at an `exclusiveMinimum` or `exclusiveMaximum` it is refused, and the next
+    /// number inside taken; an array of `maxItems` (or `minItems`) items is taken, one more
+    /// (or one fewer) refused. So a range that the document gives and the server does not
+    /// enforce exactly (a limit off by one, `<` for `<=`, a default limit for a configured one)
+    /// fails. Choose `base` so that each end can be reached alone (the sample's origin and
+    /// points at 0: their sum is checked too).
+    async fn ranges(&self, root: &Value, base: &Value, schema: &Value, steps: Vec<Step>) {
+        let s = resolve(self.doc, schema);
+        let path = path_of(&steps);
+        match at(base, &steps) {
+            Value::Number(_) => {
+                for (key, up) in [("maximum", true), ("minimum", false)] {
+                    if let Some(m) = s[key].as_f64() {
+                        let what = format!("{path} at its {key} {m}");
+                        self.accepted(root, &with(base, &steps, bound(s, m)), &what)
+                            .await;
+                        let past = next_to(s, m, up);
+                        let what = format!("{path} = {past}, past its {key}");
+                        self.refused(root, &with(base, &steps, past), &path, &what)
+                            .await;
+                    }
+                }
+                for (key, up) in [("exclusiveMaximum", true), ("exclusiveMinimum", false)] {
+                    if let Some(m) = s[key].as_f64() {
+                        let what = format!("{path} at its {key} {m}");
+                        self.refused(root, &with(base, &steps, bound(s, m)), &path, &what)
+                            .await;
+                        let inside = next_to(s, m, !up);
+                        let what = format!("{path} = {inside}, inside its {key}");
+                        self.accepted(root, &with(base, &steps, inside), &what)
+                            .await;
+                    }
+                }
+            }
+            Value::Array(items) => {
+                if let Some(first) = items.first() {
+                    let n_items = |n: u64| Value::Array(vec![first.clone(); n as usize]);
+                    if let Some(n) = s["maxItems"].as_u64() {
+                        let what = format!("{path} with its maxItems {n}");
+                        self.accepted(root, &with(base, &steps, n_items(n)), &what)
+                            .await;
+                        let what = format!("{path} with {} items", n + 1);
+                        self.refused(root, &with(base, &steps, n_items(n + 1)), &path, &what)
+                            .await;
+                    }
+                    if let Some(n) = s["minItems"].as_u64().filter(|n| *n > 0) {
+                        let what = format!("{path} with its minItems {n}");
+                        self.accepted(root, &with(base, &steps, n_items(n)), &what)
+                            .await;
+                        let what = format!("{path} with {} items", n - 1);
+                        self.refused(root, &with(base, &steps, n_items(n - 1)), &path, &what)
+                            .await;
+                    }
+                }
+                for i in 0..items.len() {
+                    let mut item = steps.clone();
+                    item.push(Step::Index(i));
+                    Box::pin(self.ranges(root, base, &s["items"], item)).await;
+                }
+            }
+            Value::Object(map) => {
+                for name in map.keys() {
+                    let mut keyed = steps.clone();
+                    keyed.push(Step::Key(name.clone()));
+                    Box::pin(self.ranges(root, base, &s["properties"][name.as_str()], keyed)).await;
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The ranges of an operation's query parameters against the server, as
+/// [`Endpoint::ranges`] does for bodies: `GET url` with `base` (a query the server takes) and
+/// each parameter with a documented range at each end of it (200), then just past it (400
+/// naming the parameter).
+async fn query_ranges(s: &TestServer, doc: &Value, path: &str, url: &str, base: &[(&str, f64)]) {
+    let query = |name: &str, v: &Value| {
+        let mut q: Vec<String> = base
+            .iter()
+            .filter(|(n, _)| *n != name)
+            .map(|(n, x)| format!("{n}={x}"))
+            .collect();
+        q.push(format!("{name}={v}"));
+        format!("{url}?{}", q.join("&"))
+    };
+    let params = doc["paths"][path]["get"]["parameters"].as_array().unwrap();
+    for p in params.iter().filter(|p| p["in"] == "query") {
+        let name = p["name"].as_str().unwrap();
+        let schema = &p["schema"];
+        for (key, up) in [("maximum", true), ("minimum", false)] {
+            let Some(m) = schema[key].as_f64() else {
+                continue;
+            };
+            let at = bound(schema, m);
+            let (st, v) = s.get_json(&query(name, &at)).await;
+            assert_eq!(
+                st, 200,
+                "{path}: {name} = {at}, its {key}, was refused: {v}"
+            );
+            let past = next_to(schema, m, up);
+            assert!(validate(doc, schema, &past, name).is_err());
+            let (st, v) = s.get_json(&query(name, &past)).await;
+            assert_eq!(
+                st, 400,
+                "{path}: {name} = {past}, past its {key}, was answered {st}: {v}"
+            );
+            assert_eq!(v["error"]["field"], name, "{path}: {name} = {past}: {v}");
+        }
+    }
+}
+
 /// The `content` schema `$ref` of an operation's request body or 200 answer.
 fn content_ref<'a>(doc: &'a Value, method: &str, path: &str, body: bool) -> &'a Value {
     let op = &doc["paths"][path][method];
@@ -413,14 +596,36 @@ fn check_answers(doc: &Value, schema: &Value, answers: &[Value], what: &str) {
     }
 }
 
+/// `max_time` of [`limited`], s.
+const LIMITED_MAX_TIME: f64 = 4e9;
+/// `max_coordinate` of [`limited`], m.
+const LIMITED_MAX_COORDINATE: f64 = 2.5e8;
+
+/// A server whose limits are none of the defaults, so a range documented from a default rather
+/// than from the running server's limits fails; `max_points` and `max_bodies` small enough that
+/// a request at `maxItems` is cheap, `max_points` above `MAX_PROBES` (256, one body's probes),
+/// and `max_time` above the built-in scenes' clocks (about 10⁷ s in 2026), which would hold at
+/// it otherwise.
+fn limited() -> swell::Config {
+    let mut c = config();
+    c.limits.max_time = LIMITED_MAX_TIME;
+    c.limits.max_coordinate = LIMITED_MAX_COORDINATE;
+    c.limits.max_points = 1000;
+    c.limits.max_bodies = 40;
+    c
+}
+
 /// The sample and orientation bodies of `/openapi.json` against the server, for a minimal and
-/// a full request. The document used to give no answer schema for either (`"application/json":
-/// {}`), leave out `additionalProperties: false` where the server refuses unknown fields, and
-/// type as plain numbers and arrays the fields the server also takes as null (`t`, `origin`,
-/// `fields`, `accuracy` and its fields, `probes`).
+/// a full request, and at the ends of every documented range. The document used to give no
+/// answer schema for either (`"application/json": {}`), leave out `additionalProperties: false`
+/// where the server refuses unknown fields, type as plain numbers and arrays the fields the
+/// server also takes as null (`t`, `origin`, `fields`, `accuracy` and its fields, `probes`), and
+/// leave open the ranges the server checks: `t` (`limits.max_time`), the coordinates
+/// (`limits.max_coordinate`), the number of points and bodies (`limits.max_points`,
+/// `limits.max_bodies`), and a body's yaw, length, beam and probes (the model's bounds).
 #[tokio::test]
 async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field() {
-    let s = TestServer::start(config()).await;
+    let s = TestServer::start(limited()).await;
     let (st, doc) = s.get_json("/openapi.json").await;
     assert_eq!(st, 200);
 
@@ -436,6 +641,7 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
         method: Method::POST,
         url: "/v1/scenes/calm/sample".into(),
         token: None,
+        ok: 200,
     };
     let minimal = json!({"points": [[1.5, -2.0], [3.0, 4.0]]});
     let full = json!({"t": 12.5, "origin": [100.0, -200.0], "points": [[1.5, -2.0], [3.0, 4.0]],
@@ -453,6 +659,21 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
         .await;
     check_answers(&doc, answer, &[a_min, a_full, a_normal], "sample answer");
     e.walk(req, &full, req, Vec::new()).await;
+    // The ranges are this server's limits.
+    let props = &resolve(&doc, req)["properties"];
+    assert_eq!(props["t"]["maximum"], json!(LIMITED_MAX_TIME));
+    assert_eq!(props["points"]["maxItems"], json!(1000));
+    assert_eq!(
+        props["points"]["items"]["items"]["maximum"],
+        json!(LIMITED_MAX_COORDINATE)
+    );
+    assert_eq!(
+        props["origin"]["items"]["minimum"],
+        json!(-LIMITED_MAX_COORDINATE)
+    );
+    let ends = json!({"t": 0.5, "origin": [0.0, 0.0], "points": [[0.0, 0.0]],
+        "accuracy": {"iterations": 8, "tolerance": 1e-5}});
+    e.ranges(req, &ends, req, Vec::new()).await;
 
     // Orientation: minimal (a footprint) and every field.
     let path = "/v1/scenes/{id}/orientation";
@@ -466,6 +687,7 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
         method: Method::POST,
         url: "/v1/scenes/calm/orientation".into(),
         token: None,
+        ok: 200,
     };
     let minimal = json!({"bodies": [{"position": [5.0, 5.0], "length": 12.0, "beam": 4.0}]});
     let full = json!({"t": 7.25, "bodies": [{"position": [5.0, 5.0], "yaw": 0.3, "length": 12.0,
@@ -474,6 +696,16 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
     let a_full = e.accepted(req, &full, "full").await;
     check_answers(&doc, answer, &[a_min, a_full], "orientation answer");
     e.walk(req, &full, req, Vec::new()).await;
+    let props = &resolve(&doc, req)["properties"];
+    assert_eq!(props["t"]["minimum"], json!(-LIMITED_MAX_TIME));
+    assert_eq!(props["bodies"]["maxItems"], json!(40));
+    assert_eq!(
+        props["bodies"]["items"]["properties"]["position"]["items"]["maximum"],
+        json!(LIMITED_MAX_COORDINATE)
+    );
+    let ends = json!({"t": 0.5, "bodies": [{"position": [0.0, 0.0], "yaw": 0.0, "length": 12.0,
+        "beam": 4.0, "probes": [[0.0, 0.0]]}]});
+    e.ranges(req, &ends, req, Vec::new()).await;
 
     // The height answer is described too.
     let (st, h) = s.get_json("/v1/scenes/calm/height?x=1&z=2").await;
@@ -511,6 +743,7 @@ async fn openapi_clock_body_matches_the_server_field_by_field() {
         method: Method::PUT,
         url: "/v1/scenes/calm/clock".into(),
         token: Some(TOKEN),
+        ok: 200,
     };
     let full = json!({"t": 12.5, "rate": 2.0, "paused": true});
     let a_min = e.accepted(req, &json!({}), "minimal").await;
@@ -542,5 +775,144 @@ async fn openapi_clock_body_matches_the_server_field_by_field() {
         "clock answer",
     );
     e.walk(req, &full, req, Vec::new()).await;
+    e.ranges(req, &full, req, Vec::new()).await;
+    s.stop().await;
+}
+
+/// Makes `id` a scene of `spec` afresh (no impacts, no bodies), its clock paused at `t`.
+async fn fresh_scene(s: &TestServer, id: &str, spec: &Value, t: f64) {
+    let url = format!("/v1/scenes/{id}");
+    let (st, v) = s.admin(Method::DELETE, &url, None, Some(TOKEN)).await;
+    assert!(st == 204 || st == 404, "{st} {v}");
+    let (st, v) = s.put_scene(id, spec).await;
+    assert_eq!(st, 201, "{v}");
+    let (st, v) = s.put_clock(id, &json!({"t": t, "paused": true})).await;
+    assert_eq!(st, 200, "{v}");
+}
+
+/// The impact body of `/openapi.json` (`POST …/impacts`, game) against the server, field by
+/// field and at the ends of its ranges. The document gave `t` and `position` no range, where
+/// the server refuses a `t` past `limits.max_time` and a coordinate past ±1e9 m (the model's
+/// bound on an impact, `MAX_IMPACT_COORD`, whatever `limits.max_coordinate` says).
+#[tokio::test]
+async fn openapi_impact_body_matches_the_server_field_by_field() {
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let req = content_ref(&doc, "post", "/v1/scenes/{id}/impacts", true);
+    assert_eq!(req["$ref"], "#/components/schemas/ImpactRequest");
+    let props = &resolve(&doc, req)["properties"];
+    assert_eq!(props["t"]["maximum"], json!(LIMITED_MAX_TIME));
+    let coord = swell_waves::particles::ripple::MAX_IMPACT_COORD;
+    assert_eq!(props["position"]["items"]["minimum"], json!(-coord));
+
+    // A scene of its own with harbour's sea (it has a particle layer), its clock paused: an
+    // impact's t must be near the clock's now.
+    let (st, harbour) = s.get_json("/v1/scenes/harbour").await;
+    assert_eq!(st, 200);
+    let spec = &harbour["spec"];
+    fresh_scene(&s, "splash", spec, 100.0).await;
+    let e = Endpoint {
+        s: &s,
+        doc: &doc,
+        method: Method::POST,
+        url: "/v1/scenes/splash/impacts".into(),
+        token: Some(TOKEN),
+        ok: 202,
+    };
+    let minimal = json!({"position": [1.5, -2.0], "strength": 0.5, "radius": 1.0});
+    let full = json!({"position": [1.5, -2.0], "t": 100.5, "strength": 0.5, "radius": 1.0});
+    e.accepted(req, &minimal, "minimal").await;
+    e.accepted(req, &full, "full").await;
+    e.walk(req, &full, req, Vec::new()).await;
+    // Every range but t's, whose ends are taken only with the clock near them.
+    e.ranges(req, &minimal, req, Vec::new()).await;
+    let t = &props["t"];
+    for (key, up) in [("maximum", true), ("minimum", false)] {
+        let m = t[key].as_f64().unwrap();
+        fresh_scene(&s, "splash", spec, m).await;
+        let at = with(&full, &[Step::Key("t".into())], json!(m));
+        e.accepted(req, &at, &format!("t at its {key}, the clock held there"))
+            .await;
+        let past = with(&full, &[Step::Key("t".into())], next_to(t, m, up));
+        e.refused(req, &past, "t", &format!("t past its {key}"))
+            .await;
+    }
+    s.stop().await;
+}
+
+/// The position of a spawn (`POST …/bodies`, game) against the server: it refuses a
+/// coordinate, y too, past `limits.max_coordinate` (where queries may look), which the
+/// document did not say.
+#[tokio::test]
+async fn openapi_spawn_position_range_matches_the_server() {
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let req = content_ref(&doc, "post", "/v1/scenes/{id}/bodies", true);
+    assert_eq!(req["$ref"], "#/components/schemas/SpawnRequest");
+    let position = &resolve(&doc, req)["properties"]["position"];
+    assert_eq!(position["items"]["maximum"], json!(LIMITED_MAX_COORDINATE));
+    // A scene of its own, deleted at the end with the bodies spawned at the ends.
+    let (st, calm) = s.get_json("/v1/scenes/calm").await;
+    assert_eq!(st, 200);
+    fresh_scene(&s, "boats", &calm["spec"], 100.0).await;
+    let e = Endpoint {
+        s: &s,
+        doc: &doc,
+        method: Method::POST,
+        url: "/v1/scenes/boats/bodies".into(),
+        token: Some(TOKEN),
+        ok: 201,
+    };
+    let boat = json!({"mass": 3000.0, "position": [0.0, 1.0, 0.0],
+        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5}});
+    e.ranges(req, &boat, req, Vec::new()).await;
+    let (st, v) = s
+        .admin(Method::DELETE, "/v1/scenes/boats", None, Some(TOKEN))
+        .await;
+    assert_eq!(st, 204, "{v}");
+    s.stop().await;
+}
+
+/// The query strings' ranges against the server: `t` of `height`, `impacts` and `uniforms`
+/// within ±`limits.max_time`, `x` and `z` of `height` within ±`limits.max_coordinate`. The
+/// document typed them as plain numbers.
+#[tokio::test]
+async fn openapi_query_ranges_match_the_server() {
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let param = |path: &str, name: &str| -> Value {
+        doc["paths"][path]["get"]["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name && p["in"] == "query")
+            .unwrap_or_else(|| panic!("{path}: no query parameter {name}"))["schema"]
+            .clone()
+    };
+    let height = "/v1/scenes/{id}/height";
+    for (name, max) in [
+        ("x", LIMITED_MAX_COORDINATE),
+        ("z", LIMITED_MAX_COORDINATE),
+        ("t", LIMITED_MAX_TIME),
+    ] {
+        let p = param(height, name);
+        assert_eq!((&p["minimum"], &p["maximum"]), (&json!(-max), &json!(max)));
+    }
+    for path in ["/v1/scenes/{id}/impacts", "/v1/scenes/{id}/uniforms"] {
+        assert_eq!(
+            param(path, "t")["maximum"],
+            json!(LIMITED_MAX_TIME),
+            "{path}"
+        );
+    }
+    let base = [("x", 1.0), ("z", 2.0), ("t", 0.5)];
+    query_ranges(&s, &doc, height, "/v1/scenes/calm/height", &base).await;
+    let impacts = "/v1/scenes/{id}/impacts";
+    query_ranges(&s, &doc, impacts, "/v1/scenes/harbour/impacts", &[]).await;
+    let uniforms = "/v1/scenes/{id}/uniforms";
+    query_ranges(&s, &doc, uniforms, "/v1/scenes/calm/uniforms", &[]).await;
     s.stop().await;
 }
