@@ -6,7 +6,7 @@
 //! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
 //! carry statuses the document declares; `tests/server/openapi.rs` checks the sample,
 //! orientation, clock and impact request schemas field by field against what the server takes,
-//! the answers against what it answers, and every range of those
+//! the answers (a scene's detail among them) against what it answers, and every range of those
 //! bodies, of a spawn's position and of the query strings' `t`, `x` and `z` at its ends (taken)
 //! and just past them (refused).
 
@@ -401,12 +401,13 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
             op["requestBody"] = json!({"required": true, "content": content});
         }
         // The 200 answer's schema, and whether it may also be protobuf (the query answers;
-        // the clock's reading is JSON only, `src/api/scenes.rs`).
-        let answer = match *path {
-            "/v1/scenes/{id}/sample" => Some(("SampleResponse", true)),
-            "/v1/scenes/{id}/orientation" => Some(("OrientationResponse", true)),
-            "/v1/scenes/{id}/height" => Some(("HeightResponse", true)),
-            "/v1/scenes/{id}/clock" => Some(("ClockReading", false)),
+        // the clock's reading and a scene's detail are JSON only, `src/api/scenes.rs`).
+        let answer = match (*method, *path) {
+            (_, "/v1/scenes/{id}/sample") => Some(("SampleResponse", true)),
+            (_, "/v1/scenes/{id}/orientation") => Some(("OrientationResponse", true)),
+            (_, "/v1/scenes/{id}/height") => Some(("HeightResponse", true)),
+            (_, "/v1/scenes/{id}/clock") => Some(("ClockReading", false)),
+            ("get" | "put", "/v1/scenes/{id}") => Some(("SceneDetail", false)),
             _ => None,
         };
         match answer {
@@ -416,8 +417,15 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
                         "application/x-protobuf": protobuf_content(a)}});
             }
             Some((a, false)) => {
-                op["responses"]["200"] = json!({"description": "ok",
-                    "content": {"application/json": {"schema": {"$ref": format!("#/components/schemas/{a}")}}}});
+                // Every success with a body (a put's 200 and 201 alike) answers the schema.
+                for (status, _) in success(method, path) {
+                    if let Some(r) = op["responses"].get_mut(*status)
+                        && matches!(*status, "200" | "201")
+                    {
+                        r["content"] = json!({"application/json":
+                            {"schema": {"$ref": format!("#/components/schemas/{a}")}}});
+                    }
+                }
             }
             None => {}
         }
@@ -510,7 +518,18 @@ fn schemas(limits: &crate::Limits) -> Value {
                     "description": "pause (true) or resume (false) (absent or null: unchanged)"},
                 "t": within_max_time(json!({"type": ["number", "null"],
                     "description": "seek to this scene time, s, within ±limits.max_time (absent or null: unchanged)"}))}},
-        // crate::scene::clock::ClockReading: GET and PUT …/clock.
+        // crate::service::types::SceneDetail: GET and PUT /v1/scenes/{id}.
+        "SceneDetail": {"type": "object", "additionalProperties": false,
+            "required": ["id", "spec", "derived", "model_version", "spec_hash", "clock"],
+            "properties": {
+                "id": {"type": "string"},
+                "spec": {"$ref": "#/components/schemas/SceneSpec"},
+                "derived": {"type": "object",
+                    "description": "built waves, FFT settings, seeds, generator name"},
+                "model_version": {"type": "integer", "minimum": 0, "maximum": u32::MAX},
+                "spec_hash": {"type": "string", "description": "FNV-1a 64 (hex) of the canonical spec JSON"},
+                "clock": {"$ref": "#/components/schemas/ClockReading"}}},
+        // crate::scene::clock::ClockReading: GET and PUT …/clock, and a scene's detail.
         "ClockReading": {"type": "object", "additionalProperties": false,
             "required": ["t", "tick", "tick_hz", "rate", "paused", "unix", "generation"],
             "properties": {

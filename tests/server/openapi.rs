@@ -916,3 +916,58 @@ async fn openapi_query_ranges_match_the_server() {
     query_ranges(&s, &doc, uniforms, "/v1/scenes/calm/uniforms", &[]).await;
     s.stop().await;
 }
+
+/// A scene's detail (`GET` and `PUT /v1/scenes/{id}`) against `SceneDetail`. The document
+/// described no answer for either, so the detail's `clock` had no schema; it is a
+/// `ClockReading`, a clock held at `limits.max_time` included.
+#[tokio::test]
+async fn openapi_scene_detail_matches_the_server() {
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let path = "/v1/scenes/{id}";
+    let detail = content_ref(&doc, "get", path, false);
+    assert_eq!(detail["$ref"], "#/components/schemas/SceneDetail");
+    assert_eq!(content_ref(&doc, "put", path, false), detail);
+    assert_eq!(
+        doc["paths"][path]["put"]["responses"]["201"]["content"]["application/json"]["schema"],
+        *detail
+    );
+    assert_eq!(
+        resolve(&doc, detail)["properties"]["clock"]["$ref"],
+        "#/components/schemas/ClockReading"
+    );
+
+    let (st, calm) = s.get_json("/v1/scenes/calm").await;
+    assert_eq!(st, 200, "{calm}");
+    let mut answers = vec![calm.clone(), calm.clone()];
+    let (st, list) = s.get_json("/v1/scenes").await;
+    assert_eq!(st, 200);
+    for scene in list["scenes"].as_array().unwrap() {
+        let (st, v) = s
+            .get_json(&format!("/v1/scenes/{}", scene["id"].as_str().unwrap()))
+            .await;
+        assert_eq!(st, 200, "{v}");
+        answers.push(v);
+    }
+    let (st, created) = s.put_scene("detail", &calm["spec"]).await;
+    assert_eq!(st, 201, "{created}");
+    let (st, replaced) = s.put_scene("detail", &calm["spec"]).await;
+    assert_eq!(st, 200, "{replaced}");
+    answers.extend([created, replaced]);
+    // A clock held at the limit: t exactly max_time, paused.
+    let (st, v) = s
+        .put_clock("detail", &json!({"t": LIMITED_MAX_TIME, "rate": 1.0}))
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let (st, held) = s.get_json("/v1/scenes/detail").await;
+    assert_eq!(st, 200, "{held}");
+    assert_eq!(
+        (&held["clock"]["t"], &held["clock"]["paused"]),
+        (&json!(LIMITED_MAX_TIME), &json!(true)),
+        "{held}"
+    );
+    answers.push(held);
+    check_answers(&doc, detail, &answers, "scene detail");
+    s.stop().await;
+}
