@@ -75,6 +75,11 @@ pub async fn create(
     // Every client time is bounded by `max_time`, an impact's too (the list refuses a t past
     // it): a clock held at the limit has no next tick to splash at.
     let t = state.limits.check_time(t, "t")?;
+    // Where queries may look (the model's own bound, checked next, is wider than a server
+    // configured with a smaller `max_coordinate`): a splash beyond it could never be seen.
+    for (i, &v) in req.position.iter().enumerate() {
+        crate::service::query::check_coord(&state.limits, v, || format!("position[{i}]"))?;
+    }
     let impact = Impact {
         t,
         position: req.position,

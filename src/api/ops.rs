@@ -656,12 +656,12 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "default": [0, 0, 0], "description": "in the body frame, N·m (y: yaw)"},
             "from_tick": {"type": ["integer", "null"], "description": "first scene tick it acts on (default: the next)"},
             "ticks": {"type": ["integer", "null"], "minimum": 1, "maximum": 10_000_000, "default": 1}}},
-        // crate::api::impacts::ImpactRequest: `t` checked against limits.max_time, then the
-        // impact as swell_waves::particles::Impact::validate checks it (its own bounds on t and
-        // position, not the server's limits).
+        // crate::api::impacts::ImpactRequest: `t` checked against limits.max_time and the
+        // position against limits.max_coordinate, then the impact as
+        // swell_waves::particles::Impact::validate checks it (its own bounds on t and position).
         "ImpactRequest": {"type": "object", "required": ["position", "strength", "radius"],
             "additionalProperties": false, "properties": {
-                "position": xz_within(MAX_IMPACT_COORD),
+                "position": xz_within(limits.max_coordinate.min(MAX_IMPACT_COORD)),
                 "t": within(limits.max_time.min(MAX_IMPACT_TIME), json!({"type": ["number", "null"],
                     "description": "scene time, s, within ±limits.max_time (default: the start of the next tick)"})),
                 "strength": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_STRENGTH, "description": "splash height, m"},
