@@ -176,8 +176,8 @@ async fn a_clock_at_max_time_holds_there_and_its_t_is_accepted() {
     s.stop().await;
 }
 
-/// Reads text frames until one of type `ty` (skipping tick frames and anything else).
-async fn next_of_type(ws: &mut common::Ws, ty: &str) -> serde_json::Value {
+/// The next text frame, as JSON (other frames skipped), within 10 s.
+async fn next_text(ws: &mut common::Ws) -> serde_json::Value {
     use futures_util::StreamExt;
     use tokio_tungstenite::tungstenite::Message;
     loop {
@@ -187,10 +187,17 @@ async fn next_of_type(ws: &mut common::Ws, ty: &str) -> serde_json::Value {
             .expect("socket open")
             .expect("frame");
         if let Message::Text(t) = m {
-            let v: serde_json::Value = serde_json::from_str(t.as_str()).expect("JSON");
-            if v["type"] == ty {
-                return v;
-            }
+            return serde_json::from_str(t.as_str()).expect("JSON");
+        }
+    }
+}
+
+/// Reads text frames until one of type `ty` (skipping tick frames and anything else).
+async fn next_of_type(ws: &mut common::Ws, ty: &str) -> serde_json::Value {
+    loop {
+        let v = next_text(ws).await;
+        if v["type"] == ty {
+            return v;
         }
     }
 }
@@ -342,7 +349,7 @@ async fn the_generation_survives_a_restart() {
 /// Sends a ping and returns the `type` of every text message that came before its pong (the
 /// session queues its messages in order, so an event queued before the ping is among them).
 async fn types_before_pong(ws: &mut common::Ws, id: u64) -> Vec<String> {
-    use futures_util::{SinkExt, StreamExt};
+    use futures_util::SinkExt;
     use tokio_tungstenite::tungstenite::Message;
     let ping = json!({"type": "ping", "id": id, "client_time": 1.5});
     ws.send(Message::Text(ping.to_string().into()))
@@ -350,18 +357,11 @@ async fn types_before_pong(ws: &mut common::Ws, id: u64) -> Vec<String> {
         .unwrap();
     let mut seen = Vec::new();
     loop {
-        let m = tokio::time::timeout(std::time::Duration::from_secs(10), ws.next())
-            .await
-            .expect("a message within 10 s")
-            .expect("socket open")
-            .expect("frame");
-        if let Message::Text(t) = m {
-            let v: serde_json::Value = serde_json::from_str(t.as_str()).expect("JSON");
-            if v["type"] == "pong" && v["id"] == json!(id) {
-                return seen;
-            }
-            seen.push(v["type"].as_str().unwrap_or("").to_owned());
+        let v = next_text(ws).await;
+        if v["type"] == "pong" && v["id"] == json!(id) {
+            return seen;
         }
+        seen.push(v["type"].as_str().unwrap_or("").to_owned());
     }
 }
 
