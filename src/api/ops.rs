@@ -5,10 +5,10 @@
 //! unnoticed, `tests/server/api.rs` checks that every route the router serves is listed, that
 //! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
 //! carry statuses the document declares; `tests/server/openapi.rs` checks the sample,
-//! orientation, clock and impact request schemas field by field against what the server takes,
-//! the answers (a scene's detail among them) against what it answers, and every range of those
-//! bodies, of a spawn's position and of the query strings' `t`, `x` and `z` at its ends (taken)
-//! and just past them (refused).
+//! orientation, clock, impact, spawn and input request schemas field by field against what the
+//! server takes, the answers (a scene's detail and the scene list among them) against what it
+//! answers, and every range of those bodies and of the query strings' `t`, `x` and `z` at its
+//! ends (taken) and just past them (refused).
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -16,12 +16,16 @@ use axum::response::{Html, IntoResponse, Response};
 use serde_json::{Value, json};
 
 use swell_shaders::{Entry, Lang};
-use swell_waves::body::{MAX_FOOTPRINT, MAX_PROBES, MAX_YAW};
+use swell_waves::body::{
+    MAX_BOX_CELLS_PER_SIDE, MAX_CELLS, MAX_FOOTPRINT, MAX_HULL_SIZE, MAX_MASS, MAX_PROBES,
+    MAX_WAVELENGTH_FACTOR, MAX_YAW, MIN_HULL_SIZE,
+};
 use swell_waves::particles::ripple::{
     MAX_IMPACT_COORD, MAX_IMPACT_RADIUS, MAX_IMPACT_TIME, MAX_STRENGTH, MIN_IMPACT_RADIUS,
 };
 
 use crate::access::Role;
+use crate::bodies::{MAX_INPUT_FORCE, MAX_INPUT_TICKS, MAX_INPUT_TORQUE};
 use crate::error::{ApiError, ErrorCode};
 use crate::state::AppState;
 
@@ -408,6 +412,7 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
             (_, "/v1/scenes/{id}/height") => Some(("HeightResponse", true)),
             (_, "/v1/scenes/{id}/clock") => Some(("ClockReading", false)),
             ("get" | "put", "/v1/scenes/{id}") => Some(("SceneDetail", false)),
+            ("get", "/v1/scenes") => Some(("SceneList", false)),
             _ => None,
         };
         match answer {
@@ -485,6 +490,11 @@ fn schemas(limits: &crate::Limits) -> Value {
     // (`crate::service::query::check_coord`).
     let coord = || within(limits.max_coordinate, json!({"type": "number"}));
     // `[x, z]` whose coordinates are each within ±max.
+    // A hull dimension, m (`swell_waves::body::HullSpec::build`).
+    let hull_size = |description: &str| {
+        json!({"type": "number", "minimum": MIN_HULL_SIZE, "maximum": MAX_HULL_SIZE,
+            "description": description})
+    };
     let xz_within = |max: f64| json!({"type": "array", "items": within(max, json!({"type": "number"})), "minItems": 2, "maxItems": 2});
     json!({
         "Error": {"type": "object", "properties": {"error": {"type": "object",
@@ -620,42 +630,79 @@ fn schemas(limits: &crate::Limits) -> Value {
         "HeightResponse": {"type": "object", "required": ["t", "height"], "additionalProperties": false,
             "properties": {"t": {"type": "number", "description": "the scene time used, s"},
                 "height": {"type": "number", "description": "height of the surface above (x, z), m"}}},
-        // swell_waves::body::SpawnSpec (crate::bodies::SpawnRequest).
+        // swell_waves::body::SpawnSpec (crate::bodies::SpawnRequest), unknown fields refused;
+        // the position checked by `src/api/bodies.rs`, the yaw by `SceneBodies::spawn`, the rest
+        // by swell_waves::body::BodySpec::build (whose errors name the field under `body.`:
+        // `body.mass`, `body.hull.length`).
         "SpawnRequest": {"type": "object", "required": ["mass", "hull", "position"],
             "additionalProperties": false, "properties": {
-                "mass": {"type": "number", "description": "kg"},
+                "mass": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_MASS,
+                    "description": "kg (a mass so small that the hull's inertia tensor underflows, \
+                    far below a gram, is refused naming body.hull)"},
                 "hull": {"$ref": "#/components/schemas/HullSpec"},
                 "position": {"type": "array", "items": coord(), "minItems": 3, "maxItems": 3,
                     "description": "world position of the body origin [x, y, z], m, each within \
                     ±limits.max_coordinate (where queries may look, `src/api/bodies.rs`)"},
-                "yaw": {"type": "number", "default": 0, "description": "rad, about +y"},
+                "yaw": {"type": "number", "default": 0, "minimum": -MAX_YAW, "maximum": MAX_YAW,
+                    "description": "rad, about +y"},
                 "center_of_mass": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
-                    "description": "in the body frame, m (default: the hull centre)"},
-                "linear_drag": {"type": ["number", "null"],
+                    "default": [0, 0, 0],
+                    "description": "in the body frame, m, inside the hull's bounding box (default: \
+                    the body origin, a box's centre)"},
+                "linear_drag": {"type": ["number", "null"], "minimum": 0,
                     "description": "N·s/m (default: a fraction of critical heave damping)"},
-                "quadratic_drag": {"type": "number", "default": 0, "description": "N·s²/m²"},
-                "angular_damping": {"type": ["number", "null"], "description": "N·m·s/rad"},
-                "min_wavelength_factor": {"type": "number", "default": 0}}},
-        // swell_waves::body::HullSpec, tagged by `kind`.
+                "quadratic_drag": {"type": "number", "minimum": 0, "default": 0, "description": "N·s²/m²"},
+                "angular_damping": {"type": ["number", "null"], "minimum": 0,
+                    "description": "N·m·s/rad (default: the linear default times (L² + B²)/12)"},
+                "min_wavelength_factor": {"type": "number", "minimum": 0,
+                    "maximum": MAX_WAVELENGTH_FACTOR, "default": 0,
+                    "description": "analytic waves shorter than this times the hull length do not move the body"}}},
+        // swell_waves::body::HullSpec, tagged by `kind`, as HullSpec::build checks it. The box
+        // takes unknown fields (the enum has no deny_unknown_fields); a cell does not.
         "HullSpec": {"oneOf": [
             {"type": "object", "required": ["kind", "length", "beam", "height"], "properties": {
-                "kind": {"const": "box"}, "length": num, "beam": num, "height": num,
-                "cells": {"type": ["array", "null"], "items": {"type": "integer", "minimum": 1, "maximum": 16},
-                    "minItems": 2, "maxItems": 2, "description": "columns [along length, along beam] (default [4, 2])"}}},
+                "kind": {"const": "box"},
+                "length": hull_size("along +x, m"),
+                "beam": hull_size("along +z, m"),
+                "height": hull_size("along +y, m"),
+                "cells": {"type": ["array", "null"], "items": {"type": "integer", "minimum": 1,
+                    "maximum": MAX_BOX_CELLS_PER_SIDE}, "minItems": 2, "maxItems": 2,
+                    "description": "columns [along length, along beam] (default [4, 2])"}}},
             {"type": "object", "required": ["kind", "cells"], "properties": {
                 "kind": {"const": "cells"},
-                "cells": {"type": "array", "minItems": 1, "maxItems": 256, "items": {"type": "object",
+                "cells": {"type": "array", "minItems": 1, "maxItems": MAX_CELLS, "items": {"type": "object",
                     "required": ["position", "volume", "height"], "additionalProperties": false,
-                    "properties": {"position": xyz, "volume": num, "height": num}}}}}],
+                    "properties": {
+                        "position": {"type": "array", "items": num, "minItems": 3, "maxItems": 3,
+                            "description": "centre of the column in the body frame, m"},
+                        "volume": {"type": "number", "description": format!(
+                            "m³, > 0, with volume/height in [{}, {}] m² (a column {MIN_HULL_SIZE} \
+                            to {MAX_HULL_SIZE} m wide)",
+                            MIN_HULL_SIZE * MIN_HULL_SIZE, MAX_HULL_SIZE * MAX_HULL_SIZE)},
+                        "height": hull_size("m")}}}}}],
             "discriminator": {"propertyName": "kind"}},
-        // crate::bodies::InputRequest.
+        // crate::bodies::InputRequest, as SceneBodies::input checks it.
         "InputRequest": {"type": "object", "additionalProperties": false, "properties": {
-            "force": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+            "force": {"type": "array", "items": within(MAX_INPUT_FORCE, num.clone()), "minItems": 3, "maxItems": 3,
                 "default": [0, 0, 0], "description": "in the body frame, N (x forward)"},
-            "torque": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
+            "torque": {"type": "array", "items": within(MAX_INPUT_TORQUE, num.clone()), "minItems": 3, "maxItems": 3,
                 "default": [0, 0, 0], "description": "in the body frame, N·m (y: yaw)"},
-            "from_tick": {"type": ["integer", "null"], "description": "first scene tick it acts on (default: the next)"},
-            "ticks": {"type": ["integer", "null"], "minimum": 1, "maximum": 10_000_000, "default": 1}}},
+            "from_tick": {"type": ["integer", "null"], "description": format!(
+                "first scene tick it acts on, from the bodies' tick to {MAX_INPUT_TICKS} ticks \
+                after it (default: the bodies' tick, so the next step)")},
+            "ticks": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_INPUT_TICKS, "default": 1}}},
+        // crate::service::types::SceneList and SceneSummary: GET /v1/scenes.
+        "SceneList": {"type": "object", "required": ["scenes"], "additionalProperties": false,
+            "properties": {"scenes": {"type": "array", "description": "every scene, sorted by id",
+                "items": {"type": "object", "additionalProperties": false,
+                    "required": ["id", "description", "layers", "tick_hz"],
+                    "properties": {
+                        "id": {"type": "string", "pattern": "^[a-z0-9-]{1,64}$"},
+                        "description": {"type": "string", "maxLength": crate::scene::MAX_DESCRIPTION},
+                        "layers": {"type": "array", "items": {"enum": ["sine", "gerstner", "fft", "particles"]},
+                            "description": "layer kinds in order"},
+                        "tick_hz": {"type": "number", "minimum": swell_waves::body::MIN_TICK_HZ,
+                            "maximum": swell_waves::body::MAX_TICK_HZ, "description": "ticks per scene second"}}}}}},
         // crate::api::impacts::ImpactRequest: `t` checked against limits.max_time and the
         // position against limits.max_coordinate, then the impact as
         // swell_waves::particles::Impact::validate checks it (its own bounds on t and position).

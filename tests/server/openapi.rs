@@ -23,6 +23,23 @@ fn resolve<'a>(doc: &'a Value, s: &'a Value) -> &'a Value {
     }
 }
 
+/// The schema `s` stands for where the value is `v`: [`resolve`]d, and of a `oneOf` with a
+/// `discriminator`, the alternative whose discriminating property is `v`'s (a hull's `kind`).
+fn branch<'a>(doc: &'a Value, s: &'a Value, v: &Value) -> &'a Value {
+    let s = resolve(doc, s);
+    let (Some(alternatives), Some(key)) = (
+        s["oneOf"].as_array(),
+        s["discriminator"]["propertyName"].as_str(),
+    ) else {
+        return s;
+    };
+    alternatives
+        .iter()
+        .map(|a| resolve(doc, a))
+        .find(|a| a["properties"][key]["const"] == v[key])
+        .unwrap_or_else(|| panic!("no alternative of {s} has the {key} of {v}"))
+}
+
 /// The JSON types a schema allows (`type` as a string or a list; none: any).
 fn types(s: &Value) -> Vec<&str> {
     match &s["type"] {
@@ -45,11 +62,23 @@ fn type_of(v: &Value) -> &'static str {
 }
 
 /// Whether `v` is valid under schema `s` (the subset of JSON Schema the document uses: `$ref`,
-/// `type`, `enum`, `const`, `required`, `properties`, `additionalProperties: false`, `items`,
+/// `oneOf`, `type`, `enum`, `const`, `required`, `properties`, `additionalProperties: false`, `items`,
 /// `minItems`, `maxItems`, `minimum`, `maximum`, `exclusiveMinimum`, `exclusiveMaximum`); `Err`
 /// says where and why not.
 fn validate(doc: &Value, s: &Value, v: &Value, path: &str) -> Result<(), String> {
     let s = resolve(doc, s);
+    if let Some(alternatives) = s["oneOf"].as_array() {
+        let errors: Vec<String> = alternatives
+            .iter()
+            .filter_map(|a| validate(doc, a, v, path).err())
+            .collect();
+        if errors.len() + 1 != alternatives.len() {
+            return Err(format!(
+                "{path}: valid under {} of the oneOf, not one ({errors:?})",
+                alternatives.len() - errors.len()
+            ));
+        }
+    }
     if let Some(values) = s["enum"].as_array()
         && !values.contains(v)
     {
@@ -265,9 +294,26 @@ struct Endpoint<'a> {
     url: String,
     token: Option<&'a str>,
     ok: u16,
+    /// Where the server's refusals may also name a field: under this prefix (a spawn's model
+    /// errors name `body.mass`, `body.hull.length`; "" elsewhere).
+    prefix: &'a str,
+    /// Objects whose fields serde's errors name only as the object (`hull`: an internally
+    /// tagged enum, which serde buffers, so a wrongly typed `hull.beam` is named `hull`).
+    buffered: &'a [&'a str],
 }
 
 impl Endpoint<'_> {
+    /// Whether `field`, as an error names it, names `path` inside one of the
+    /// [`Endpoint::buffered`] objects: as the object itself, or as the object and `path`'s last
+    /// key (`hull.no_such_field` for `hull.cells[0].no_such_field`).
+    fn buffered_names(&self, field: &str, path: &str) -> bool {
+        let last = path.rsplit('.').next().unwrap_or(path);
+        self.buffered.iter().any(|b| {
+            let inside = path.starts_with(&format!("{b}.")) || path.starts_with(&format!("{b}["));
+            inside && (field == *b || field == join(b, last))
+        })
+    }
+
     async fn send(&self, body: &Value) -> (u16, Value) {
         self.s
             .admin(self.method.clone(), &self.url, Some(body), self.token)
@@ -306,8 +352,9 @@ impl Endpoint<'_> {
             short(body)
         );
         let field = v["error"]["field"].as_str().unwrap_or("");
+        let inside = field.strip_prefix(self.prefix).unwrap_or(field);
         assert!(
-            field.starts_with(path),
+            field.starts_with(path) || inside.starts_with(path) || self.buffered_names(field, path),
             "{} {what}: the error names {field:?}, not {path:?}: {v}",
             self.url
         );
@@ -326,7 +373,7 @@ impl Endpoint<'_> {
     /// refused, the error naming it, where the document says `additionalProperties: false`;
     /// then each object inside, recursively.
     async fn walk(&self, root: &Value, full: &Value, schema: &Value, steps: Vec<Step>) {
-        let s = resolve(self.doc, schema);
+        let s = branch(self.doc, schema, at(full, &steps));
         let here = path_of(&steps);
         let mut base = full.clone();
         let object = at_mut(&mut base, &steps).as_object().unwrap().clone();
@@ -366,9 +413,10 @@ impl Endpoint<'_> {
             s["additionalProperties"]
         );
         if closed {
-            assert_eq!(
-                v["error"]["field"],
-                json!(join(&here, "no_such_field")),
+            let field = v["error"]["field"].as_str().unwrap_or("");
+            let unknown = join(&here, "no_such_field");
+            assert!(
+                field == unknown || self.buffered_names(field, &unknown),
                 "{} {here}: the error does not name the unknown field: {v}",
                 self.url
             );
@@ -444,7 +492,7 @@ impl Endpoint<'_> {
     /// fails. Choose `base` so that each end can be reached alone (the sample's origin and
     /// points at 0: their sum is checked too).
     async fn ranges(&self, root: &Value, base: &Value, schema: &Value, steps: Vec<Step>) {
-        let s = resolve(self.doc, schema);
+        let s = branch(self.doc, schema, at(base, &steps));
         let path = path_of(&steps);
         match at(base, &steps) {
             Value::Number(_) => {
@@ -642,6 +690,8 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
         url: "/v1/scenes/calm/sample".into(),
         token: None,
         ok: 200,
+        prefix: "",
+        buffered: &[],
     };
     let minimal = json!({"points": [[1.5, -2.0], [3.0, 4.0]]});
     let full = json!({"t": 12.5, "origin": [100.0, -200.0], "points": [[1.5, -2.0], [3.0, 4.0]],
@@ -688,6 +738,8 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
         url: "/v1/scenes/calm/orientation".into(),
         token: None,
         ok: 200,
+        prefix: "",
+        buffered: &[],
     };
     let minimal = json!({"bodies": [{"position": [5.0, 5.0], "length": 12.0, "beam": 4.0}]});
     let full = json!({"t": 7.25, "bodies": [{"position": [5.0, 5.0], "yaw": 0.3, "length": 12.0,
@@ -744,6 +796,8 @@ async fn openapi_clock_body_matches_the_server_field_by_field() {
         url: "/v1/scenes/calm/clock".into(),
         token: Some(TOKEN),
         ok: 200,
+        prefix: "",
+        buffered: &[],
     };
     let full = json!({"t": 12.5, "rate": 2.0, "paused": true});
     let a_min = e.accepted(req, &json!({}), "minimal").await;
@@ -824,6 +878,8 @@ async fn openapi_impact_body_matches_the_server_field_by_field() {
         url: "/v1/scenes/splash/impacts".into(),
         token: Some(TOKEN),
         ok: 202,
+        prefix: "",
+        buffered: &[],
     };
     let minimal = json!({"position": [1.5, -2.0], "strength": 0.5, "radius": 1.0});
     let full = json!({"position": [1.5, -2.0], "t": 100.5, "strength": 0.5, "radius": 1.0});
@@ -869,10 +925,15 @@ async fn openapi_spawn_position_range_matches_the_server() {
         url: "/v1/scenes/boats/bodies".into(),
         token: Some(TOKEN),
         ok: 201,
+        prefix: "",
+        buffered: &[],
     };
     let boat = json!({"mass": 3000.0, "position": [0.0, 1.0, 0.0],
         "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5}});
-    e.ranges(req, &boat, req, Vec::new()).await;
+    // The position's ends only (the other fields' are taken in
+    // `openapi_spawn_body_matches_the_server_field_by_field`).
+    let steps = vec![Step::Key("position".into())];
+    e.ranges(req, &boat, position, steps).await;
     let (st, v) = s
         .admin(Method::DELETE, "/v1/scenes/boats", None, Some(TOKEN))
         .await;
@@ -974,5 +1035,212 @@ async fn openapi_scene_detail_matches_the_server() {
     );
     answers.push(held);
     check_answers(&doc, detail, &answers, "scene detail");
+    s.stop().await;
+}
+
+/// The spawn body of `/openapi.json` (`POST …/bodies`, game) against the server, field by field
+/// and at the ends of its ranges, for a box hull and a hull of cells. The document gave the
+/// mass, the hull's dimensions, yaw, the drag and damping coefficients and
+/// `min_wavelength_factor` no range, where the model refuses a mass past 10⁹ kg, a hull
+/// dimension outside [1 mm, 5 km], a yaw past `MAX_YAW`, a negative coefficient and a factor
+/// past 100; and it could not say which hull a `oneOf` of two was.
+#[tokio::test]
+async fn openapi_spawn_body_matches_the_server_field_by_field() {
+    use swell_waves::body::{MAX_HULL_SIZE, MAX_MASS, MAX_YAW, MIN_HULL_SIZE};
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let req = content_ref(&doc, "post", "/v1/scenes/{id}/bodies", true);
+    assert_eq!(req["$ref"], "#/components/schemas/SpawnRequest");
+    let props = &resolve(&doc, req)["properties"];
+    assert_eq!(props["mass"]["maximum"], json!(MAX_MASS));
+    assert_eq!(props["yaw"]["maximum"], json!(MAX_YAW));
+    let hull = &resolve(&doc, &props["hull"])["oneOf"][0]["properties"];
+    assert_eq!(
+        (&hull["length"]["minimum"], &hull["length"]["maximum"]),
+        (&json!(MIN_HULL_SIZE), &json!(MAX_HULL_SIZE))
+    );
+    // A scene of its own, its clock paused (the bodies do not step), deleted at the end.
+    let (st, calm) = s.get_json("/v1/scenes/calm").await;
+    assert_eq!(st, 200);
+    fresh_scene(&s, "fleet", &calm["spec"], 100.0).await;
+    let e = Endpoint {
+        s: &s,
+        doc: &doc,
+        method: Method::POST,
+        url: "/v1/scenes/fleet/bodies".into(),
+        token: Some(TOKEN),
+        ok: 201,
+        prefix: "body.",
+        buffered: &["hull"],
+    };
+    let minimal = json!({"mass": 3000.0, "position": [0.0, 1.0, 0.0],
+        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5}});
+    let full = json!({"mass": 3000.0, "position": [0.0, 1.0, 0.0], "yaw": 0.3,
+        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5, "cells": [4, 2]},
+        "center_of_mass": [0.5, -0.2, 0.1], "linear_drag": 1000.0, "quadratic_drag": 50.0,
+        "angular_damping": 2000.0, "min_wavelength_factor": 0.5});
+    let cells = with(
+        &full,
+        &[Step::Key("hull".into())],
+        json!({"kind": "cells", "cells": [{"position": [-2.0, 0.0, 0.0], "volume": 6.0, "height": 1.5},
+            {"position": [2.0, 0.0, 0.0], "volume": 6.0, "height": 1.5}]}),
+    );
+    e.accepted(req, &minimal, "minimal").await;
+    e.accepted(req, &full, "full, a box").await;
+    e.accepted(req, &cells, "full, cells").await;
+    e.walk(req, &full, req, Vec::new()).await;
+    e.walk(req, &cells, req, Vec::new()).await;
+
+    // The ranges of every field but the mass, with the centre of mass at the origin (inside
+    // every hull the ends make) and one cell there.
+    let base = with(
+        &full,
+        &[Step::Key("center_of_mass".into())],
+        json!([0.0, 0.0, 0.0]),
+    );
+    let one_cell = json!({"kind": "cells", "cells": [{"position": [0.0, 0.0, 0.0], "volume": 6.0, "height": 1.5}]});
+    for b in [
+        base.clone(),
+        with(&base, &[Step::Key("hull".into())], one_cell),
+    ] {
+        for key in b.as_object().unwrap().keys().filter(|k| *k != "mass") {
+            e.ranges(req, &b, &props[key.as_str()], vec![Step::Key(key.clone())])
+                .await;
+        }
+    }
+    // The mass: at its maximum taken, past it and at its exclusive minimum refused; but not
+    // every positive mass is taken: one so small that the hull's inertia tensor underflows is
+    // refused naming the hull (which no schema can say; the description does), while a
+    // milligram is taken.
+    let mass = &props["mass"];
+    assert_eq!(mass["exclusiveMinimum"], json!(0));
+    let m = |v: f64| with(&base, &[Step::Key("mass".into())], json!(v));
+    e.accepted(req, &m(MAX_MASS), "mass at its maximum").await;
+    e.refused(req, &m(MAX_MASS.next_up()), "mass", "mass past its maximum")
+        .await;
+    e.refused(req, &m(0.0), "mass", "mass 0").await;
+    e.accepted(req, &m(1e-6), "a milligram").await;
+    let (st, v) = e.send(&m(f64::from_bits(1))).await;
+    assert_eq!(
+        (st, &v["error"]["field"]),
+        (422, &json!("body.hull")),
+        "{v}"
+    );
+
+    let (st, v) = s
+        .admin(Method::DELETE, "/v1/scenes/fleet", None, Some(TOKEN))
+        .await;
+    assert_eq!(st, 204, "{v}");
+    s.stop().await;
+}
+
+/// The input body of `/openapi.json` (`POST …/bodies/{bid}/input`, game) against the server,
+/// field by field and at the ends of its ranges. The document gave force and torque no range,
+/// where the server refuses a component past 10¹³ N and 10¹⁶ N·m, and did not say how far ahead
+/// `from_tick` may be (no further than `MAX_INPUT_TICKS` after the bodies' tick; a schema
+/// cannot, since the tick moves, so it is checked here by hand).
+#[tokio::test]
+async fn openapi_input_body_matches_the_server_field_by_field() {
+    use swell::bodies::{MAX_INPUT_FORCE, MAX_INPUT_TICKS, MAX_INPUT_TORQUE};
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let req = content_ref(&doc, "post", "/v1/scenes/{id}/bodies/{bid}/input", true);
+    assert_eq!(req["$ref"], "#/components/schemas/InputRequest");
+    let props = &resolve(&doc, req)["properties"];
+    assert_eq!(props["force"]["items"]["maximum"], json!(MAX_INPUT_FORCE));
+    assert_eq!(
+        props["torque"]["items"]["minimum"],
+        json!(-MAX_INPUT_TORQUE)
+    );
+    assert_eq!(props["ticks"]["maximum"], json!(MAX_INPUT_TICKS));
+
+    let (st, calm) = s.get_json("/v1/scenes/calm").await;
+    assert_eq!(st, 200);
+    fresh_scene(&s, "drive", &calm["spec"], 100.0).await;
+    let boat = json!({"mass": 3000.0, "position": [0.0, 1.0, 0.0],
+        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5}});
+    let (st, spawned) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/drive/bodies",
+            Some(&boat),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 201, "{spawned}");
+    let id = spawned["id"].as_u64().unwrap();
+    let e = Endpoint {
+        s: &s,
+        doc: &doc,
+        method: Method::POST,
+        url: format!("/v1/scenes/drive/bodies/{id}/input"),
+        token: Some(TOKEN),
+        ok: 202,
+        prefix: "",
+        buffered: &[],
+    };
+    let a = e.accepted(req, &json!({}), "minimal").await;
+    // The clock is paused: the bodies stay at this tick.
+    let tick = a["tick"].as_i64().unwrap();
+    let full = json!({"force": [100.0, 0.0, 0.0], "torque": [0.0, 50.0, 0.0],
+        "from_tick": tick, "ticks": 30});
+    e.accepted(req, &full, "full").await;
+    e.walk(req, &full, req, Vec::new()).await;
+    e.ranges(req, &full, req, Vec::new()).await;
+
+    // from_tick: from the bodies' tick to MAX_INPUT_TICKS after it.
+    let from = |t: i64| with(&full, &[Step::Key("from_tick".into())], json!(t));
+    let far = tick + MAX_INPUT_TICKS as i64;
+    e.accepted(req, &from(far), "from_tick at the horizon")
+        .await;
+    for (t, what) in [(far + 1, "past the horizon"), (tick - 1, "in the past")] {
+        let (st, v) = e.send(&from(t)).await;
+        assert_eq!(
+            (st, &v["error"]["field"]),
+            (400, &json!("from_tick")),
+            "from_tick {what}: {v}"
+        );
+    }
+    let (st, v) = s
+        .admin(Method::DELETE, "/v1/scenes/drive", None, Some(TOKEN))
+        .await;
+    assert_eq!(st, 204, "{v}");
+    s.stop().await;
+}
+
+/// The scene list (`GET /v1/scenes`) against `SceneList`: the document described no answer.
+#[tokio::test]
+async fn openapi_scene_list_matches_the_server() {
+    let s = TestServer::start(limited()).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let list = content_ref(&doc, "get", "/v1/scenes", false);
+    assert_eq!(list["$ref"], "#/components/schemas/SceneList");
+    let (st, before) = s.get_json("/v1/scenes").await;
+    assert_eq!(st, 200, "{before}");
+    // One scene more, with a description and every kind of layer the built-in ones have.
+    let (st, calm) = s.get_json("/v1/scenes/calm").await;
+    assert_eq!(st, 200);
+    let mut spec = calm["spec"].clone();
+    spec["description"] = json!("listed");
+    let (st, v) = s.put_scene("listed", &spec).await;
+    assert_eq!(st, 201, "{v}");
+    let (st, after) = s.get_json("/v1/scenes").await;
+    assert_eq!(st, 200, "{after}");
+    let scenes = after["scenes"].as_array().unwrap();
+    assert!(scenes.iter().any(|x| x["id"] == "listed"), "{after}");
+    let kinds: Vec<&Value> = scenes
+        .iter()
+        .flat_map(|x| x["layers"].as_array().unwrap())
+        .collect();
+    for kind in ["sine", "gerstner", "fft", "particles"] {
+        assert!(
+            kinds.contains(&&json!(kind)),
+            "no built-in scene has a {kind} layer: {after}"
+        );
+    }
+    check_answers(&doc, list, &[before, after], "scene list");
     s.stop().await;
 }
