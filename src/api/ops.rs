@@ -489,12 +489,12 @@ fn schemas(limits: &crate::Limits) -> Value {
     // A world coordinate a query or a body takes is within ±limits.max_coordinate
     // (`crate::service::query::check_coord`).
     let coord = || within(limits.max_coordinate, json!({"type": "number"}));
-    // `[x, z]` whose coordinates are each within ±max.
     // A hull dimension, m (`swell_waves::body::HullSpec::build`).
     let hull_size = |description: &str| {
         json!({"type": "number", "minimum": MIN_HULL_SIZE, "maximum": MAX_HULL_SIZE,
             "description": description})
     };
+    // `[x, z]` whose coordinates are each within ±max.
     let xz_within = |max: f64| json!({"type": "array", "items": within(max, json!({"type": "number"})), "minItems": 2, "maxItems": 2});
     json!({
         "Error": {"type": "object", "properties": {"error": {"type": "object",
