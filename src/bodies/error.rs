@@ -24,6 +24,15 @@ pub enum BodyError {
         /// Its body limit (`max_scene_bodies`).
         max: usize,
     },
+    /// An input for a body that already holds [`crate::bodies::MAX_LIVE_INPUTS`] inputs that
+    /// have not ended.
+    #[error("body {id} already has {max} inputs acting or queued, the limit: wait for some to end")]
+    TooManyInputs {
+        /// The body.
+        id: u64,
+        /// The limit.
+        max: usize,
+    },
     /// A request value the body world cannot take: a non-finite position, a yaw out of range,
     /// an input tick in the past, a component the model refuses. `field` is the request's path
     /// (`position[1]`, `from_tick`, `force[0]`).

@@ -159,6 +159,11 @@ pub struct InputRequest {
 /// Longest an input may last, and furthest ahead of the bodies' tick it may start, ticks
 /// (3.9 days at 30 Hz).
 pub const MAX_INPUT_TICKS: u64 = 10_000_000;
+/// Most inputs a body may hold that have not ended (acting now or queued to start later); one
+/// more is 409 `too_many_inputs`. A game steering a boat with an input a tick holds a handful.
+/// Without the bound a game token could grow a body's input list without end (inputs last up
+/// to [`MAX_INPUT_TICKS`]): memory, the journal, and the work every step does over the list.
+pub const MAX_LIVE_INPUTS: usize = 256;
 /// Largest force component an input may carry, N: a thousand g on the heaviest body allowed
 /// ([`swell_waves::body::MAX_MASS`]). Beyond it the number is a typo, and the step would go
 /// non-finite and quarantine the body.
@@ -390,6 +395,22 @@ impl SceneBodies {
         existed
     }
 
+    /// Whether body `id` may take one more input: fewer than [`MAX_LIVE_INPUTS`] of its inputs
+    /// have not ended. (A journal's replay applies inputs to the world directly, so an input
+    /// accepted once is never refused on replay.)
+    ///
+    /// # Errors
+    /// [`BodyError::TooManyInputs`].
+    pub fn input_room(&self, id: u64) -> Result<(), BodyError> {
+        if self.world.live_inputs(id) >= MAX_LIVE_INPUTS {
+            return Err(BodyError::TooManyInputs {
+                id,
+                max: MAX_LIVE_INPUTS,
+            });
+        }
+        Ok(())
+    }
+
     /// Queues an input for body `id`.
     ///
     /// # Errors
@@ -454,6 +475,7 @@ impl SceneBodies {
                 ),
             ));
         };
+        self.input_room(id)?;
         let input = BodyInput {
             body: id,
             force: req.force,
@@ -995,6 +1017,50 @@ mod tests {
             seen(a.input(id, &bad).unwrap_err()).field.as_deref(),
             Some("force[0]")
         );
+    }
+
+    /// A body holds at most `MAX_LIVE_INPUTS` inputs that have not ended: one more is 409
+    /// `too_many_inputs` and changes nothing; once some end (the bodies step past them), there
+    /// is room again. Inputs queued to start later count: they will act.
+    #[test]
+    fn a_body_holds_a_bounded_number_of_live_inputs() {
+        let s = calm();
+        let mut a = SceneBodies::new(0, 30.0, 9.81).unwrap();
+        let id = a.spawn(&boat()).unwrap();
+        let other = a.spawn(&boat()).unwrap();
+        // Half acting for 5 ticks from now, half queued to start 100 ticks on.
+        for k in 0..MAX_LIVE_INPUTS {
+            let req = InputRequest {
+                force: [1.0, 0.0, 0.0],
+                torque: [0.0; 3],
+                from_tick: (k % 2 == 1).then_some(100),
+                ticks: Some(5),
+            };
+            a.input(id, &req).unwrap();
+        }
+        let one = InputRequest {
+            force: [1.0, 0.0, 0.0],
+            torque: [0.0; 3],
+            from_tick: None,
+            ticks: None,
+        };
+        let events = a.events.len();
+        let e = crate::error::ApiError::from(a.input(id, &one).unwrap_err());
+        assert_eq!(
+            (e.status().as_u16(), e.code),
+            (409, crate::error::ErrorCode::TooManyInputs)
+        );
+        assert_eq!(a.events.len(), events, "a refused input is not recorded");
+        assert_eq!(a.world.live_inputs(id), MAX_LIVE_INPUTS);
+        // Another body has room of its own.
+        a.input(other, &one).unwrap();
+        // The ones acting now end after 5 ticks: room for them again, not for more.
+        a.advance_to(10, Sea::Direct(&s), 30.0, 9.81);
+        assert_eq!(a.world.live_inputs(id), MAX_LIVE_INPUTS / 2);
+        for _ in 0..MAX_LIVE_INPUTS / 2 {
+            a.input(id, &one).unwrap();
+        }
+        assert!(a.input(id, &one).is_err());
     }
 
     fn sea(particles: &str) -> Surface {

@@ -91,6 +91,8 @@ codes! {
     TooManyScenes = "too_many_scenes", CONFLICT;
     /// A body spawn beyond `max_scene_bodies`.
     SceneFull = "scene_full", CONFLICT;
+    /// An input for a body that holds `MAX_LIVE_INPUTS` inputs still to act.
+    TooManyInputs = "too_many_inputs", CONFLICT;
     /// An impact past a scene's limits.
     TooManyImpacts = "too_many_impacts", CONFLICT;
     /// More points (or probes) in one request than `max_points`.

@@ -40,7 +40,7 @@ impl From<SceneError> for ApiError {
 }
 
 /// An unknown body is 404 `body_not_found` naming `body`; a spawn past the limit 409
-/// `scene_full`; a bad request value 400 `invalid_value` at its field; a spec or settings the
+/// `scene_full`, an input past a body's 409 `too_many_inputs`; a bad request value 400 `invalid_value` at its field; a spec or settings the
 /// model rejects 422 `invalid_spec`.
 impl From<BodyError> for ApiError {
     fn from(e: BodyError) -> Self {
@@ -49,6 +49,9 @@ impl From<BodyError> for ApiError {
                 ApiError::new(ErrorCode::BodyNotFound, e.to_string()).with_field("body")
             }
             BodyError::SceneFull { .. } => ApiError::new(ErrorCode::SceneFull, e.to_string()),
+            BodyError::TooManyInputs { .. } => {
+                ApiError::new(ErrorCode::TooManyInputs, e.to_string())
+            }
             BodyError::Invalid { field, message } => ApiError::invalid(field, message),
             BodyError::Rejected(e) => ApiError::invalid_spec(&e),
         }

@@ -318,12 +318,16 @@ impl FleetBodies {
     /// [`StateError::StoreUnavailable`] when Redis is unreachable.
     pub async fn remove(&self, state: &AppState, scene: &str, id: u64) -> Result<(), StateError> {
         let entry = state.scene(scene)?;
-        let known = state
-            .bodies
-            .get(scene)
-            .is_some_and(|c| c.lock().state(id).is_ok());
-        if !known {
-            return Err(crate::bodies::body_not_found(id).into());
+        // The body's room for one more input, on this replica's view of the world: inputs racing
+        // past the limit together are refused where the log is applied (`SceneBodies::input`, on
+        // every replica alike), after their 202.
+        let room = state.bodies.get(scene).map(|c| {
+            let b = c.lock();
+            b.state(id).map(|_| b.input_room(id))
+        });
+        match room {
+            Some(Ok(room)) => room?,
+            _ => return Err(crate::bodies::body_not_found(id).into()),
         }
         let wanted = state.read_clock(&entry).tick + 1;
         self.append(state, scene, &BodyCmd::Remove { id }, wanted)

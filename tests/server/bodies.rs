@@ -167,6 +167,58 @@ async fn body_errors_are_4xx_and_change_nothing() {
     s.stop().await;
 }
 
+/// A body holds at most 256 inputs acting or queued (`MAX_LIVE_INPUTS`): one more is 409
+/// `too_many_inputs`, so a game token cannot grow a body's input list (and the journal, and the
+/// work each step does) without end. Another body has room of its own.
+#[tokio::test]
+async fn a_body_refuses_inputs_beyond_its_live_limit() {
+    let s = TestServer::start(config()).await;
+    let url = "/v1/scenes/calm/bodies";
+    let (_, a) = spawn(&s, "calm", &boat(0.5)).await;
+    let (_, b) = spawn(&s, "calm", &boat(0.5)).await;
+    let (a, b) = (a["id"].as_u64().unwrap(), b["id"].as_u64().unwrap());
+    // Long enough that none ends during the test.
+    let long = json!({"force": [10.0, 0.0, 0.0], "ticks": 100_000});
+    for k in 0..swell::bodies::MAX_LIVE_INPUTS {
+        let (st, e) = s
+            .admin(
+                Method::POST,
+                &format!("{url}/{a}/input"),
+                Some(&long),
+                Some(TOKEN),
+            )
+            .await;
+        assert_eq!(st, 202, "input {k}: {e}");
+    }
+    let (st, e) = s
+        .admin(
+            Method::POST,
+            &format!("{url}/{a}/input"),
+            Some(&long),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(
+        (st, e["error"]["code"].as_str()),
+        (409, Some("too_many_inputs")),
+        "{e}"
+    );
+    assert!(
+        e["error"]["message"].as_str().unwrap().contains("256"),
+        "{e}"
+    );
+    let (st, e) = s
+        .admin(
+            Method::POST,
+            &format!("{url}/{b}/input"),
+            Some(&long),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 202, "{e}");
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn bodies_survive_a_graceful_restart() {
     let dir = tempfile::tempdir().unwrap();

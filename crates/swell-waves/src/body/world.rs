@@ -436,6 +436,17 @@ impl World {
         self.inputs.values().flatten()
     }
 
+    /// How many of body `body`'s inputs have not ended by the current tick (acting now or
+    /// later): the ones [`World::prune_inputs`] keeps.
+    pub fn live_inputs(&self, body: BodyId) -> usize {
+        let tick = self.tick;
+        self.inputs.get(&body).map_or(0, |list| {
+            list.iter()
+                .filter(|i| i.from_tick.saturating_add(i.ticks) > tick)
+                .count()
+        })
+    }
+
     /// Drops inputs that ended before the current tick (they cannot act again). Does not change
     /// any later state.
     pub fn prune_inputs(&mut self) {
