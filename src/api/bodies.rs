@@ -110,6 +110,42 @@ fn felt(b: &SceneBodies) -> Vec<FeltImpact> {
         .collect()
 }
 
+/// The fields a hull of each `kind` takes (`swell_waves::body::HullSpec`).
+const HULL_FIELDS: [(&str, &[&str]); 2] = [
+    ("box", &["kind", "length", "beam", "height", "cells"]),
+    ("cells", &["kind", "cells"]),
+];
+
+/// Refuses a field a spawn's hull does not take, as serde refuses one anywhere else in the
+/// request (400 `bad_json` naming `hull.<field>`). The model's `HullSpec` cannot refuse them
+/// itself: an internally tagged enum takes unknown fields, and making it refuse them would also
+/// refuse spawns already in journals on replay. Without this a misspelt optional field
+/// (`"cell": [8, 2]`) was dropped without a word and the hull got its defaults.
+fn check_hull_fields(body: &[u8]) -> Result<(), ApiError> {
+    let Ok(v) = serde_json::from_slice::<serde_json::Value>(body) else {
+        return Ok(());
+    };
+    let Some(hull) = v.get("hull").and_then(serde_json::Value::as_object) else {
+        return Ok(());
+    };
+    let kind = hull.get("kind").and_then(serde_json::Value::as_str);
+    let Some((kind, allowed)) = HULL_FIELDS.iter().find(|(k, _)| Some(*k) == kind) else {
+        return Ok(());
+    };
+    match hull.keys().find(|k| !allowed.contains(&k.as_str())) {
+        Some(unknown) => Err(ApiError::bad_json(format!(
+            "hull.{unknown}: unknown field `{unknown}` in a {kind} hull, expected one of {}",
+            allowed
+                .iter()
+                .map(|f| format!("`{f}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+        .with_field(format!("hull.{unknown}"))),
+        None => Ok(()),
+    }
+}
+
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
     raw.parse::<u64>().map_err(|_| {
         ApiError::invalid(
@@ -126,6 +162,7 @@ pub async fn create(
     RawBody(body): RawBody,
 ) -> Result<Response, ApiError> {
     let req: SpawnRequest = from_slice(&body)?;
+    check_hull_fields(&body)?;
     // Where queries may look (`limits.max_coordinate`) is where a body may start: beyond it the
     // sea cannot be queried, and a stream's compact (f32) offsets would not be finite.
     for (i, v) in req.position.into_iter().enumerate() {

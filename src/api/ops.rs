@@ -657,10 +657,11 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "min_wavelength_factor": {"type": "number", "minimum": 0,
                     "maximum": MAX_WAVELENGTH_FACTOR, "default": 0,
                     "description": "analytic waves shorter than this times the hull length do not move the body"}}},
-        // swell_waves::body::HullSpec, tagged by `kind`, as HullSpec::build checks it. The box
-        // takes unknown fields (the enum has no deny_unknown_fields); a cell does not.
+        // swell_waves::body::HullSpec, tagged by `kind`, as HullSpec::build checks it; unknown
+        // fields refused by `src/api/bodies.rs` (`check_hull_fields`), in a cell by serde.
         "HullSpec": {"oneOf": [
-            {"type": "object", "required": ["kind", "length", "beam", "height"], "properties": {
+            {"type": "object", "required": ["kind", "length", "beam", "height"],
+                "additionalProperties": false, "properties": {
                 "kind": {"const": "box"},
                 "length": hull_size("along +x, m"),
                 "beam": hull_size("along +z, m"),
@@ -668,7 +669,8 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "cells": {"type": ["array", "null"], "items": {"type": "integer", "minimum": 1,
                     "maximum": MAX_BOX_CELLS_PER_SIDE}, "minItems": 2, "maxItems": 2,
                     "description": "columns [along length, along beam] (default [4, 2])"}}},
-            {"type": "object", "required": ["kind", "cells"], "properties": {
+            {"type": "object", "required": ["kind", "cells"], "additionalProperties": false,
+                "properties": {
                 "kind": {"const": "cells"},
                 "cells": {"type": "array", "minItems": 1, "maxItems": MAX_CELLS, "items": {"type": "object",
                     "required": ["position", "volume", "height"], "additionalProperties": false,

@@ -127,6 +127,19 @@ async fn body_errors_are_4xx_and_change_nothing() {
     // Nothing was added.
     let (_, list) = s.get_json(url).await;
     assert_eq!(list["bodies"], json!([]));
+    // A misspelt hull field is refused, naming it (it was dropped, and the hull got defaults).
+    let mut typo = boat(0.5);
+    typo["hull"]["cell"] = json!([8, 2]);
+    let (st, e) = spawn(&s, "calm", &typo).await;
+    assert_eq!(
+        (
+            st,
+            e["error"]["code"].as_str(),
+            e["error"]["field"].as_str()
+        ),
+        (400, Some("bad_json"), Some("hull.cell")),
+        "{e}"
+    );
     // Bad ids and inputs.
     let (st, _) = s.get_json("/v1/scenes/calm/bodies/abc").await;
     assert_eq!(st, 400);
