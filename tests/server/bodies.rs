@@ -186,31 +186,23 @@ async fn body_errors_are_4xx_and_change_nothing() {
 #[tokio::test]
 async fn a_body_refuses_inputs_beyond_its_live_limit() {
     let s = TestServer::start(config()).await;
-    let url = "/v1/scenes/calm/bodies";
     let (_, a) = spawn(&s, "calm", &boat(0.5)).await;
     let (_, b) = spawn(&s, "calm", &boat(0.5)).await;
     let (a, b) = (a["id"].as_u64().unwrap(), b["id"].as_u64().unwrap());
     // Long enough that none ends during the test.
-    let long = json!({"force": [10.0, 0.0, 0.0], "ticks": 100_000});
+    let server = &s;
+    let input = |id: u64| async move {
+        let long = json!({"force": [10.0, 0.0, 0.0], "ticks": 100_000});
+        let url = format!("/v1/scenes/calm/bodies/{id}/input");
+        server
+            .admin(Method::POST, &url, Some(&long), Some(TOKEN))
+            .await
+    };
     for k in 0..swell::bodies::MAX_LIVE_INPUTS {
-        let (st, e) = s
-            .admin(
-                Method::POST,
-                &format!("{url}/{a}/input"),
-                Some(&long),
-                Some(TOKEN),
-            )
-            .await;
+        let (st, e) = input(a).await;
         assert_eq!(st, 202, "input {k}: {e}");
     }
-    let (st, e) = s
-        .admin(
-            Method::POST,
-            &format!("{url}/{a}/input"),
-            Some(&long),
-            Some(TOKEN),
-        )
-        .await;
+    let (st, e) = input(a).await;
     assert_eq!(
         (st, e["error"]["code"].as_str()),
         (409, Some("too_many_inputs")),
@@ -220,15 +212,8 @@ async fn a_body_refuses_inputs_beyond_its_live_limit() {
         e["error"]["message"].as_str().unwrap().contains("256"),
         "{e}"
     );
-    let (st, e) = s
-        .admin(
-            Method::POST,
-            &format!("{url}/{b}/input"),
-            Some(&long),
-            Some(TOKEN),
-        )
-        .await;
-    assert_eq!(st, 202, "{e}");
+    let (st, e) = input(b).await;
+    assert_eq!(st, 202, "another body has room of its own: {e}");
     s.stop().await;
 }
 
