@@ -104,7 +104,7 @@ impl AppState {
 
     /// Puts a built scene, keeping the clock of the scene it replaces unless its epoch moved.
     /// A moved epoch is a clock change like an admin's: stream sessions of the scene are told
-    /// ([`AppState::replace_clock`]'s announcement), on every process that applies the put.
+    /// ([`AppState::announce_clock_change`]), on every process that applies the put.
     fn put_built(&self, scene: Scene) {
         let old = self.scene(&scene.id).ok();
         let clock = old
@@ -115,8 +115,7 @@ impl AppState {
         let id = scene.id.clone();
         self.insert_loaded(scene, clock);
         if moved {
-            // An error only means no session is listening.
-            let _ = self.clock_changes.send(std::sync::Arc::from(id.as_str()));
+            self.announce_clock_change(&id);
         }
     }
 }

@@ -266,9 +266,15 @@ impl AppState {
             clock,
         );
         if before != clock {
-            // An error only means no session is listening.
-            let _ = self.clock_changes.send(Arc::from(entry.scene.id.as_str()));
+            self.announce_clock_change(&entry.scene.id);
         }
+    }
+
+    /// Tells scene `id`'s stream sessions that its clock changed ([`Inner::clock_changes`]):
+    /// each sends its client a `clock` event with the reading then.
+    pub fn announce_clock_change(&self, id: &str) {
+        // An error only means no session is listening.
+        let _ = self.clock_changes.send(Arc::from(id));
     }
 
     /// Inserts a scene at start-up (no persistence, no lock), with `clock` or one started from

@@ -663,6 +663,13 @@ fn limited() -> swell::Config {
     c
 }
 
+/// The server's `/openapi.json`.
+async fn document(s: &TestServer) -> Value {
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200, "{doc}");
+    doc
+}
+
 /// The sample and orientation bodies of `/openapi.json` against the server, for a minimal and
 /// a full request, and at the ends of every documented range. The document used to give no
 /// answer schema for either (`"application/json": {}`), leave out `additionalProperties: false`
@@ -674,8 +681,7 @@ fn limited() -> swell::Config {
 #[tokio::test]
 async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field() {
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
 
     // Sample: minimal (points only) and every field.
     let path = "/v1/scenes/{id}/sample";
@@ -776,8 +782,7 @@ async fn openapi_sample_and_orientation_bodies_match_the_server_field_by_field()
 #[tokio::test]
 async fn openapi_clock_body_matches_the_server_field_by_field() {
     let s = TestServer::start(config()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let path = "/v1/scenes/{id}/clock";
     let req = content_ref(&doc, "put", path, true);
     assert_eq!(req["$ref"], "#/components/schemas/ClockUpdate");
@@ -852,8 +857,7 @@ async fn fresh_scene(s: &TestServer, id: &str, spec: &Value, t: f64) {
 #[tokio::test]
 async fn openapi_impact_body_matches_the_server_field_by_field() {
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let req = content_ref(&doc, "post", "/v1/scenes/{id}/impacts", true);
     assert_eq!(req["$ref"], "#/components/schemas/ImpactRequest");
     let props = &resolve(&doc, req)["properties"];
@@ -908,8 +912,7 @@ async fn openapi_impact_body_matches_the_server_field_by_field() {
 #[tokio::test]
 async fn openapi_spawn_position_range_matches_the_server() {
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let req = content_ref(&doc, "post", "/v1/scenes/{id}/bodies", true);
     assert_eq!(req["$ref"], "#/components/schemas/SpawnRequest");
     let position = &resolve(&doc, req)["properties"]["position"];
@@ -947,8 +950,7 @@ async fn openapi_spawn_position_range_matches_the_server() {
 #[tokio::test]
 async fn openapi_query_ranges_match_the_server() {
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let param = |path: &str, name: &str| -> Value {
         doc["paths"][path]["get"]["parameters"]
             .as_array()
@@ -989,8 +991,7 @@ async fn openapi_query_ranges_match_the_server() {
 #[tokio::test]
 async fn openapi_scene_detail_matches_the_server() {
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let path = "/v1/scenes/{id}";
     let detail = content_ref(&doc, "get", path, false);
     assert_eq!(detail["$ref"], "#/components/schemas/SceneDetail");
@@ -1048,8 +1049,7 @@ async fn openapi_scene_detail_matches_the_server() {
 async fn openapi_spawn_body_matches_the_server_field_by_field() {
     use swell_waves::body::{MAX_HULL_SIZE, MAX_MASS, MAX_YAW, MIN_HULL_SIZE};
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let req = content_ref(&doc, "post", "/v1/scenes/{id}/bodies", true);
     assert_eq!(req["$ref"], "#/components/schemas/SpawnRequest");
     let props = &resolve(&doc, req)["properties"];
@@ -1144,8 +1144,7 @@ async fn openapi_spawn_body_matches_the_server_field_by_field() {
 async fn openapi_input_body_matches_the_server_field_by_field() {
     use swell::bodies::{MAX_INPUT_FORCE, MAX_INPUT_TICKS, MAX_INPUT_TORQUE};
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let req = content_ref(&doc, "post", "/v1/scenes/{id}/bodies/{bid}/input", true);
     assert_eq!(req["$ref"], "#/components/schemas/InputRequest");
     let props = &resolve(&doc, req)["properties"];
@@ -1214,8 +1213,7 @@ async fn openapi_input_body_matches_the_server_field_by_field() {
 #[tokio::test]
 async fn openapi_scene_list_matches_the_server() {
     let s = TestServer::start(limited()).await;
-    let (st, doc) = s.get_json("/openapi.json").await;
-    assert_eq!(st, 200);
+    let doc = document(&s).await;
     let list = content_ref(&doc, "get", "/v1/scenes", false);
     assert_eq!(list["$ref"], "#/components/schemas/SceneList");
     let (st, before) = s.get_json("/v1/scenes").await;
