@@ -632,13 +632,13 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "height": {"type": "number", "description": "height of the surface above (x, z), m"}}},
         // swell_waves::body::SpawnSpec (crate::bodies::SpawnRequest), unknown fields refused;
         // the position checked by `src/api/bodies.rs`, the yaw by `SceneBodies::spawn`, the rest
-        // by swell_waves::body::BodySpec::build (whose errors name the field under `body.`:
-        // `body.mass`, `body.hull.length`).
+        // by swell_waves::body::BodySpec::build (whose errors name the field as the request
+        // writes it: `mass`, `hull.length`).
         "SpawnRequest": {"type": "object", "required": ["mass", "hull", "position"],
             "additionalProperties": false, "properties": {
                 "mass": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_MASS,
                     "description": "kg (a mass so small that the hull's inertia tensor underflows, \
-                    far below a gram, is refused naming body.hull)"},
+                    far below a gram, is refused naming hull)"},
                 "hull": {"$ref": "#/components/schemas/HullSpec"},
                 "position": {"type": "array", "items": coord(), "minItems": 3, "maxItems": 3,
                     "description": "world position of the body origin [x, y, z], m, each within \

@@ -180,6 +180,59 @@ async fn body_errors_are_4xx_and_change_nothing() {
     s.stop().await;
 }
 
+/// Issue 27: a spawn's errors from the body model named its fields under `body.` (`body.mass`,
+/// `body.hull.length`) while the handler's own checks named `position[0]` and `yaw`, so a
+/// client that sent `{"mass", "hull", "position", ...}` was told of a field it never sent.
+/// Every refusal now names the path in the JSON the client sent, and its message starts with it.
+#[tokio::test]
+async fn spawn_errors_name_the_fields_the_client_sent() {
+    let s = TestServer::start(config()).await;
+    let box_hull = |cells: Value| json!({"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5, "cells": cells});
+    let cells = json!({"kind": "cells", "cells": [
+        {"position": [-2.0, 0.0, 0.0], "volume": 6.0, "height": 1.5},
+        {"position": [2.0, 0.0, 0.0], "volume": -6.0, "height": 1.5}]});
+    for (key, value, status, field) in [
+        ("mass", json!(2e9), 422, "mass"),
+        (
+            "hull",
+            json!({"kind": "box", "length": 0.0, "beam": 3.0, "height": 1.5}),
+            422,
+            "hull.length",
+        ),
+        ("hull", box_hull(json!([4, 17])), 422, "hull.cells[1]"),
+        ("hull", cells, 422, "hull.cells[1].volume"),
+        (
+            "center_of_mass",
+            json!([0.0, 5.0, 0.0]),
+            422,
+            "center_of_mass[1]",
+        ),
+        ("linear_drag", json!(-1.0), 422, "linear_drag"),
+        (
+            "min_wavelength_factor",
+            json!(101.0),
+            422,
+            "min_wavelength_factor",
+        ),
+        ("position", json!([0.0, 1e300, 0.0]), 400, "position[1]"),
+        ("yaw", json!(1e10), 400, "yaw"),
+    ] {
+        let mut b = boat(0.5);
+        b[key] = value;
+        let (st, e) = spawn(&s, "calm", &b).await;
+        assert_eq!(
+            (st, e["error"]["field"].as_str()),
+            (status, Some(field)),
+            "{key}: {e}"
+        );
+        let message = e["error"]["message"].as_str().unwrap();
+        assert!(message.starts_with(&format!("{field} ")), "{e}");
+    }
+    let (_, list) = s.get_json("/v1/scenes/calm/bodies").await;
+    assert_eq!(list["bodies"], json!([]));
+    s.stop().await;
+}
+
 /// A body holds at most 256 inputs acting or queued (`MAX_LIVE_INPUTS`): one more is 409
 /// `too_many_inputs`, so a game token cannot grow a body's input list (and the journal, and the
 /// work each step does) without end. Another body has room of its own.

@@ -351,11 +351,7 @@ async fn values_that_would_break_later_work_are_refused_up_front() {
     for (body, status, field) in [
         (boat(json!([1e300, 0, 0]), hull.clone()), 400, "position[0]"),
         (boat(json!([0, 2e9, 0]), hull.clone()), 400, "position[1]"),
-        (
-            boat(json!([0, 0, 0]), cells),
-            422,
-            "body.hull.cells[0].height",
-        ),
+        (boat(json!([0, 0, 0]), cells), 422, "hull.cells[0].height"),
     ] {
         let (st, v) = s
             .admin(

@@ -78,6 +78,17 @@ impl SpecError {
     }
 }
 
+/// The path of field `name` inside the value at `prefix`: `prefix.name`, or `name` alone when
+/// `prefix` is empty (a value at the root of the document its sender wrote, such as a spawn
+/// request's body spec: `mass`, `hull.length`).
+pub(crate) fn field_path(prefix: &str, name: &str) -> String {
+    if prefix.is_empty() {
+        name.to_string()
+    } else {
+        format!("{prefix}.{name}")
+    }
+}
+
 /// Checks a number is finite.
 pub(crate) fn finite(field: &str, value: f64) -> Result<f64, SpecError> {
     if value.is_finite() {

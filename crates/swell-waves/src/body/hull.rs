@@ -7,7 +7,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::error::{SpecError, finite, positive};
+use crate::error::{SpecError, field_path, finite, positive};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -106,7 +106,8 @@ enum HullKind {
 }
 
 impl HullSpec {
-    /// Validates and builds the hull. `field` prefixes error paths (e.g. `bodies[3].hull`).
+    /// Validates and builds the hull. `field` prefixes error paths (e.g. `bodies[3].hull`); an
+    /// empty `field` names them from the hull's root (`length`, `cells[0].volume`).
     ///
     /// # Errors
     /// A box dimension outside [[`MIN_HULL_SIZE`], [`MAX_HULL_SIZE`]] m (`{field}.length`,
@@ -123,14 +124,14 @@ impl HullSpec {
                 height,
                 cells,
             } => {
-                let l = size(&format!("{field}.length"), *length)?;
-                let b = size(&format!("{field}.beam"), *beam)?;
-                let h = size(&format!("{field}.height"), *height)?;
+                let l = size(&field_path(field, "length"), *length)?;
+                let b = size(&field_path(field, "beam"), *beam)?;
+                let h = size(&field_path(field, "height"), *height)?;
                 let [nx, nz] = cells.unwrap_or(DEFAULT_BOX_CELLS);
                 for (i, n) in [nx, nz].into_iter().enumerate() {
                     if !(1..=MAX_BOX_CELLS_PER_SIDE).contains(&n) {
                         return Err(SpecError::OutOfRange {
-                            field: format!("{field}.cells[{i}]"),
+                            field: field_path(field, &format!("cells[{i}]")),
                             value: f64::from(n),
                             allowed: format!("an integer in 1..={MAX_BOX_CELLS_PER_SIDE}"),
                         });
@@ -165,14 +166,14 @@ impl HullSpec {
             HullSpec::Cells { cells } => {
                 if cells.is_empty() || cells.len() > MAX_CELLS {
                     return Err(SpecError::BadLength {
-                        field: format!("{field}.cells"),
+                        field: field_path(field, "cells"),
                         len: cells.len(),
                         allowed: format!("1..={MAX_CELLS}"),
                     });
                 }
                 let mut out = Vec::with_capacity(cells.len());
                 for (i, c) in cells.iter().enumerate() {
-                    let f = format!("{field}.cells[{i}]");
+                    let f = field_path(field, &format!("cells[{i}]"));
                     for (k, p) in c.position.iter().enumerate() {
                         finite(&format!("{f}.position[{k}]"), *p)?;
                     }

@@ -4,7 +4,7 @@
 use glam::{DMat3, DVec3};
 
 use super::hull::{Hull, HullSpec};
-use crate::error::{SpecError, finite, non_negative, positive};
+use crate::error::{SpecError, field_path, finite, non_negative, positive};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -88,7 +88,9 @@ impl BodySpec {
         }
     }
 
-    /// Validates the spec and precomputes the body's constants. `field` prefixes error paths.
+    /// Validates the spec and precomputes the body's constants. `field` prefixes error paths
+    /// (`bodies[3]` names `bodies[3].mass`); an empty `field` names them from the spec's root
+    /// (`mass`, `hull.length`), as [`super::World::add`] does.
     ///
     /// # Errors
     /// [`SpecError`] naming the field when: `{field}.mass` is not finite and in (0, 10⁹];
@@ -97,18 +99,19 @@ impl BodySpec {
     /// finite and ≥ 0; `{field}.min_wavelength_factor` is not in [0, 100]; the inertia tensor
     /// is not invertible (`{field}.hull`, only for absurd scales).
     pub fn build(&self, field: &str) -> Result<BodyModel, SpecError> {
-        let mass = positive(&format!("{field}.mass"), self.mass)?;
+        let at = |name: &str| field_path(field, name);
+        let mass = positive(&at("mass"), self.mass)?;
         if mass > MAX_MASS {
             return Err(SpecError::OutOfRange {
-                field: format!("{field}.mass"),
+                field: at("mass"),
                 value: mass,
                 allowed: format!("in (0, {MAX_MASS}] kg"),
             });
         }
-        let hull = self.hull.build(&format!("{field}.hull"))?;
+        let hull = self.hull.build(&at("hull"))?;
         let (lo, hi) = hull.bounds();
         for i in 0..3 {
-            let name = format!("{field}.center_of_mass[{i}]");
+            let name = at(&format!("center_of_mass[{i}]"));
             let v = finite(&name, self.center_of_mass[i])?;
             if !(lo[i]..=hi[i]).contains(&v) {
                 return Err(SpecError::OutOfRange {
@@ -119,17 +122,13 @@ impl BodySpec {
             }
         }
         let com = DVec3::from_array(self.center_of_mass);
-        let linear_drag = non_negative(&format!("{field}.linear_drag"), self.linear_drag)?;
-        let quadratic_drag = non_negative(&format!("{field}.quadratic_drag"), self.quadratic_drag)?;
-        let angular_damping =
-            non_negative(&format!("{field}.angular_damping"), self.angular_damping)?;
-        let factor = non_negative(
-            &format!("{field}.min_wavelength_factor"),
-            self.min_wavelength_factor,
-        )?;
+        let linear_drag = non_negative(&at("linear_drag"), self.linear_drag)?;
+        let quadratic_drag = non_negative(&at("quadratic_drag"), self.quadratic_drag)?;
+        let angular_damping = non_negative(&at("angular_damping"), self.angular_damping)?;
+        let factor = non_negative(&at("min_wavelength_factor"), self.min_wavelength_factor)?;
         if factor > MAX_WAVELENGTH_FACTOR {
             return Err(SpecError::OutOfRange {
-                field: format!("{field}.min_wavelength_factor"),
+                field: at("min_wavelength_factor"),
                 value: factor,
                 allowed: format!("in [0, {MAX_WAVELENGTH_FACTOR}]"),
             });
@@ -140,7 +139,7 @@ impl BodySpec {
         let min_moment = inertia.x_axis.x.min(inertia.y_axis.y).min(inertia.z_axis.z);
         if !(det > 0.0 && det.is_finite() && inv_inertia.is_finite() && min_moment > 0.0) {
             return Err(SpecError::Inconsistent {
-                field: format!("{field}.hull"),
+                field: at("hull"),
                 reason: format!(
                     "the inertia tensor of this mass and hull is not invertible (determinant {det})"
                 ),

@@ -341,7 +341,9 @@ impl World {
     /// the id.
     ///
     /// # Errors
-    /// An invalid spec (`body.…`, see [`BodySpec::build`]) or initial state (`state.…`).
+    /// An invalid spec, named from the spec's root as a spawn request writes it (`mass`,
+    /// `hull.length`, `hull.cells[2].volume`; see [`BodySpec::build`]), or initial state
+    /// (`state.…`).
     pub fn add(&mut self, spec: &BodySpec, initial: BodyState) -> Result<BodyId, SpecError> {
         let id = self.next_id;
         self.insert(id, spec, initial)?;
@@ -358,7 +360,7 @@ impl World {
         spec: &BodySpec,
         initial: BodyState,
     ) -> Result<(), SpecError> {
-        let model = spec.build("body")?;
+        let model = spec.build("")?;
         let state = initial.validated("state")?;
         let status = BodyStatus {
             substeps: substeps_for(&model, &self.settings),

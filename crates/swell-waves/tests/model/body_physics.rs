@@ -625,12 +625,58 @@ fn body_spec_errors_name_the_field() {
     let mut s = BodySpec::boxed(1.0, 1.0, 1.0, 1.0);
     s.min_wavelength_factor = -1.0;
     assert_eq!(s.build("b").unwrap_err().field(), "b.min_wavelength_factor");
+    // An empty prefix names the fields from the spec's root, as a spawn request writes them.
+    let e = BodySpec::boxed(1.0, 1.0, 0.0, 1.0).build("").unwrap_err();
+    assert_eq!(e.field(), "hull.beam");
+    let e = BodySpec::boxed(-1.0, 1.0, 1.0, 1.0).build("").unwrap_err();
+    assert_eq!(e.field(), "mass");
     let e = World::new(WorldSettings {
         tick_hz: 0.0,
         ..WorldSettings::default()
     })
     .unwrap_err();
     assert_eq!(e.field(), "tick_hz");
+}
+
+/// Issue 27: `World::add` named a spec's errors under `body.` (`body.mass`,
+/// `body.hull.length`), where the spawn request the spec comes from (the server's body, the C
+/// ABI's JSON) has those fields at its root; a client was told of a field it never sent.
+#[test]
+fn world_add_names_spec_fields_as_a_spawn_request_writes_them() {
+    let mut w = world(30.0);
+    let at_rest = BodyState::at_rest(DVec3::ZERO, 0.0);
+    let e = w
+        .add(&BodySpec::boxed(2e9, 4.0, 2.0, 1.0), at_rest)
+        .unwrap_err();
+    assert_eq!(e.field(), "mass");
+    assert!(
+        e.to_string()
+            .starts_with("mass = 2000000000 is out of range"),
+        "{e}"
+    );
+    let e = w
+        .add(&BodySpec::boxed(2000.0, 4.0, 2.0, 1e4), at_rest)
+        .unwrap_err();
+    assert_eq!(e.field(), "hull.height");
+    let mut cells = BodySpec::boxed(2000.0, 4.0, 2.0, 1.0);
+    cells.hull = HullSpec::Cells {
+        cells: vec![
+            swell_waves::body::CellSpec {
+                position: [0.0; 3],
+                volume: 1.0,
+                height: 1.0,
+            };
+            3
+        ],
+    };
+    if let HullSpec::Cells { cells } = &mut cells.hull {
+        cells[2].volume = f64::NAN;
+    }
+    assert_eq!(
+        w.add(&cells, at_rest).unwrap_err().field(),
+        "hull.cells[2].volume"
+    );
+    assert!(w.is_empty());
 }
 
 /// Issue 10 (bodies on FFT scenes): the velocity grids of FFT layers are made once per tick,
