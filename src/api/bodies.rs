@@ -4,13 +4,18 @@
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
-use serde::Serialize;
+use serde::de::IgnoredAny;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use swell_waves::body::CellSpec;
 
 use crate::api::json::RawBody;
 use crate::bodies::{InputRequest, SceneBodies, SpawnRequest, body_not_found};
 use crate::error::ApiError;
-use crate::service::json::from_slice;
-use crate::service::types::{BodyDescription, CarriedBody, FeltImpact, HullExtent, InputSpan};
+use crate::service::json::{from_slice, from_value_at};
+use crate::service::types::{
+    BodyDescription, CarriedBody, FeltImpact, HullExtent, HullKind, InputSpan,
+};
 use crate::state::AppState;
 
 /// `GET /v1/scenes/{id}/bodies` answer.
@@ -110,40 +115,57 @@ fn felt(b: &SceneBodies) -> Vec<FeltImpact> {
         .collect()
 }
 
-/// The fields a hull of each `kind` takes (`swell_waves::body::HullSpec`).
-const HULL_FIELDS: [(&str, &[&str]); 2] = [
-    ("box", &["kind", "length", "beam", "height", "cells"]),
-    ("cells", &["kind", "cells"]),
-];
+/// A spawn hull's `kind`, read before the rest of it (`swell_waves::body::HullSpec`'s tag).
+#[derive(Deserialize)]
+struct HullTag {
+    kind: HullKind,
+}
 
-/// Refuses a field a spawn's hull does not take, as serde refuses one anywhere else in the
-/// request (400 `bad_json` naming `hull.<field>`). The model's `HullSpec` cannot refuse them
-/// itself: an internally tagged enum takes unknown fields, and making it refuse them would also
-/// refuse spawns already in journals on replay. Without this a misspelt optional field
-/// (`"cell": [8, 2]`) was dropped without a word and the hull got its defaults.
-fn check_hull_fields(body: &[u8]) -> Result<(), ApiError> {
-    let Ok(v) = serde_json::from_slice::<serde_json::Value>(body) else {
+/// A box hull's fields as `HullSpec::Box` takes them (same names, types and defaults), read
+/// only for the error that names a wrong one.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+#[expect(dead_code, reason = "read for its errors only")]
+struct BoxHullFields {
+    kind: IgnoredAny,
+    length: f64,
+    beam: f64,
+    height: f64,
+    #[serde(default)]
+    cells: Option<[u32; 2]>,
+}
+
+/// A cells hull's fields as `HullSpec::Cells` takes them, read only for the error that names a
+/// wrong one (the cells are the model's own `CellSpec`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+#[expect(dead_code, reason = "read for its errors only")]
+struct CellsHullFields {
+    kind: IgnoredAny,
+    cells: Vec<CellSpec>,
+}
+
+/// Names the field of a spawn's hull that is wrongly typed, missing or unknown, as serde names
+/// one anywhere else in the request (400 `bad_json` at `hull.length`, `hull.cells[2].volume`,
+/// `hull.kind`). The model's `HullSpec` is an internally tagged enum, which serde buffers: its
+/// own errors name only `hull` (or the field alone: `hull.volume` for a cell's), and it takes
+/// unknown fields (it cannot refuse them itself without also refusing spawns already in
+/// journals on replay; a misspelt optional field, `"cell": [8, 2]`, was dropped without a word
+/// and the hull got its defaults). So the hull's JSON is read here by its kind, with fields of
+/// the model's types. Ok when there is no hull object (serde's own error names `hull`).
+fn check_hull(body: &[u8]) -> Result<(), ApiError> {
+    let Ok(Value::Object(mut request)) = serde_json::from_slice::<Value>(body) else {
         return Ok(());
     };
-    let Some(hull) = v.get("hull").and_then(serde_json::Value::as_object) else {
+    let Some(hull @ Value::Object(_)) = request.remove("hull") else {
         return Ok(());
     };
-    let kind = hull.get("kind").and_then(serde_json::Value::as_str);
-    let Some((kind, allowed)) = HULL_FIELDS.iter().find(|(k, _)| Some(*k) == kind) else {
-        return Ok(());
-    };
-    match hull.keys().find(|k| !allowed.contains(&k.as_str())) {
-        Some(unknown) => Err(ApiError::bad_json(format!(
-            "hull.{unknown}: unknown field `{unknown}` in a {kind} hull, expected one of {}",
-            allowed
-                .iter()
-                .map(|f| format!("`{f}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ))
-        .with_field(format!("hull.{unknown}"))),
-        None => Ok(()),
+    let tag: HullTag = from_value_at(hull.clone(), "hull")?;
+    match tag.kind {
+        HullKind::Box => from_value_at::<BoxHullFields>(hull, "hull").map(drop),
+        HullKind::Cells => from_value_at::<CellsHullFields>(hull, "hull").map(drop),
     }
+    .map_err(ApiError::from)
 }
 
 fn parse_body_id(raw: &str) -> Result<u64, ApiError> {
@@ -161,8 +183,11 @@ pub async fn create(
     Path(id): Path<String>,
     RawBody(body): RawBody,
 ) -> Result<Response, ApiError> {
-    let req: SpawnRequest = from_slice(&body)?;
-    check_hull_fields(&body)?;
+    let parsed = from_slice::<SpawnRequest>(&body);
+    // Before serde's error, which names any field inside the hull only as `hull`; after a
+    // successful parse too, for a field the hull's kind does not take.
+    check_hull(&body)?;
+    let req = parsed?;
     // Where queries may look (`limits.max_coordinate`) is where a body may start: beyond it the
     // sea cannot be queried, and a stream's compact (f32) offsets would not be finite.
     for (i, v) in req.position.into_iter().enumerate() {
@@ -249,8 +274,75 @@ pub async fn input(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::service::types::HullKind;
-    use swell_waves::body::{CellSpec, HullSpec};
+    use swell_waves::body::HullSpec;
+
+    /// The field a spawn's hull gets wrong is named under `hull` (serde names only `hull`),
+    /// and every hull the model writes passes: `check_hull`'s fields are `HullSpec`'s.
+    #[test]
+    fn check_hull_names_the_field_inside_the_hull() {
+        let spawn = |hull: Value| serde_json::to_vec(&serde_json::json!({"hull": hull})).unwrap();
+        let field = |hull: Value| {
+            let e = check_hull(&spawn(hull)).unwrap_err();
+            assert_eq!(e.code, crate::error::ErrorCode::BadJson, "{e}");
+            e.field.unwrap_or_default()
+        };
+        let cell = CellSpec {
+            position: [1.0, 0.0, -1.0],
+            volume: 2.0,
+            height: 1.0,
+        };
+        for hull in [
+            HullSpec::Box {
+                length: 8.0,
+                beam: 3.0,
+                height: 1.5,
+                cells: None,
+            },
+            HullSpec::Box {
+                length: 8.0,
+                beam: 3.0,
+                height: 1.5,
+                cells: Some([16, 1]),
+            },
+            HullSpec::Cells {
+                cells: vec![cell; 3],
+            },
+        ] {
+            let v = serde_json::to_value(&hull).unwrap();
+            check_hull(&spawn(v.clone())).unwrap_or_else(|e| panic!("{v}: {e}"));
+            let parsed: HullSpec = serde_json::from_value(v).unwrap();
+            assert_eq!(parsed, hull);
+        }
+        let boxed = serde_json::json!({"kind": "box", "length": 8, "beam": 3.0, "height": 1.5});
+        let mut b = boxed.clone();
+        b["length"] = serde_json::json!("x");
+        assert_eq!(field(b), "hull.length");
+        let mut b = boxed.clone();
+        b.as_object_mut().unwrap().remove("beam");
+        assert_eq!(field(b), "hull.beam");
+        let mut b = boxed.clone();
+        b["cells"] = serde_json::json!([4, -2]);
+        assert_eq!(field(b), "hull.cells[1]");
+        let mut b = boxed.clone();
+        b["cell"] = serde_json::json!([8, 2]);
+        assert_eq!(field(b), "hull.cell");
+        let mut b = boxed;
+        b["kind"] = serde_json::json!("boat");
+        assert_eq!(field(b), "hull.kind");
+        assert_eq!(field(serde_json::json!({"length": 8.0})), "hull.kind");
+        let cells = |c: Value| serde_json::json!({"kind": "cells", "cells": [cell, cell, c]});
+        let c = serde_json::json!({"position": [0, 0, 0], "volume": "2", "height": 1});
+        assert_eq!(field(cells(c)), "hull.cells[2].volume");
+        let c = serde_json::json!({"position": [0, 0], "volume": 2, "height": 1});
+        assert_eq!(field(cells(c)), "hull.cells[2].position");
+        let c = serde_json::json!({"position": [0, 0, 0], "volume": 2});
+        assert_eq!(field(cells(c)), "hull.cells[2].height");
+        let c = serde_json::json!({"position": [0, 0, 0], "volume": 2, "height": 1, "mass": 1});
+        assert_eq!(field(cells(c)), "hull.cells[2].mass");
+        // Not a hull object, or not JSON: serde's own error names it.
+        assert!(check_hull(&spawn(serde_json::json!(3))).is_ok());
+        assert!(check_hull(b"{").is_ok());
+    }
 
     /// A box hull is described by its own dimensions; a cells hull by the box around its
     /// columns (each `sqrt(volume/height)` square), centred where that box is.

@@ -658,7 +658,8 @@ fn schemas(limits: &crate::Limits) -> Value {
                     "maximum": MAX_WAVELENGTH_FACTOR, "default": 0,
                     "description": "analytic waves shorter than this times the hull length do not move the body"}}},
         // swell_waves::body::HullSpec, tagged by `kind`, as HullSpec::build checks it; unknown
-        // fields refused by `src/api/bodies.rs` (`check_hull_fields`), in a cell by serde.
+        // fields refused, and a wrong field named inside the hull, by `src/api/bodies.rs`
+        // (`check_hull`).
         "HullSpec": {"oneOf": [
             {"type": "object", "required": ["kind", "length", "beam", "height"],
                 "additionalProperties": false, "properties": {

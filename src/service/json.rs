@@ -32,7 +32,7 @@ pub fn from_slice<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, JsonError> {
         return Ok(v);
     }
     let mut de = serde_json::Deserializer::from_slice(bytes);
-    let v = serde_path_to_error::deserialize(&mut de).map_err(path_error)?;
+    let v = serde_path_to_error::deserialize(&mut de).map_err(|e| path_error(e, ""))?;
     de.end().map_err(|e| JsonError {
         message: e.to_string(),
         field: None,
@@ -45,10 +45,20 @@ pub fn from_slice<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, JsonError> {
 /// # Errors
 /// [`JsonError`] with serde's message and the field path.
 pub fn from_value<T: DeserializeOwned>(v: serde_json::Value) -> Result<T, JsonError> {
-    serde_path_to_error::deserialize(v).map_err(path_error)
+    from_value_at(v, "")
 }
 
-fn path_error(e: serde_path_to_error::Error<serde_json::Error>) -> JsonError {
+/// [`from_value`] for a value that sits at path `at` in the document a client sent: the error
+/// names the field from the document's root (`at` = `hull`: `hull.cells[2].volume`).
+///
+/// # Errors
+/// [`JsonError`] with serde's message and the field path under `at`.
+pub fn from_value_at<T: DeserializeOwned>(v: serde_json::Value, at: &str) -> Result<T, JsonError> {
+    serde_path_to_error::deserialize(v).map_err(|e| path_error(e, at))
+}
+
+/// serde's error as a [`JsonError`], its path under `at` ("" for the document's root).
+fn path_error(e: serde_path_to_error::Error<serde_json::Error>, at: &str) -> JsonError {
     let path = e.path().to_string();
     let message = e.inner().to_string();
     let mut field = if path == "." { String::new() } else { path };
@@ -68,6 +78,13 @@ fn path_error(e: serde_path_to_error::Error<serde_json::Error>) -> JsonError {
                 format!("{field}.{name}")
             };
         }
+    }
+    if !at.is_empty() {
+        field = match field.as_str() {
+            "" => at.to_owned(),
+            f if f.starts_with('[') => format!("{at}{f}"),
+            f => format!("{at}.{f}"),
+        };
     }
     let message = if field.is_empty() {
         message
@@ -105,5 +122,22 @@ mod tests {
         assert_eq!(e.field.as_deref(), Some("points"), "{e:?}");
         assert!(e.message.starts_with("points: missing field"), "{e:?}");
         assert!(from_slice::<Batch>(br#"{"points": []} x"#).is_err());
+    }
+
+    /// A value from inside a document is named from the document's root.
+    #[test]
+    fn a_value_at_a_path_names_its_fields_under_it() {
+        let v = serde_json::json!({"points": [[1, 2], [3, "x"]]});
+        let e = from_value_at::<Batch>(v, "batches[4]").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("batches[4].points[1][1]"), "{e:?}");
+        assert!(
+            e.message
+                .starts_with("batches[4].points[1][1]: invalid type"),
+            "{e:?}"
+        );
+        let e = from_value_at::<Batch>(serde_json::json!({}), "batch").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("batch.points"), "{e:?}");
+        let e = from_value_at::<Batch>(serde_json::json!(3), "batch").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("batch"), "{e:?}");
     }
 }

@@ -5,7 +5,7 @@ use crate::common;
 
 use std::time::Duration;
 
-use common::{TOKEN, TestServer, config, config_with_dir};
+use common::{TOKEN, TestServer, code, config, config_with_dir};
 use reqwest::Method;
 use serde_json::{Value, json};
 
@@ -227,6 +227,62 @@ async fn spawn_errors_name_the_fields_the_client_sent() {
         );
         let message = e["error"]["message"].as_str().unwrap();
         assert!(message.starts_with(&format!("{field} ")), "{e}");
+    }
+    let (_, list) = s.get_json("/v1/scenes/calm/bodies").await;
+    assert_eq!(list["bodies"], json!([]));
+    s.stop().await;
+}
+
+/// Issue 27: a wrong type or a missing field inside a spawn's hull was named only `hull`: the
+/// model's `HullSpec` is an internally tagged enum, which serde buffers, losing the path. A
+/// client with a hull of many cells could not tell which cell, or which field, was wrong. Each
+/// is now 400 `bad_json` naming the field inside the hull, and nothing is spawned.
+#[tokio::test]
+async fn a_wrong_field_inside_a_spawns_hull_is_named() {
+    let s = TestServer::start(config()).await;
+    let cell = json!({"position": [0.0, 0.0, 0.0], "volume": 2.0, "height": 1.0});
+    let cells = |bad: Value| json!({"kind": "cells", "cells": [cell, cell, bad]});
+    let box_hull = json!({"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5});
+    let with = |key: &str, v: Value| {
+        let mut h = box_hull.clone();
+        h[key] = v;
+        h
+    };
+    let mut no_beam = box_hull.clone();
+    no_beam.as_object_mut().unwrap().remove("beam");
+    for (hull, field) in [
+        (with("length", json!("x")), "hull.length"),
+        (no_beam, "hull.beam"),
+        (with("height", Value::Null), "hull.height"),
+        (with("cells", json!([4])), "hull.cells"),
+        (with("kind", json!("boat")), "hull.kind"),
+        (
+            cells(json!({"position": [0.0, 0.0, 0.0], "volume": "2", "height": 1.0})),
+            "hull.cells[2].volume",
+        ),
+        (
+            cells(json!({"position": [0.0, 0.0, 0.0], "volume": 2.0})),
+            "hull.cells[2].height",
+        ),
+        (
+            cells(json!({"position": [0.0, 0.0], "volume": 2.0, "height": 1.0})),
+            "hull.cells[2].position",
+        ),
+        (
+            cells(json!({"position": [0.0, 0.0, 0.0], "volume": 2.0, "height": 1.0, "mass": 1})),
+            "hull.cells[2].mass",
+        ),
+    ] {
+        let mut b = boat(0.5);
+        b["hull"] = hull;
+        let (st, e) = spawn(&s, "calm", &b).await;
+        assert_eq!(
+            (st, code(&e), e["error"]["field"].as_str()),
+            (400, "bad_json", Some(field)),
+            "{e}"
+        );
+        let message = e["error"]["message"].as_str().unwrap();
+        assert!(message.starts_with(&format!("{field}: ")), "{e}");
     }
     let (_, list) = s.get_json("/v1/scenes/calm/bodies").await;
     assert_eq!(list["bodies"], json!([]));
