@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use serde::Deserialize;
+use swell_waves::particles::ripple::MAX_IMPACT_TIME;
 
 use crate::scene::SceneSpec;
 
@@ -119,7 +120,10 @@ pub struct Limits {
     pub frame_cache_entries: usize,
     /// Largest |x|, |z| of a world point, m. Beyond ~1e12 m phases lose all precision.
     pub max_coordinate: f64,
-    /// Largest |t|, s, for the same reason.
+    /// Largest |t|, s, for the same reason. At most 1e12 s
+    /// ([`swell_waves::particles::ripple::MAX_IMPACT_TIME`], the model's bound on an impact's
+    /// time), so that a clock never runs to a time where no impact can be placed; a larger one
+    /// is refused at start ([`Limits::validate`]).
     pub max_time: f64,
     /// Largest WebSocket message (and frame) a client may send, bytes; beyond it the socket is
     /// closed (1009). 1 MiB holds a 20,000-point sample request; tungstenite's 64 MiB default
@@ -318,6 +322,30 @@ pub struct TimeOutOfRange {
 }
 
 impl Limits {
+    /// Checks the limits a server cannot run with; the config file's and
+    /// [`crate::Server::bind`]'s check.
+    ///
+    /// # Errors
+    /// A message naming the limit: `compute_nice` outside 0..=19; `max_time` not in
+    /// (0, 1e12] s ([`MAX_IMPACT_TIME`]: with a larger one a clock could run to times where no
+    /// impact can be placed, while the impact body's schema states the smaller bound).
+    pub fn validate(&self) -> Result<(), String> {
+        if !(0..=19).contains(&self.compute_nice) {
+            return Err(format!(
+                "limits.compute_nice = {}: niceness steps run from 0 (the server's own priority) to 19",
+                self.compute_nice
+            ));
+        }
+        if !(self.max_time > 0.0 && self.max_time <= MAX_IMPACT_TIME) {
+            return Err(format!(
+                "limits.max_time = {} s is out of range: in (0, {MAX_IMPACT_TIME:e}] s, the \
+                 model's bound on an impact's time (a clock past it could place no impact)",
+                swell_waves::error::Num(self.max_time)
+            ));
+        }
+        Ok(())
+    }
+
     /// Checks a time given by a client.
     ///
     /// # Errors
@@ -463,13 +491,8 @@ pub fn parse_toml(text: &str) -> Result<FileContents, String> {
         })?;
         scenes.push((id, spec));
     }
-    if let Some(l) = &file.limits
-        && !(0..=19).contains(&l.compute_nice)
-    {
-        return Err(format!(
-            "limits.compute_nice = {}: niceness steps run from 0 (the server's own priority) to 19",
-            l.compute_nice
-        ));
+    if let Some(l) = &file.limits {
+        l.validate()?;
     }
     Ok(FileContents {
         scenes,

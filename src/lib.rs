@@ -103,7 +103,8 @@ pub enum StartError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// A scene could not be loaded, or the token could not be generated.
+    /// A limit the server cannot run with, a scene that could not be loaded, or a token that
+    /// could not be generated.
     #[error("{0}")]
     Setup(String),
 }
@@ -178,8 +179,10 @@ impl Server {
     /// Loads scenes (built-in, configured, persisted) and binds the socket.
     ///
     /// # Errors
-    /// The socket cannot be bound, the data dir cannot be opened, a configured scene is invalid.
+    /// A limit the server cannot run with ([`Limits::validate`]), the socket cannot be bound,
+    /// the data dir cannot be opened, a configured scene is invalid.
     pub async fn bind(config: Config) -> Result<Server, StartError> {
+        config.limits.validate().map_err(StartError::Setup)?;
         let io = |dir: &std::path::Path| {
             let what = format!("opening data dir {}", dir.display());
             move |source| StartError::Io { what, source }

@@ -109,6 +109,62 @@ layers = [{ kind = "sine", waves = [{ amplitude = 0.1, wavelength = 8, direction
     assert_eq!((limits.compute_threads, limits.compute_nice), (3, 0));
 }
 
+/// Issue 27: `limits.max_time` could be set above the model's bound on impact times (1e12 s,
+/// `MAX_IMPACT_TIME`), so a clock could run to times where no impact can be placed, while
+/// `/openapi.json` stated the smaller bound for an impact's `t` alone. Such a limit is refused
+/// at start, naming `max_time` and the bound, from the config file and in process alike; at the
+/// bound the server starts, documents one bound for every `t`, and takes an impact at the time
+/// its clock was sought to.
+#[tokio::test]
+async fn max_time_past_the_models_impact_time_bound_is_refused_at_start() {
+    use swell_waves::particles::ripple::MAX_IMPACT_TIME;
+    for toml in ["[limits]\nmax_time = 1.5e12\n", "[limits]\nmax_time = -1\n"] {
+        let err = swell::config::parse_toml(toml).unwrap_err();
+        assert!(
+            err.starts_with("limits.max_time = ") && err.contains("(0, 1e12] s"),
+            "{err}"
+        );
+    }
+    let mut cfg = config();
+    cfg.limits.max_time = f64::INFINITY;
+    let err = swell::Server::bind(cfg).await.unwrap_err().to_string();
+    assert!(
+        err.starts_with("limits.max_time = inf s is out of range"),
+        "{err}"
+    );
+
+    let file = swell::config::parse_toml("[limits]\nmax_time = 1e12\n").unwrap();
+    let mut cfg = config();
+    cfg.limits = file.limits.unwrap();
+    assert_eq!(cfg.limits.max_time, MAX_IMPACT_TIME);
+    let s = TestServer::start(cfg).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let schemas = &doc["components"]["schemas"];
+    let sample_t = &schemas["SampleRequest"]["properties"]["t"];
+    assert_eq!(sample_t["maximum"], json!(MAX_IMPACT_TIME), "{sample_t}");
+    assert_eq!(
+        schemas["ImpactRequest"]["properties"]["t"]["maximum"],
+        sample_t["maximum"]
+    );
+    let t = MAX_IMPACT_TIME - 10.0;
+    let (st, v) = s
+        .put_clock("harbour", &json!({"t": t, "paused": true}))
+        .await;
+    assert_eq!(st, 200, "{v}");
+    let impact = json!({"t": t, "position": [0.0, 0.0], "strength": 0.5, "radius": 1.0});
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/harbour/impacts",
+            Some(&impact),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!((st, &v["t"]), (202, &json!(t)), "{v}");
+    s.stop().await;
+}
+
 /// Shutdown waits for an in-flight request: a big batch started before the signal completes
 /// with 200, the server then stops, and new connections are refused.
 #[tokio::test]
