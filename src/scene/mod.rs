@@ -27,7 +27,8 @@ use swell_waves::{Layer, LayerSpec, Surface, SurfaceSpec};
 pub use clock::Clock;
 pub use error::SceneError;
 
-/// Longest scene description, bytes.
+/// Longest scene description, characters (Unicode scalar values, as JSON Schema's `maxLength`
+/// in `/openapi.json` counts them; at most 4 bytes each in UTF-8).
 pub const MAX_DESCRIPTION: usize = 4096;
 /// Name of the seeded generator every layer draws from, as clients should look it up.
 pub const RNG_NAME: &str = "pcg32-splitmix64 (see swell_waves::math)";
@@ -152,11 +153,12 @@ impl SceneSpec {
                 allowed: format!("Unix seconds in [0, {MAX_EPOCH}]"),
             }));
         }
-        if self.description.len() > MAX_DESCRIPTION {
+        let chars = self.description.chars().count();
+        if chars > MAX_DESCRIPTION {
             return Err(SceneError::Rejected(swell_waves::SpecError::BadLength {
                 field: "description".into(),
-                len: self.description.len(),
-                allowed: format!("at most {MAX_DESCRIPTION} bytes"),
+                len: chars,
+                allowed: format!("at most {MAX_DESCRIPTION} characters"),
             }));
         }
         Ok(())

@@ -4,7 +4,7 @@
 
 use crate::common;
 
-use common::{TOKEN, TestServer, config};
+use common::{TOKEN, TestServer, code, config};
 use reqwest::Method;
 use serde_json::{Map, Value, json};
 
@@ -63,8 +63,9 @@ fn type_of(v: &Value) -> &'static str {
 
 /// Whether `v` is valid under schema `s` (the subset of JSON Schema the document uses: `$ref`,
 /// `oneOf`, `type`, `enum`, `const`, `required`, `properties`, `additionalProperties: false`, `items`,
-/// `minItems`, `maxItems`, `minimum`, `maximum`, `exclusiveMinimum`, `exclusiveMaximum`); `Err`
-/// says where and why not.
+/// `minItems`, `maxItems`, `minimum`, `maximum`, `exclusiveMinimum`, `exclusiveMaximum`,
+/// `maxLength` in characters, as JSON Schema counts a string's length); `Err` says where and why
+/// not.
 fn validate(doc: &Value, s: &Value, v: &Value, path: &str) -> Result<(), String> {
     let s = resolve(doc, s);
     if let Some(alternatives) = s["oneOf"].as_array() {
@@ -100,6 +101,13 @@ fn validate(doc: &Value, s: &Value, v: &Value, path: &str) -> Result<(), String>
             || s["exclusiveMaximum"].as_f64().is_some_and(|m| x >= m))
     {
         return Err(format!("{path}: {x} is out of the documented range"));
+    }
+    if let Value::String(x) = v
+        && s["maxLength"]
+            .as_u64()
+            .is_some_and(|n| x.chars().count() as u64 > n)
+    {
+        return Err(format!("{path}: {} characters", x.chars().count()));
     }
     if let Value::Array(items) = v {
         if s["minItems"]
@@ -1008,6 +1016,52 @@ async fn openapi_scene_detail_matches_the_server() {
     );
     answers.push(held);
     check_answers(&doc, detail, &answers, "scene detail");
+    s.stop().await;
+}
+
+/// Issue 27: a scene's `description` was held to `MAX_DESCRIPTION` bytes by the server, while
+/// the document's `maxLength` (which JSON Schema counts in characters) stated the same number,
+/// so a description of fewer characters than that, but more bytes, was refused. At the limit in
+/// characters of two, three and four bytes each it is taken; one character more is refused by
+/// both, the error naming `description` and counting characters.
+#[tokio::test]
+async fn openapi_scene_description_length_is_counted_in_characters() {
+    let s = TestServer::start(config()).await;
+    let doc = document(&s).await;
+    let req = content_ref(&doc, "put", "/v1/scenes/{id}", true);
+    let max = resolve(&doc, req)["properties"]["description"]["maxLength"]
+        .as_u64()
+        .unwrap() as usize;
+    assert_eq!(max, swell::scene::MAX_DESCRIPTION);
+    let (st, calm) = s.get_json("/v1/scenes/calm").await;
+    assert_eq!(st, 200);
+    let described = |text: String| {
+        let mut spec = calm["spec"].clone();
+        spec["description"] = json!(text);
+        spec
+    };
+    for c in ['é', '€', '🌊'] {
+        let at = described(c.to_string().repeat(max));
+        validate(&doc, req, &at, "").unwrap();
+        let (st, v) = s.put_scene("described", &at).await;
+        assert!(st == 201 || st == 200, "{c} x {max}: {st} {v}");
+        assert_eq!(v["spec"]["description"], at["description"]);
+
+        let past = described(c.to_string().repeat(max + 1));
+        assert!(validate(&doc, req, &past, "").is_err());
+        let (st, v) = s.put_scene("described", &past).await;
+        assert_eq!(
+            (st, code(&v), v["error"]["field"].as_str()),
+            (422, "invalid_spec", Some("description")),
+            "{v}"
+        );
+        let message = v["error"]["message"].as_str().unwrap();
+        assert!(
+            message.contains(&format!("has {} entries", max + 1))
+                && message.contains(&format!("at most {max} characters")),
+            "{message}"
+        );
+    }
     s.stop().await;
 }
 
