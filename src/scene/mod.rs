@@ -155,10 +155,9 @@ impl SceneSpec {
         }
         let chars = self.description.chars().count();
         if chars > MAX_DESCRIPTION {
-            return Err(SceneError::Rejected(swell_waves::SpecError::BadLength {
+            return Err(SceneError::Rejected(swell_waves::SpecError::Inconsistent {
                 field: "description".into(),
-                len: chars,
-                allowed: format!("at most {MAX_DESCRIPTION} characters"),
+                reason: format!("{chars} characters; at most {MAX_DESCRIPTION} allowed"),
             }));
         }
         Ok(())
