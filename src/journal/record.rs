@@ -31,6 +31,14 @@ pub enum Op {
         scene: String,
         /// The spec.
         spec: Value,
+        /// The scene's fresh clock, when the put moves the epoch of the scene it replaces:
+        /// running from the new epoch, one generation after the replaced clock
+        /// ([`crate::scene::Clock::restarted_from`]), read where the accepting process put it.
+        /// Every replay and replica takes it as it is, as it takes an [`Op::Clock`]'s record.
+        /// `None` when the put keeps the clock or creates the scene (generation 0); also in
+        /// records written before puts carried one.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        clock: Option<ClockRecord>,
     },
     /// An admin deleted a scene (its clock and bodies go with it).
     SceneDelete {
@@ -102,7 +110,7 @@ pub enum AdminScene {
 pub struct AdminState {
     /// Scenes put or deleted by an admin.
     pub scenes: BTreeMap<String, AdminScene>,
-    /// Clocks set by an admin.
+    /// Clocks set by an admin, or started afresh by a put that moved the scene's epoch.
     pub clocks: BTreeMap<String, ClockRecord>,
     /// Impacts added since each scene's last put, in the order they were accepted (absent in
     /// snapshots written before impacts existed).
@@ -114,9 +122,14 @@ impl AdminState {
     /// Folds in one op (body ops are ignored).
     pub fn apply(&mut self, op: &Op) {
         match op {
-            Op::ScenePut { scene, spec } => {
+            Op::ScenePut { scene, spec, clock } => {
                 self.scenes
                     .insert(scene.clone(), AdminScene::Put(spec.clone()));
+                // A put that moved the epoch replaced the clock: the replaced one's record
+                // must not outlive it (a restore would bring the old clock back).
+                if let Some(c) = clock {
+                    self.clocks.insert(scene.clone(), *c);
+                }
                 self.impacts.remove(scene);
             }
             Op::SceneDelete { scene } => {

@@ -12,6 +12,7 @@ fn put(i: u64) -> Op {
     Op::ScenePut {
         scene: format!("s{i}"),
         spec: json!({"n": i, "x": 0.1 + i as f64 * 1e-17}),
+        clock: None,
     }
 }
 
@@ -264,4 +265,46 @@ fn a_snapshot_compacts_the_log_and_replay_starts_after_it() {
     assert_eq!(seq, 52);
     assert_eq!(admin.scenes["s3"], AdminScene::Deleted);
     assert_eq!(admin.clocks.len(), 1);
+}
+
+/// A put that moves a scene's epoch records the scene's fresh clock, and the fold takes it in
+/// place of the replaced clock's record: the fold used to keep the old record (a put left
+/// `clocks` alone), so a restart from a snapshot brought back the clock the put had replaced.
+/// A put without a clock (it kept the clock) leaves the record as it is, and is written as
+/// puts were before they could carry one.
+#[test]
+fn a_put_that_moves_the_epoch_replaces_the_folded_clock() {
+    let dir = tempfile::tempdir().unwrap();
+    let (j, _) = Journal::open(dir.path()).unwrap();
+    j.append(clock(2)).unwrap();
+    let Op::Clock { clock: old, .. } = clock(2) else {
+        unreachable!()
+    };
+    let kept = Op::ScenePut {
+        scene: "calm".into(),
+        spec: json!({"epoch": 1.0}),
+        clock: None,
+    };
+    assert!(!serde_json::to_string(&kept).unwrap().contains("clock"));
+    j.append(kept).unwrap();
+    assert_eq!(j.admin().1.clocks["calm"], old);
+    let fresh = ClockRecord {
+        t: 0.1,
+        rate: 1.0,
+        paused: false,
+        unix: 1.7e9,
+        generation: old.generation + 1,
+    };
+    j.append(Op::ScenePut {
+        scene: "calm".into(),
+        spec: json!({"epoch": 1.7e9 - 0.1}),
+        clock: Some(fresh),
+    })
+    .unwrap();
+    assert_eq!(j.admin().1.clocks["calm"], fresh);
+    j.sync_blocking(3).unwrap();
+    drop(j);
+    let (j, rec) = Journal::open(dir.path()).unwrap();
+    assert_eq!(rec.records.len(), 3);
+    assert_eq!(j.admin().1.clocks["calm"], fresh, "folded again on open");
 }

@@ -18,7 +18,16 @@
 //! or the fleet's feed, and every replay and every replica takes it from the record as it is.
 //! So replicas and restarts agree on it without a counter of their own (a local counter would
 //! count the changes each process happened to apply: a replica that joined later, or a restart
-//! from a snapshot, would disagree). A clock started from the scene's epoch is generation 0.
+//! from a snapshot, would disagree).
+//!
+//! A new scene's clock, started from its epoch, is generation 0 (so is a deleted scene's when
+//! it is put again: the delete took its clock with it). A scene put that moves the epoch of the
+//! scene it replaces starts a fresh clock from the new epoch (rate 1, running) one generation
+//! after the clock it replaces ([`Clock::restarted_from`]): for a client it is a clock change
+//! like an admin's, and at the same generation the pongs of the two clocks could not be told
+//! apart. The accepting process records that clock with the put (the journal's and the fleet
+//! feed's `scene_put` op), so it is replicated as an admin change's record is. A put that keeps
+//! the epoch keeps the clock.
 //!
 //! # The time limit
 //! Every client time is bounded by `limits.max_time` ([`crate::Limits::check_time`]), so a
@@ -185,6 +194,14 @@ impl Clock {
     /// A running clock at rate 1 that reads `t = 0` at Unix time `epoch`.
     pub fn from_epoch(epoch: f64) -> Clock {
         Clock::starting_at(epoch, 0.0)
+    }
+
+    /// The clock a scene put that moves the scene's epoch leaves in place of this one: a fresh
+    /// clock from `epoch` ([`Clock::from_epoch`], unbounded), one generation on (see the module
+    /// docs).
+    #[must_use]
+    pub fn restarted_from(&self, epoch: f64) -> Clock {
+        Clock::from_epoch(epoch).with_generation(self.generation.wrapping_add(1))
     }
 
     /// Scene time at `now`, s, within ±the bound ([`Clock::within`]).
@@ -422,6 +439,20 @@ mod tests {
         assert_eq!(a.t(now), b.t(now));
         assert_eq!(a.t(now), 86_400.0 * 300.0 + 0.25);
         assert_eq!(a.t(BUILTIN_EPOCH), 0.0);
+    }
+
+    /// A put that moves the epoch leaves a fresh clock one generation on: from the new epoch at
+    /// rate 1, running and unbounded, whatever the replaced clock's rate, pause and bound.
+    #[test]
+    fn a_clock_restarted_from_an_epoch_is_fresh_and_one_generation_on() {
+        let mut old = Clock::from_epoch(1000.0).within(50.0);
+        old.set_rate(1010.0, -3.0);
+        old.set_paused(1010.0, true);
+        old.next_generation();
+        let fresh = old.restarted_from(5000.0);
+        assert_eq!(fresh, Clock::from_epoch(5000.0).with_generation(2));
+        assert_eq!(fresh.t(1e6), 1e6 - 5000.0, "unbounded");
+        assert_eq!(Clock::from_epoch(0.0).restarted_from(1.0).generation(), 1);
     }
 
     /// A system clock stepped back is held at the latest time seen (and runs again once it

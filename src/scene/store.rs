@@ -51,6 +51,20 @@ pub struct ClockRecord {
 }
 
 impl ClockRecord {
+    /// The record of `clock` read at Unix time `now` ([`ClockRecord::restore`] gives the clock
+    /// back, anchored at `now`). `t` is as `clock` reads it, within its own bound: a clock that
+    /// must keep a reading beyond the server's bound (a fresh clock from a far epoch) is
+    /// recorded unbounded, and bounded again where it is restored.
+    pub fn of(clock: &crate::scene::clock::Clock, now: f64) -> ClockRecord {
+        ClockRecord {
+            t: clock.t(now),
+            rate: clock.rate(),
+            paused: clock.paused(),
+            unix: now,
+            generation: clock.generation(),
+        }
+    }
+
     /// The clock this reading gives: anchored at the reading's own Unix time, so every process
     /// that loads it agrees on `t` at any instant. A wall clock now behind the reading (stepped
     /// back, or another machine's) anchors it at `now` instead, so it never reads a `t` earlier

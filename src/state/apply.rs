@@ -8,8 +8,10 @@
 //! machine: one log, one `apply`). The rules:
 //!
 //! - a put replaces the scene; the replaced scene's clock stays unless the put moves its epoch
-//!   (a new scene's spec always carries one, filled in when it was created); its impacts start
-//!   empty (a new [`crate::impacts::SceneImpacts`]) and its FFT frames are dropped;
+//!   (a new scene's spec always carries one, filled in when it was created), and then the clock
+//!   is the fresh one the op records, one generation on ([`Op::ScenePut`]'s `clock`); its
+//!   impacts start empty (a new [`crate::impacts::SceneImpacts`]) and its FFT frames are
+//!   dropped;
 //! - a delete takes the scene's clock, frames and bodies with it;
 //! - a clock record is anchored at its own Unix time ([`ClockRecord::restore`]), so every process
 //!   that applies it reads the same `t` at the same instant, whenever it applied it;
@@ -29,6 +31,7 @@ use serde_json::Value;
 
 use super::AppState;
 use crate::journal::Op;
+use crate::scene::store::ClockRecord;
 use crate::scene::{Clock, Scene, SceneSpec};
 
 /// What the process that accepted an op already made of it, handed to [`AppState::apply`] so
@@ -64,13 +67,17 @@ impl AppState {
     /// first.
     pub fn apply(&self, op: &Op, prepared: Prepared) {
         match op {
-            Op::ScenePut { scene: id, spec } => {
+            Op::ScenePut {
+                scene: id,
+                spec,
+                clock,
+            } => {
                 let scene = match prepared {
                     Prepared::Scene(s) => Some(*s),
                     _ => build(id, spec),
                 };
                 if let Some(scene) = scene {
-                    self.put_built(scene);
+                    self.put_built(scene, clock.as_ref());
                 }
             }
             Op::SceneDelete { scene } => {
@@ -103,15 +110,27 @@ impl AppState {
     }
 
     /// Puts a built scene, keeping the clock of the scene it replaces unless its epoch moved.
-    /// A moved epoch is a clock change like an admin's: stream sessions of the scene are told
-    /// ([`AppState::announce_clock_change`]), on every process that applies the put.
-    fn put_built(&self, scene: Scene) {
-        let old = self.scene(&scene.id).ok();
-        let clock = old
-            .as_ref()
-            .filter(|e| scene.spec.epoch.is_none() || scene.spec.epoch == e.scene.spec.epoch)
-            .map(|e| *e.clock.lock().unwrap_or_else(|p| p.into_inner()));
-        let moved = old.is_some() && clock.is_none();
+    /// A moved epoch starts the clock afresh, one generation on: from `record`, the clock the
+    /// accepting process recorded with the put, so every process that applies it holds the same
+    /// clock whatever it held before. It is a clock change like an admin's: stream sessions of
+    /// the scene are told ([`AppState::announce_clock_change`]), on every process that applies
+    /// the put.
+    fn put_built(&self, scene: Scene, record: Option<&ClockRecord>) {
+        let before = self.scene(&scene.id).ok().map(|e| {
+            let clock = *e.clock.lock().unwrap_or_else(|p| p.into_inner());
+            (clock, e.scene.spec.epoch)
+        });
+        let (clock, moved) = match (record, before) {
+            (Some(rec), before) => (Some(rec.restore(self.now())), before.is_some()),
+            // A moved epoch without a record: a put journaled before puts carried one, or the
+            // scene as a re-read of a fleet's store or a snapshot gives it (the clock's own
+            // record follows and replaces this one). Fresh, one generation on, all the same.
+            (None, Some((old, epoch))) => match scene.spec.epoch {
+                Some(new) if Some(new) != epoch => (Some(old.restarted_from(new)), true),
+                _ => (Some(old), false),
+            },
+            (None, None) => (None, false),
+        };
         let id = scene.id.clone();
         self.insert_loaded(scene, clock);
         if moved {

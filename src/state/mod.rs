@@ -115,7 +115,8 @@ impl std::ops::Deref for AppState {
 pub enum PutOutcome {
     /// New id.
     Created,
-    /// Existing id; its clock was kept.
+    /// Existing id; its clock was kept, unless the put moved the epoch (then a fresh clock from
+    /// the new epoch, one generation on).
     Replaced,
 }
 
@@ -337,7 +338,9 @@ impl AppState {
         Ok(())
     }
 
-    /// Creates or replaces scene `id` from its spec JSON; a replaced scene keeps its clock.
+    /// Creates or replaces scene `id` from its spec JSON; a replaced scene keeps its clock
+    /// unless the put moves its epoch (then the clock starts afresh from the new epoch, one
+    /// generation on: see [`crate::scene::clock`]). A new scene's clock is generation 0.
     ///
     /// # Errors
     /// [`StateError::Scene`] for a bad id or a malformed or invalid spec; as
@@ -377,13 +380,25 @@ impl AppState {
         } else {
             PutOutcome::Created
         };
-        let moved = old.is_some() && given.is_some() && given != old_epoch;
+        // A moved epoch starts a fresh clock one generation after the replaced one, so a client
+        // whose fit was at the old generation restarts it (pongs of the two clocks would carry
+        // the same generation otherwise). Computed here, once, and recorded with the put, as a
+        // clock change is: every replay and replica takes the record as it is.
+        let clock = match (&old, given) {
+            (Some(old), Some(epoch)) if given != old_epoch => {
+                let replaced = *old.clock.lock().unwrap_or_else(|p| p.into_inner());
+                // Unbounded, so a far epoch's reading survives the record (see `ClockRecord::of`).
+                Some(ClockRecord::of(&replaced.restarted_from(epoch), self.now()))
+            }
+            _ => None,
+        };
         let op = Op::ScenePut {
             scene: id.to_owned(),
             spec,
+            clock,
         };
         self.store()
-            .commit(self, op, Prepared::Scene(Box::new(scene)), moved)
+            .commit(self, op, Prepared::Scene(Box::new(scene)))
             .await?;
         Ok((outcome, self.applied_scene(id)?))
     }
@@ -399,9 +414,7 @@ impl AppState {
         let op = Op::SceneDelete {
             scene: id.to_owned(),
         };
-        self.store()
-            .commit(self, op, Prepared::Nothing, false)
-            .await
+        self.store().commit(self, op, Prepared::Nothing).await
     }
 
     /// Applies a clock update (seek, then rate, then pause) and returns the new reading. The
@@ -433,20 +446,14 @@ impl AppState {
         }
         // One update is one change, whatever it moved: clients restart their fit at it.
         clock.next_generation();
-        let rec = ClockRecord {
-            t: clock.t(now),
-            rate: clock.rate(),
-            paused: clock.paused(),
-            unix: now,
-            generation: clock.generation(),
-        };
+        let rec = ClockRecord::of(&clock, now);
         let op = Op::Clock {
             scene: id.to_owned(),
             clock: rec,
         };
         // The local store applies the clock as computed here; a fleet's feed, the record.
         self.store()
-            .commit(self, op, Prepared::Clock(clock), false)
+            .commit(self, op, Prepared::Clock(clock))
             .await?;
         let entry = self.applied_scene(id)?;
         Ok(self.read_clock(&entry))
@@ -567,6 +574,7 @@ impl AppState {
                     ops.push(Op::ScenePut {
                         scene: id.clone(),
                         spec: v.clone(),
+                        clock: None,
                     });
                     match SceneSpec::from_value(v).and_then(|spec| Scene::build(&id, spec)) {
                         Ok(scene) => self.insert_loaded(scene, None),

@@ -24,9 +24,11 @@ pub fn restore(state: &AppState, rec: Recovered) {
     // then each scene's impacts in the order they were accepted.
     for (id, s) in &snapshot.admin.scenes {
         let op = match s {
+            // The clock a put recorded is in `clocks`, applied below.
             AdminScene::Put(spec) => Op::ScenePut {
                 scene: id.clone(),
                 spec: spec.clone(),
+                clock: None,
             },
             AdminScene::Deleted => Op::SceneDelete { scene: id.clone() },
         };

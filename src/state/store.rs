@@ -33,8 +33,7 @@ use crate::service::types::{InputAccepted, SpawnedBody};
 /// it changes; admin changes ([`Store::commit`]) with the state's admin lock held.
 pub trait Store: Send + Sync + Debug {
     /// Makes an admin change (scene put or delete, clock) durable and applies it
-    /// ([`AppState::apply`], with what the caller already `prepared`). `epoch_moved`: a put
-    /// that moves the scene's epoch (its stored clock no longer applies).
+    /// ([`AppState::apply`], with what the caller already `prepared`).
     ///
     /// # Errors
     /// [`StateError::Internal`] if the journal cannot be written;
@@ -44,7 +43,6 @@ pub trait Store: Send + Sync + Debug {
         state: &'a AppState,
         op: Op,
         prepared: Prepared,
-        epoch_moved: bool,
     ) -> BoxFuture<'a, Result<(), StateError>>;
 
     /// Adds an API impact to `entry`'s scene, checked against the set's limits with rings
@@ -181,7 +179,6 @@ impl Store for Local {
         state: &'a AppState,
         op: Op,
         prepared: Prepared,
-        _epoch_moved: bool,
     ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             journal_op(state, op.clone()).await?;

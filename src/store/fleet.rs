@@ -364,25 +364,20 @@ impl Fleet {
     }
 
     /// Stores an admin change and waits until this replica has applied it from the feed. `built`
-    /// is a put's scene (built already, to validate it); `drop_clock`: the put moved the scene's
-    /// epoch, so its stored clock no longer applies.
+    /// is a put's scene (built already, to validate it). A put that carries a clock moved the
+    /// scene's epoch, so its stored clock no longer applies.
     ///
     /// # Errors
     /// [`StateError::StoreUnavailable`] when Redis cannot be written (nothing changed) or the
     /// change was stored but this replica's feed is not connected to apply it (every other
     /// replica, and this one once reconnected, will).
-    pub async fn commit(
-        &self,
-        op: Op,
-        built: Option<Scene>,
-        drop_clock: bool,
-    ) -> Result<(), StateError> {
+    pub async fn commit(&self, op: Op, built: Option<Scene>) -> Result<(), StateError> {
         // A put or delete starts the scene's impacts afresh (as the journal's fold does).
         let (field, value, del, clears) = match &op {
-            Op::ScenePut { scene, spec } => (
+            Op::ScenePut { scene, spec, clock } => (
                 format!("scene:{scene}"),
                 serde_json::to_string(&AdminScene::Put(spec.clone())),
-                if drop_clock {
+                if clock.is_some() {
                     format!("clock:{scene}")
                 } else {
                     String::new()
@@ -650,6 +645,7 @@ impl Fleet {
                 AdminScene::Put(spec) => Op::ScenePut {
                     scene: id.clone(),
                     spec: spec.clone(),
+                    clock: None,
                 },
                 AdminScene::Deleted => Op::SceneDelete { scene: id.clone() },
             };
@@ -732,7 +728,7 @@ impl Fleet {
 async fn apply_built(state: &AppState, op: Op, built: Option<Scene>) {
     let prepared = match (&op, built) {
         (_, Some(scene)) => Prepared::Scene(Box::new(scene)),
-        (Op::ScenePut { scene, spec }, None) => {
+        (Op::ScenePut { scene, spec, .. }, None) => {
             let (id, spec) = (scene.clone(), spec.clone());
             match tokio::task::spawn_blocking(move || crate::state::apply::build(&id, &spec)).await
             {

@@ -36,11 +36,10 @@ impl Store for Shared {
         _state: &'a AppState,
         op: Op,
         prepared: Prepared,
-        epoch_moved: bool,
     ) -> BoxFuture<'a, Result<(), StateError>> {
         Box::pin(async move {
             // The feed applies it here as on every replica (a put's scene built by the caller
-            // is handed over, not rebuilt); a put that moves the epoch drops the stored clock.
+            // is handed over, not rebuilt).
             let built = match prepared {
                 Prepared::Scene(s) => Some(*s),
                 _ => None,
@@ -49,7 +48,7 @@ impl Store for Shared {
                 Op::SceneDelete { scene } => Some(scene.clone()),
                 _ => None,
             };
-            self.fleet.commit(op, built, epoch_moved).await?;
+            self.fleet.commit(op, built).await?;
             if let Some(id) = deleted {
                 self.fleet.delete_body_log(&id).await;
             }

@@ -446,6 +446,11 @@ async fn a_clock_reaching_max_time_sends_every_session_one_clock_event() {
 /// admin clock change: sessions were not told, and a client following the clock on its own
 /// ran on the old one until its fit caught up. Now every session of the scene gets a `clock`
 /// event with the new reading; a put that keeps the epoch keeps the clock and sends none.
+///
+/// The fresh clock used to be generation 0, so a client whose fit was at generation 0 (no admin
+/// change yet, the common case) could not tell pongs of the old clock from the new one's and
+/// mixed them into one fit. It is now one generation after the clock it replaces, in the event,
+/// the pongs and `GET …/clock`, and a fresh clock again (rate 1, running) after an admin change.
 #[tokio::test]
 async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     let s = TestServer::start(config()).await;
@@ -460,12 +465,19 @@ async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     let before = ping_json(&mut ws, 1).await;
     let t0 = before["scene_time"].as_f64().unwrap();
     assert!((t0 - 100.0).abs() < 5.0, "{before}");
+    assert_eq!(
+        before["generation"],
+        json!(0),
+        "a new scene's clock: {before}"
+    );
 
     // The same epoch, another description: the clock stays, nothing to tell.
     spec["description"] = json!("the same sea, renamed");
     assert_eq!(s.put_scene("moved", &spec).await.0, 200);
     let seen = types_before_pong(&mut ws, 2).await;
     assert!(!seen.iter().any(|t| t == "clock"), "{seen:?}");
+    let (_, c) = s.get_json("/v1/scenes/moved/clock").await;
+    assert_eq!(c["generation"], json!(0), "{c}");
 
     // 1,000 s earlier: the clock jumps forward by as much, and the session says so.
     spec["epoch"] = json!(now - 1100.0);
@@ -475,5 +487,113 @@ async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     assert!((t - 1100.0).abs() < 5.0, "the new epoch's reading: {ev}");
     assert!(ev.get("id").is_none(), "unprompted: {ev}");
     assert_eq!(ev["paused"], json!(false), "{ev}");
+    assert_eq!(ev["generation"], json!(1), "one on from 0: {ev}");
+    let p = ping_json(&mut ws, 3).await;
+    assert_eq!(p["generation"], json!(1), "{p}");
+    let (_, c) = s.get_json("/v1/scenes/moved/clock").await;
+    assert_eq!(c["generation"], json!(1), "{c}");
+
+    // After an admin change (generation 2, paused at rate 3), a move is generation 3 and a
+    // fresh clock: rate 1, running, from the new epoch.
+    let (st, c) = s
+        .put_clock("moved", &json!({"rate": 3.0, "paused": true}))
+        .await;
+    assert_eq!((st, &c["generation"]), (200, &json!(2)), "{c}");
+    assert_eq!(next_of_type(&mut ws, "clock").await["generation"], json!(2));
+    spec["epoch"] = json!(now - 2100.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 200);
+    let ev = next_of_type(&mut ws, "clock").await;
+    assert_eq!(
+        (&ev["generation"], &ev["rate"], &ev["paused"]),
+        (&json!(3), &json!(1.0), &json!(false)),
+        "{ev}"
+    );
+    assert!((ev["t"].as_f64().unwrap() - 2100.0).abs() < 5.0, "{ev}");
+    s.stop().await;
+}
+
+/// What a crash of the server on `dir` leaves (its journal as it is: every acknowledged record
+/// is durable), copied to a new data dir for another server to start on.
+fn crashed_copy(dir: &std::path::Path) -> tempfile::TempDir {
+    let copy = tempfile::tempdir().unwrap();
+    std::fs::create_dir(copy.path().join("journal")).unwrap();
+    for f in ["journal.log", "snapshot.bin"] {
+        let from = dir.join("journal").join(f);
+        if from.exists() {
+            std::fs::copy(from, copy.path().join("journal").join(f)).unwrap();
+        }
+    }
+    copy
+}
+
+/// The clock a put that moves the epoch starts is recorded with the put, so a restart agrees
+/// with the server before it: a replay of the log (what a crash leaves), a snapshot taken before
+/// the put and a replay of the put after it, and the final snapshot of a graceful stop all give
+/// the same generation and the same reading. The live put used to start generation 0 (see
+/// `a_put_that_moves_the_epoch_sends_a_clock_event`), and a snapshot kept the replaced clock's
+/// record (a put did not touch it), so a graceful restart brought the old clock back.
+#[tokio::test]
+async fn a_put_that_moves_the_epoch_gives_the_same_clock_after_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = TestServer::start(common::config_with_dir(dir.path().to_owned())).await;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    // Where a clock reads t = 0, by a reading: the same before and after a restart.
+    let zero = |c: &serde_json::Value| c["unix"].as_f64().unwrap() - c["t"].as_f64().unwrap();
+    let same = |what: &str, before: &serde_json::Value, after: &serde_json::Value| {
+        assert_eq!(
+            (&after["generation"], &after["rate"], &after["paused"]),
+            (&before["generation"], &json!(1.0), &json!(false)),
+            "{what}: {before} then {after}"
+        );
+        assert!(
+            (zero(after) - zero(before)).abs() < 1e-5,
+            "{what}: {before} then {after}"
+        );
+    };
+    let mut spec = common::small_spec();
+    spec["epoch"] = json!(now - 100.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 201);
+    spec["epoch"] = json!(now - 1100.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 200);
+    let (_, first) = s.get_json("/v1/scenes/moved/clock").await;
+    assert_eq!(first["generation"], json!(1), "{first}");
+    assert!((zero(&first) - (now - 1100.0)).abs() < 1e-5, "{first}");
+    // A crash now: the log alone is replayed.
+    let crashed = crashed_copy(dir.path());
+    assert!(!crashed.path().join("journal/snapshot.bin").exists());
+    let r = TestServer::start(common::config_with_dir(crashed.path().to_owned())).await;
+    let (_, after) = r.get_json("/v1/scenes/moved/clock").await;
+    same("the log replayed", &first, &after);
+    r.stop().await;
+
+    // An admin change (generation 2), a snapshot, then a move (3) that only the log holds.
+    assert_eq!(s.put_clock("moved", &json!({"t": 5000.0})).await.0, 200);
+    let (state, journal) = (s.state.clone(), s.state.journal().unwrap().clone());
+    tokio::task::spawn_blocking(move || swell::state::snapshots::take(&state, &journal))
+        .await
+        .unwrap()
+        .unwrap();
+    spec["epoch"] = json!(now - 2100.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 200);
+    let (_, before) = s.get_json("/v1/scenes/moved/clock").await;
+    assert_eq!(before["generation"], json!(3), "{before}");
+    assert!((zero(&before) - (now - 2100.0)).abs() < 1e-5, "{before}");
+    let crashed = crashed_copy(dir.path());
+    assert!(crashed.path().join("journal/snapshot.bin").exists());
+    let r = TestServer::start(common::config_with_dir(crashed.path().to_owned())).await;
+    let (_, after) = r.get_json("/v1/scenes/moved/clock").await;
+    same("a snapshot, then the put replayed", &before, &after);
+    r.stop().await;
+
+    // A graceful stop: the final snapshot holds the put's clock, and nothing is replayed.
+    s.stop().await;
+    let s = TestServer::start(common::config_with_dir(dir.path().to_owned())).await;
+    let (_, after) = s.get_json("/v1/scenes/moved/clock").await;
+    same("from the final snapshot", &before, &after);
+    let (_, c) = s.put_clock("moved", &json!({"rate": 2.0})).await;
+    assert_eq!(c["generation"], json!(4), "counts on from the record");
     s.stop().await;
 }
