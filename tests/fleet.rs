@@ -414,6 +414,93 @@ async fn redis_down_serves_read_only_and_a_restart_resyncs_every_replica() {
     );
 }
 
+/// A scene put that moves the epoch started a fresh clock at generation 0 on every replica and
+/// deleted the scene's clock record in Redis, so a client whose fit was at generation 0 could
+/// not tell the old clock's pongs from the new one's. The put now carries the fresh clock (from
+/// the new epoch, rate 1, running, one generation after the clock it replaces) in its feed
+/// entry and writes it as the scene's clock record in the same script: every replica reads the
+/// same clock, and so does a replica started afterwards, which knows it from the record alone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_put_that_moves_the_epoch_gives_every_replica_the_same_clock_one_generation_on() {
+    let _serial = SERIAL.lock().await;
+    let redis = Redis::start();
+    let c = client();
+    let rs = replicas(&redis.url(), 2, &c).await;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64();
+    let clock = "/v1/scenes/tide/clock";
+    let mut sea = spec(0.3);
+    sea["epoch"] = json!(now - 100.0);
+    // A particle layer, for the impact below.
+    sea["layers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"kind": "particles"}));
+    let (st, v) = admin(
+        &c,
+        &rs[0],
+        Method::PUT,
+        "/v1/scenes/tide",
+        Some(sea.clone()),
+    )
+    .await;
+    assert_eq!(st, 201, "{v}");
+    // A clock change through the other replica: generation 1 everywhere.
+    until(&c, &rs[1], clock, Instant::now(), |st, _| st == 200).await;
+    let (st, v) = admin(&c, &rs[1], Method::PUT, clock, Some(json!({"rate": 2.0}))).await;
+    assert_eq!((st, &v["generation"]), (200, &json!(1)), "{v}");
+    until(&c, &rs[0], clock, Instant::now(), |_, v| {
+        v["generation"] == 1
+    })
+    .await;
+    // An impact, which any put drops (with the clock record, in the same script).
+    let (_, v) = get(&c, &rs[0], clock).await;
+    let t = v["t"].as_f64().unwrap() + 5.0;
+    let impact = json!({"position": [2.0, 0.5], "t": t, "strength": 0.4, "radius": 0.8});
+    let (st, v) = admin(
+        &c,
+        &rs[0],
+        Method::POST,
+        "/v1/scenes/tide/impacts",
+        Some(impact),
+    )
+    .await;
+    assert_eq!(st, 202, "{v}");
+    let redis_says = |cmd: &str| procs::redis_line(redis.port, cmd).unwrap_or_default();
+    assert_eq!(redis_says("LLEN swell:impacts:tide:list"), ":1");
+
+    // 1,000 s earlier, through replica 1: generation 2, a fresh clock from the new epoch.
+    let epoch = now - 1100.0;
+    sea["epoch"] = json!(epoch);
+    let (st, v) = admin(&c, &rs[0], Method::PUT, "/v1/scenes/tide", Some(sea)).await;
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(redis_says("HEXISTS swell:admin clock:tide"), ":1");
+    assert_eq!(redis_says("EXISTS swell:impacts:tide:list"), ":0");
+    until(&c, &rs[1], clock, Instant::now(), |_, v| v["rate"] == 1.0).await;
+    // Where the clock reads t = 0, by a reading: the new epoch, the same on every replica.
+    let zero = |v: &Value| v["unix"].as_f64().unwrap() - v["t"].as_f64().unwrap();
+    let check = |who: &str, v: &Value| {
+        assert_eq!(
+            (&v["generation"], &v["rate"], &v["paused"]),
+            (&json!(2), &json!(1.0), &json!(false)),
+            "{who}: {v}"
+        );
+        assert!((zero(v) - epoch).abs() < 1e-5, "{who}: {v}");
+    };
+    for r in &rs {
+        let (_, v) = get(&c, r, clock).await;
+        check(&format!("replica :{}", r.port), &v);
+    }
+
+    // A replica started now catches up from the store alone: the scene's clock record.
+    let late = Replica::spawn(&redis.url(), &[]);
+    late.wait_ready(&c).await;
+    let (_, v) = get(&c, &late, clock).await;
+    check("a replica started afterwards", &v);
+}
+
 /// Heights (as bits) along a line through `[0, 0]` on scene `harbour` at `t`, from `r`.
 async fn harbour_heights(c: &Client, r: &Replica, t: f64) -> Vec<u64> {
     let points: Vec<[f64; 2]> = (0..64).map(|i| [i as f64 * 0.25, 0.5]).collect();

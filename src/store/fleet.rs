@@ -3,8 +3,9 @@
 //! # Keys (prefix `swell:`)
 //! - `swell:admin` — a hash, the folded admin state ([`AdminState`]): `scene:<id>` → the
 //!   scene's last word (`{"put": spec}` or `"deleted"`), `clock:<id>` → its clock record
-//!   (`{"t","rate","paused","unix"}`: the clock's anchor). What a replica needs to catch up
-//!   from nothing.
+//!   (`{"t","rate","paused","unix","generation"}`: the clock's anchor), written by an admin
+//!   clock change and by a put that moves the scene's epoch (the fresh clock the put's op
+//!   carries), dropped by a delete. What a replica needs to catch up from nothing.
 //! - `swell:feed` — a Redis Stream, the change feed: one entry per admin change, `op` (the
 //!   journal's [`Op`] JSON), `nonce` (which request wrote it) and, for an API impact on a
 //!   scene with a body log, `body_tick` (the tick the log sequenced it at, which
@@ -82,18 +83,26 @@ const BACKOFF_MIN: Duration = Duration::from_millis(100);
 const BACKOFF_MAX: Duration = Duration::from_secs(2);
 
 /// Updates the admin hash and appends the feed entry, atomically; a scene put or delete also
-/// drops the scene's impact list.
+/// drops the scene's impact list. A second field is set or deleted in the same step: the
+/// scene's clock record, which a put that moves the epoch replaces and a delete drops.
 /// KEYS: admin hash, feed, the scene's impact list, the impact index set. ARGV: op JSON, nonce,
-/// hash field, value, field to delete ('' none), max feed length, scene whose impacts go ('' none).
+/// hash field, value, second field ('' none), its value ('' deletes the field), max feed
+/// length, scene whose impacts go ('' none).
 /// Returns the new entry's id.
 const WRITE_SCRIPT: &str = r"
 redis.call('HSET', KEYS[1], ARGV[3], ARGV[4])
-if ARGV[5] ~= '' then redis.call('HDEL', KEYS[1], ARGV[5]) end
-if ARGV[7] ~= '' then
-  redis.call('DEL', KEYS[3])
-  redis.call('SREM', KEYS[4], ARGV[7])
+if ARGV[5] ~= '' then
+  if ARGV[6] ~= '' then
+    redis.call('HSET', KEYS[1], ARGV[5], ARGV[6])
+  else
+    redis.call('HDEL', KEYS[1], ARGV[5])
+  end
 end
-return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[6], '*', 'op', ARGV[1], 'nonce', ARGV[2])
+if ARGV[8] ~= '' then
+  redis.call('DEL', KEYS[3])
+  redis.call('SREM', KEYS[4], ARGV[8])
+end
+return redis.call('XADD', KEYS[2], 'MAXLEN', '~', ARGV[7], '*', 'op', ARGV[1], 'nonce', ARGV[2])
 ";
 
 /// Appends an API impact to its scene's list and the feed entry that announces it, atomically,
@@ -365,35 +374,42 @@ impl Fleet {
 
     /// Stores an admin change and waits until this replica has applied it from the feed. `built`
     /// is a put's scene (built already, to validate it). A put that carries a clock moved the
-    /// scene's epoch, so its stored clock no longer applies.
+    /// scene's epoch: the stored clock record becomes that clock, in the same atomic step, so a
+    /// replica that catches up from the hash (started later, or after an outage) reads the
+    /// clock the feed gave every other replica.
     ///
     /// # Errors
     /// [`StateError::StoreUnavailable`] when Redis cannot be written (nothing changed) or the
     /// change was stored but this replica's feed is not connected to apply it (every other
     /// replica, and this one once reconnected, will).
     pub async fn commit(&self, op: Op, built: Option<Scene>) -> Result<(), StateError> {
-        // A put or delete starts the scene's impacts afresh (as the journal's fold does).
-        let (field, value, del, clears) = match &op {
+        // A put or delete starts the scene's impacts afresh (as the journal's fold does). The
+        // scene's clock record: the fresh clock of a put that moves the epoch, none after a
+        // delete (`""` deletes the field), as the journal's fold has it.
+        let none = || Ok(String::new());
+        let (field, value, clock_field, clock_value, clears) = match &op {
             Op::ScenePut { scene, spec, clock } => (
                 format!("scene:{scene}"),
                 serde_json::to_string(&AdminScene::Put(spec.clone())),
-                if clock.is_some() {
-                    format!("clock:{scene}")
-                } else {
-                    String::new()
+                match clock {
+                    Some(_) => format!("clock:{scene}"),
+                    None => String::new(),
                 },
+                clock.as_ref().map_or_else(none, serde_json::to_string),
                 scene.clone(),
             ),
             Op::SceneDelete { scene } => (
                 format!("scene:{scene}"),
                 serde_json::to_string(&AdminScene::Deleted),
                 format!("clock:{scene}"),
+                none(),
                 scene.clone(),
             ),
             Op::Clock { scene, clock } => (
                 format!("clock:{scene}"),
                 serde_json::to_string(clock),
                 String::new(),
+                none(),
                 String::new(),
             ),
             Op::Body { .. } | Op::Impact { .. } => {
@@ -404,6 +420,7 @@ impl Fleet {
         };
         let list = impact_list_key(op.scene());
         let value = value.map_err(StateError::internal)?;
+        let clock_value = clock_value.map_err(StateError::internal)?;
         let op_json = serde_json::to_string(&op).map_err(StateError::internal)?;
         let nonce = self.next_nonce();
         if let Some(scene) = built {
@@ -417,7 +434,8 @@ impl Fleet {
             .arg(&nonce)
             .arg(&field)
             .arg(&value)
-            .arg(&del)
+            .arg(&clock_field)
+            .arg(&clock_value)
             .arg(FEED_MAXLEN)
             .arg(&clears);
         self.write_and_apply(call, &nonce).await.map(|_| ())
