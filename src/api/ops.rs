@@ -553,7 +553,7 @@ fn schemas(limits: &crate::Limits) -> Value {
                 "unix": {"type": "number",
                     "description": "Unix time of the reading, s: t at Unix time u is t + rate·(u − unix) unless paused"},
                 "generation": {"type": "integer", "minimum": 0, "maximum": u64::MAX,
-                    "description": "one more after every admin change of the clock"}}},
+                    "description": "one more after every admin change of the clock and every scene put that moves the scene's epoch"}}},
         // crate::service::types::SampleRequest and Accuracy; the limits as `run_sample` checks
         // them (`origin + point` too, which no schema can say).
         "SampleRequest": {"type": "object", "required": ["points"], "additionalProperties": false,

@@ -26,8 +26,8 @@
 //! after the clock it replaces ([`Clock::restarted_from`]): for a client it is a clock change
 //! like an admin's, and at the same generation the pongs of the two clocks could not be told
 //! apart. The accepting process records that clock with the put (the journal's and the fleet
-//! feed's `scene_put` op), so it is replicated as an admin change's record is. A put that keeps
-//! the epoch keeps the clock.
+//! feed's `scene_put` op, and the fleet's stored clock record), so it is replicated as an admin
+//! change's record is. A put that keeps the epoch keeps the clock.
 //!
 //! # The time limit
 //! Every client time is bounded by `limits.max_time` ([`crate::Limits::check_time`]), so a
@@ -136,7 +136,8 @@ pub struct ClockReading {
     /// Unix time of the reading, s: `t` at another Unix time `u` is
     /// `t + rate·(u − unix)` (unless paused), so a client can follow the clock on its own.
     pub unix: f64,
-    /// The clock's generation: one more after every admin change (see the module docs).
+    /// The clock's generation: one more after every admin change and every scene put that moves
+    /// the scene's epoch (see the module docs).
     pub generation: u64,
 }
 

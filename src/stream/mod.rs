@@ -46,7 +46,8 @@
 //!
 //! # Clock changes
 //! Every session hears of every change to its scene's clock ([`AppState::replace_clock`]: a
-//! local admin change, or in a fleet the change arriving through the shared feed) and sends a
+//! local admin change, or in a fleet the change arriving through the shared feed; and a put
+//! that moves the scene's epoch, [`AppState::announce_clock_change`]) and sends a
 //! `clock` event (no id) with the clock's reading, generation included, at once. Pongs carry the
 //! rate, pause flag and generation too, so a client that misses the event still restarts its
 //! clock fit at the next pong.
