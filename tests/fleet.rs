@@ -479,7 +479,8 @@ async fn a_put_that_moves_the_epoch_gives_every_replica_the_same_clock_one_gener
     assert_eq!(redis_says("HEXISTS swell:admin clock:tide"), ":1");
     assert_eq!(redis_says("EXISTS swell:impacts:tide:list"), ":0");
     until(&c, &rs[1], clock, Instant::now(), |_, v| v["rate"] == 1.0).await;
-    // Where the clock reads t = 0, by a reading: the new epoch, the same on every replica.
+    // Where the clock reads t = 0, by a reading: the new epoch, to the bit, on every replica
+    // (for Unix times of today `t = unix − epoch` and `unix − t` are exact subtractions).
     let zero = |v: &Value| v["unix"].as_f64().unwrap() - v["t"].as_f64().unwrap();
     let check = |who: &str, v: &Value| {
         assert_eq!(
@@ -487,7 +488,7 @@ async fn a_put_that_moves_the_epoch_gives_every_replica_the_same_clock_one_gener
             (&json!(2), &json!(1.0), &json!(false)),
             "{who}: {v}"
         );
-        assert!((zero(v) - epoch).abs() < 1e-5, "{who}: {v}");
+        assert_eq!(zero(v).to_bits(), epoch.to_bits(), "{who}: {v}");
     };
     for r in &rs {
         let (_, v) = get(&c, r, clock).await;

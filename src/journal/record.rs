@@ -33,8 +33,9 @@ pub enum Op {
         spec: Value,
         /// The scene's fresh clock, when the put moves the epoch of the scene it replaces:
         /// running from the new epoch, one generation after the replaced clock
-        /// ([`crate::scene::Clock::restarted_from`]), read where the accepting process put it.
-        /// Every replay and replica takes it as it is, as it takes an [`Op::Clock`]'s record.
+        /// ([`crate::scene::Clock::restarted_from`]), read at the epoch (at the accepting
+        /// process's now for an epoch still to come). Every replay and replica takes it as it
+        /// is, as it takes an [`Op::Clock`]'s record.
         /// `None` when the put keeps the clock or creates the scene (generation 0); also in
         /// records written before puts carried one.
         #[serde(default, skip_serializing_if = "Option::is_none")]

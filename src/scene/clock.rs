@@ -340,10 +340,9 @@ pub const MAX_SLEEP: Duration = Duration::from_millis(50);
 pub const MIN_SLEEP: Duration = Duration::from_millis(1);
 /// Longest real time between two looks at whether a clock's hold changed
 /// ([`Clock::until_hold_change`]). The timer runs on the monotonic clock and the scene clock on
-/// the system's, so a system clock stepped forwards (or a clock record replaced without an
-/// announced change, as a put that moves a scene's epoch does) brings a hold nearer than the
-/// timer planned: the look after that is at most this late. One wake-up per 10 s per stream
-/// session costs nothing beside its traffic; a shorter bound only makes that rare case less late.
+/// the system's, so a system clock stepped forwards brings a hold nearer than the timer planned:
+/// the look after that is at most this late. One wake-up per 10 s per stream session costs
+/// nothing beside its traffic; a shorter bound only makes that rare case less late.
 pub const HOLD_RECHECK: Duration = Duration::from_secs(10);
 
 /// Real time until the clock crosses the next tick boundary in its direction, clamped to

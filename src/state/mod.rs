@@ -387,8 +387,13 @@ impl AppState {
         let clock = match (&old, given) {
             (Some(old), Some(epoch)) if given != old_epoch => {
                 let replaced = *old.clock.lock().unwrap_or_else(|p| p.into_inner());
-                // Unbounded, so a far epoch's reading survives the record (see `ClockRecord::of`).
-                Some(ClockRecord::of(&replaced.restarted_from(epoch), self.now()))
+                // Read at the epoch (t = 0): restored, that is `Clock::from_epoch` to the bit on
+                // every process whose system clock has reached the epoch, whatever its skew. An
+                // epoch still to come is read now instead: a record from the future would be
+                // anchored at the restoring process's now (`ClockRecord::restore`). Unbounded,
+                // so a far epoch's reading survives the record (see `ClockRecord::of`).
+                let at = epoch.min(self.now());
+                Some(ClockRecord::of(&replaced.restarted_from(epoch), at))
             }
             _ => None,
         };

@@ -526,12 +526,24 @@ fn crashed_copy(dir: &std::path::Path) -> tempfile::TempDir {
     copy
 }
 
+/// Asserts that scene `moved` of `s` holds exactly a fresh clock from `epoch` at `generation`:
+/// the clock `Clock::from_epoch` gives, bounded as the server bounds its clocks.
+fn holds_fresh_clock(what: &str, s: &TestServer, epoch: f64, generation: u64) {
+    let entry = s.state.scene("moved").unwrap();
+    let held = *entry.clock.lock().unwrap();
+    let fresh = swell::scene::Clock::from_epoch(epoch)
+        .with_generation(generation)
+        .within(s.state.limits.max_time);
+    assert_eq!(held, fresh, "{what}");
+}
+
 /// The clock a put that moves the epoch starts is recorded with the put, so a restart agrees
 /// with the server before it: a replay of the log (what a crash leaves), a snapshot taken before
-/// the put and a replay of the put after it, and the final snapshot of a graceful stop all give
-/// the same generation and the same reading. The live put used to start generation 0 (see
+/// the put and a replay of the put after it, and the final snapshot of a graceful stop all hold
+/// the same clock, at the same generation. The live put used to start generation 0 (see
 /// `a_put_that_moves_the_epoch_sends_a_clock_event`), and a snapshot kept the replaced clock's
-/// record (a put did not touch it), so a graceful restart brought the old clock back.
+/// record (a put did not touch it), so a graceful restart brought the old clock back. A past
+/// epoch gives exactly the clock the epoch defines; one still to come, the same reading.
 #[tokio::test]
 async fn a_put_that_moves_the_epoch_gives_the_same_clock_after_a_restart() {
     let dir = tempfile::tempdir().unwrap();
@@ -540,33 +552,19 @@ async fn a_put_that_moves_the_epoch_gives_the_same_clock_after_a_restart() {
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap()
         .as_secs_f64();
-    // Where a clock reads t = 0, by a reading: the same before and after a restart.
-    let zero = |c: &serde_json::Value| c["unix"].as_f64().unwrap() - c["t"].as_f64().unwrap();
-    let same = |what: &str, before: &serde_json::Value, after: &serde_json::Value| {
-        assert_eq!(
-            (&after["generation"], &after["rate"], &after["paused"]),
-            (&before["generation"], &json!(1.0), &json!(false)),
-            "{what}: {before} then {after}"
-        );
-        assert!(
-            (zero(after) - zero(before)).abs() < 1e-5,
-            "{what}: {before} then {after}"
-        );
-    };
     let mut spec = common::small_spec();
     spec["epoch"] = json!(now - 100.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 201);
     spec["epoch"] = json!(now - 1100.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 200);
-    let (_, first) = s.get_json("/v1/scenes/moved/clock").await;
-    assert_eq!(first["generation"], json!(1), "{first}");
-    assert!((zero(&first) - (now - 1100.0)).abs() < 1e-5, "{first}");
+    let (_, c) = s.get_json("/v1/scenes/moved/clock").await;
+    assert_eq!(c["generation"], json!(1), "{c}");
+    holds_fresh_clock("live", &s, now - 1100.0, 1);
     // A crash now: the log alone is replayed.
     let crashed = crashed_copy(dir.path());
     assert!(!crashed.path().join("journal/snapshot.bin").exists());
     let r = TestServer::start(common::config_with_dir(crashed.path().to_owned())).await;
-    let (_, after) = r.get_json("/v1/scenes/moved/clock").await;
-    same("the log replayed", &first, &after);
+    holds_fresh_clock("the log replayed", &r, now - 1100.0, 1);
     r.stop().await;
 
     // An admin change (generation 2), a snapshot, then a move (3) that only the log holds.
@@ -578,22 +576,52 @@ async fn a_put_that_moves_the_epoch_gives_the_same_clock_after_a_restart() {
         .unwrap();
     spec["epoch"] = json!(now - 2100.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 200);
-    let (_, before) = s.get_json("/v1/scenes/moved/clock").await;
-    assert_eq!(before["generation"], json!(3), "{before}");
-    assert!((zero(&before) - (now - 2100.0)).abs() < 1e-5, "{before}");
+    holds_fresh_clock("live", &s, now - 2100.0, 3);
     let crashed = crashed_copy(dir.path());
     assert!(crashed.path().join("journal/snapshot.bin").exists());
     let r = TestServer::start(common::config_with_dir(crashed.path().to_owned())).await;
-    let (_, after) = r.get_json("/v1/scenes/moved/clock").await;
-    same("a snapshot, then the put replayed", &before, &after);
+    holds_fresh_clock("a snapshot, then the put replayed", &r, now - 2100.0, 3);
+    r.stop().await;
+
+    // An admin change (4), then an epoch 1,000 s ahead (5): t runs from −1000.
+    assert_eq!(s.put_clock("moved", &json!({"rate": 2.0})).await.0, 200);
+    spec["epoch"] = json!(now + 1000.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 200);
+    let (_, before) = s.get_json("/v1/scenes/moved/clock").await;
+    assert!(
+        (before["t"].as_f64().unwrap() + 1000.0).abs() < 5.0,
+        "{before}"
+    );
+    // Where the clock reads t = 0, by a reading: the epoch, to the bit (for Unix times of today
+    // the subtractions that make `t` and undo it here are exact), before and after a restart.
+    let zero = |c: &serde_json::Value| c["unix"].as_f64().unwrap() - c["t"].as_f64().unwrap();
+    let same = |what: &str, after: &serde_json::Value| {
+        assert_eq!(
+            (&after["generation"], &after["rate"], &after["paused"]),
+            (&json!(5), &json!(1.0), &json!(false)),
+            "{what}: {before} then {after}"
+        );
+        for c in [&before, after] {
+            assert_eq!(zero(c).to_bits(), (now + 1000.0).to_bits(), "{what}: {c}");
+        }
+    };
+    same("live", &before);
+    let crashed = crashed_copy(dir.path());
+    let r = TestServer::start(common::config_with_dir(crashed.path().to_owned())).await;
+    same(
+        "the log replayed",
+        &r.get_json("/v1/scenes/moved/clock").await.1,
+    );
     r.stop().await;
 
     // A graceful stop: the final snapshot holds the put's clock, and nothing is replayed.
     s.stop().await;
     let s = TestServer::start(common::config_with_dir(dir.path().to_owned())).await;
-    let (_, after) = s.get_json("/v1/scenes/moved/clock").await;
-    same("from the final snapshot", &before, &after);
-    let (_, c) = s.put_clock("moved", &json!({"rate": 2.0})).await;
-    assert_eq!(c["generation"], json!(4), "counts on from the record");
+    same(
+        "from the final snapshot",
+        &s.get_json("/v1/scenes/moved/clock").await.1,
+    );
+    let (_, c) = s.put_clock("moved", &json!({"paused": true})).await;
+    assert_eq!(c["generation"], json!(6), "counts on from the record");
     s.stop().await;
 }
