@@ -114,12 +114,16 @@ impl AppState {
     /// accepting process recorded with the put, so every process that applies it holds the same
     /// clock whatever it held before. It is a clock change like an admin's: stream sessions of
     /// the scene are told ([`AppState::announce_clock_change`]), on every process that applies
-    /// the put.
+    /// the put. So is a put that creates the scene (generation 0): a session that outlived the
+    /// scene's delete (one not following ticks stays open) would otherwise go on with the
+    /// deleted clock's fit, and a client at a later generation would take every pong of the new
+    /// clock, generation 0, for one sent before a change and drop it.
     fn put_built(&self, scene: Scene, record: Option<&ClockRecord>) {
         let before = self.scene(&scene.id).ok().map(|e| {
             let clock = *e.clock.lock().unwrap_or_else(|p| p.into_inner());
             (clock, e.scene.spec.epoch)
         });
+        let created = before.is_none();
         let (clock, moved) = match (record, before) {
             (Some(rec), before) => (Some(rec.restore(self.now())), before.is_some()),
             // A moved epoch without a record: a put journaled before puts carried one, or the
@@ -133,7 +137,7 @@ impl AppState {
         };
         let id = scene.id.clone();
         self.insert_loaded(scene, clock);
-        if moved {
+        if moved || created {
             self.announce_clock_change(&id);
         }
     }

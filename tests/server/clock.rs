@@ -451,6 +451,8 @@ async fn a_clock_reaching_max_time_sends_every_session_one_clock_event() {
 /// change yet, the common case) could not tell pongs of the old clock from the new one's and
 /// mixed them into one fit. It is now one generation after the clock it replaces, in the event,
 /// the pongs and `GET …/clock`, and a fresh clock again (rate 1, running) after an admin change.
+/// A scene deleted and put again announces its new clock (generation 0) to a session that
+/// outlived the delete.
 #[tokio::test]
 async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     let s = TestServer::start(config()).await;
@@ -509,6 +511,28 @@ async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
         "{ev}"
     );
     assert!((ev["t"].as_f64().unwrap() - 2100.0).abs() < 5.0, "{ev}");
+
+    // Deleted and put again: a session not following ticks outlives the delete, and the new
+    // scene's clock (generation 0, below the client's 3) is announced, or the client would drop
+    // its pongs as older than its fit.
+    let (st, _) = s
+        .admin(
+            reqwest::Method::DELETE,
+            "/v1/scenes/moved",
+            None,
+            Some(common::TOKEN),
+        )
+        .await;
+    assert_eq!(st, 204);
+    spec["epoch"] = json!(now - 300.0);
+    assert_eq!(s.put_scene("moved", &spec).await.0, 201);
+    let ev = next_of_type(&mut ws, "clock").await;
+    assert_eq!(
+        (&ev["generation"], &ev["rate"], &ev["paused"]),
+        (&json!(0), &json!(1.0), &json!(false)),
+        "{ev}"
+    );
+    assert!((ev["t"].as_f64().unwrap() - 300.0).abs() < 5.0, "{ev}");
     s.stop().await;
 }
 

@@ -1,10 +1,11 @@
 // Clock synchronisation from ping/pong samples: a port of ClockSync in clients/js/src/session.js.
 //
-// One fit describes one clock generation (the server counts every seek, rate or pause change;
-// pongs and clock events carry it): the session starts a new ClockSync at each new generation,
-// so samples from before a change never mix with those after it. The scene clock runs at the
-// rate the server states (slope k = rate, or 0 while paused), so each sample gives the offset of
-// sceneTime − k·mid, and the fitted drift is only the two machines' clock-frequency error.
+// One fit describes one clock generation (the server counts every seek, rate or pause change and
+// every put that moves the epoch; pongs and clock events carry it): the session starts a new
+// ClockSync at each new generation, so samples from before a change never mix with those after it.
+// The scene clock runs at the rate the server states (slope k = rate, or 0 while paused), so each
+// sample gives the offset of sceneTime − k·mid, and the fitted drift is only the two machines'
+// clock-frequency error.
 using System;
 using System.Collections.Generic;
 

@@ -3,10 +3,11 @@
 // swell.v1.protobuf). The rules are the JS client's (clients/js/src/session.js):
 //
 // - Clock sync: pings every PingInterval; each pong gives a sample and the clock's rate, pause
-//   flag and generation (ClockSync). A `clock` event (an admin seek, rate or pause change) or a
-//   pong of a newer generation restarts the fit; until the next pong ServerTime() follows the
-//   event's reading at its rate, and ResyncPings pings go out at once. A pong of an older
-//   generation (answered before a change the session already restarted at) is dropped.
+//   flag and generation (ClockSync). A `clock` event (an admin seek, rate or pause change, or a
+//   scene put that moves the epoch) or a pong of a newer generation restarts the fit; until the
+//   next pong ServerTime() follows the event's reading at its rate, and ResyncPings pings go out at
+//   once. A pong of an older generation (answered before a change the session already restarted at)
+//   is dropped.
 // - Tick subscription by body ids and/or a region; frames go to OnTick and the Interpolator.
 // - Events are raised on the receive thread: in Unity or Godot, hand them to the main thread
 //   (or read ServerTime()/Interpolator from the main thread, which are safe to call anywhere).

@@ -7,11 +7,11 @@
 //   the samples with the lowest round trip (their midpoint error is at most RTT/2, and queueing
 //   only ever adds delay), the drift from a least-squares slope over the window; `serverTime()`
 //   is then scene time now, in seconds.
-// - Clock changes (an admin seek, rate or pause change): the server sends a `clock` event and
-//   every later pong has the new generation. Either restarts the fit (the old samples describe
-//   another clock): until the next pong `serverTime()` follows the event's reading at its rate,
-//   and `resyncPings` pings go out at once. A pong of an older generation (sent before the
-//   change, answered after the restart) is dropped.
+// - Clock changes (an admin seek, rate or pause change, or a scene put that moves the epoch): the
+//   server sends a `clock` event and every later pong has the new generation. Either restarts the
+//   fit (the old samples describe another clock): until the next pong `serverTime()` follows the
+//   event's reading at its rate, and `resyncPings` pings go out at once. A pong of an older
+//   generation (sent before the change, answered after the restart) is dropped.
 // - Tick subscription with an interest set (`bodies`, `region`); frames go to `onTick` and to an
 //   optional `BodyInterpolator`.
 // - Reconnect: when the socket closes without `close()` having been called, it reopens after
@@ -39,11 +39,12 @@ const monotonicSeconds = () => (globalThis.performance?.now?.() ?? Date.now()) /
  * Clock synchronisation from ping/pong samples. Times are seconds: `clientTime` on a local
  * monotonic clock, `sceneTime` on the scene clock.
  *
- * One fit describes one clock *generation* (the server counts every seek, rate or pause change;
- * pongs and `clock` events carry it): the session starts a new ClockSync at each new generation,
- * so samples from before a change never mix with those after it. The scene clock runs at the
- * rate the server states (`k` = rate, or 0 while paused), so each sample gives the offset of
- * `sceneTime − k·mid`, and the fitted drift is only the two machines' clock-frequency error.
+ * One fit describes one clock *generation* (the server counts every seek, rate or pause change and
+ * every put that moves the epoch; pongs and `clock` events carry it): the session starts a new
+ * ClockSync at each new generation, so samples from before a change never mix with those after it.
+ * The scene clock runs at the rate the server states (`k` = rate, or 0 while paused), so each
+ * sample gives the offset of `sceneTime − k·mid`, and the fitted drift is only the two machines'
+ * clock-frequency error.
  */
 export class ClockSync {
   constructor({ window = 32, best = 4 } = {}, { rate = 1, paused = false, generation = null } = {}) {

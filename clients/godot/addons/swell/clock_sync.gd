@@ -3,11 +3,12 @@ extends RefCounted
 ## (clients/js/src/session.js), rule for rule. Times are seconds: client time on a local
 ## monotonic clock, scene time on the scene clock.
 ##
-## One fit describes one clock generation (the server counts every seek, rate or pause change;
-## pongs and `clock` events carry it): the session starts a new fit at each new generation, so
-## samples from before a change never mix with those after it. The scene clock runs at the rate
-## the server states (slope = rate, or 0 while paused), so each sample gives the offset of
-## scene_time − slope·mid, and the fitted drift is only the two machines' clock-frequency error.
+## One fit describes one clock generation (the server counts every seek, rate or pause change and
+## every put that moves the epoch; pongs and `clock` events carry it): the session starts a new fit
+## at each new generation, so samples from before a change never mix with those after it. The scene
+## clock runs at the rate the server states (slope = rate, or 0 while paused), so each sample gives
+## the offset of scene_time − slope·mid, and the fitted drift is only the two machines'
+## clock-frequency error.
 
 ## Samples kept (the newest).
 var window: int = 32

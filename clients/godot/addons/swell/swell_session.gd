@@ -6,11 +6,11 @@ extends Node
 ## - Clock sync: a ping every `ping_interval` s; each pong gives a sample (send time, receive
 ##   time, scene time) and the clock's rate, paused flag and generation (ClockSync in
 ##   clock_sync.gd). server_time() is scene time now, in seconds.
-## - Clock changes (an admin seek, rate or pause change): the server sends a `clock` event and
-##   every later pong has the new generation. Either restarts the fit (the old samples describe
-##   another clock): until the next pong server_time() follows the event's reading at its rate,
-##   and `resync_pings` pings go out at once. A pong of an older generation (sent before the
-##   change, answered after the restart) is dropped.
+## - Clock changes (an admin seek, rate or pause change, or a scene put that moves the epoch): the
+##   server sends a `clock` event and every later pong has the new generation. Either restarts the
+##   fit (the old samples describe another clock): until the next pong server_time() follows the
+##   event's reading at its rate, and `resync_pings` pings go out at once. A pong of an older
+##   generation (sent before the change, answered after the restart) is dropped.
 ## - Tick subscription with an interest set (`bodies`, `region`); frames go to the `tick` signal
 ##   and to an optional BodyInterpolator (`interpolator`).
 ## - Reconnect: when the socket closes without close() having been called, it reopens after an
