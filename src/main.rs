@@ -98,8 +98,17 @@ struct ServeArgs {
     drain_delay: f64,
 }
 
-#[tokio::main]
-async fn main() -> anyhow::Result<()> {
+fn main() -> anyhow::Result<()> {
+    // Before any thread starts: a thread keeps the arena it is given (see `swell::memory`).
+    swell::memory::limit_arenas(swell::memory::ARENAS);
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?
+        .block_on(run())
+}
+
+async fn run() -> anyhow::Result<()> {
     // Logs go to stderr (colour only on a terminal); stdout is kept for what the operator needs
     // to read or pipe: the generated admin token and the listening address.
     use std::io::IsTerminal as _;
