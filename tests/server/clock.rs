@@ -504,13 +504,7 @@ async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     assert_eq!(next_of_type(&mut ws, "clock").await["generation"], json!(2));
     spec["epoch"] = json!(now - 2100.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 200);
-    let ev = next_of_type(&mut ws, "clock").await;
-    assert_eq!(
-        (&ev["generation"], &ev["rate"], &ev["paused"]),
-        (&json!(3), &json!(1.0), &json!(false)),
-        "{ev}"
-    );
-    assert!((ev["t"].as_f64().unwrap() - 2100.0).abs() < 5.0, "{ev}");
+    fresh_clock_event(&mut ws, 3, 2100.0).await;
 
     // Deleted and put again: a session not following ticks outlives the delete, and the new
     // scene's clock (generation 0, below the client's 3) is announced, or the client would drop
@@ -526,14 +520,20 @@ async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     assert_eq!(st, 204);
     spec["epoch"] = json!(now - 300.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 201);
-    let ev = next_of_type(&mut ws, "clock").await;
+    fresh_clock_event(&mut ws, 0, 300.0).await;
+    s.stop().await;
+}
+
+/// Waits for the session's next `clock` event and asserts it announces a fresh clock (rate 1,
+/// running) at `generation`, reading about `t` (within the seconds a test takes).
+async fn fresh_clock_event(ws: &mut common::Ws, generation: u64, t: f64) {
+    let ev = next_of_type(ws, "clock").await;
     assert_eq!(
         (&ev["generation"], &ev["rate"], &ev["paused"]),
-        (&json!(0), &json!(1.0), &json!(false)),
+        (&json!(generation), &json!(1.0), &json!(false)),
         "{ev}"
     );
-    assert!((ev["t"].as_f64().unwrap() - 300.0).abs() < 5.0, "{ev}");
-    s.stop().await;
+    assert!((ev["t"].as_f64().unwrap() - t).abs() < 5.0, "{ev}");
 }
 
 /// What a crash of the server on `dir` leaves (its journal as it is: every acknowledged record
