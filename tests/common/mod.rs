@@ -26,6 +26,14 @@ pub fn resident_bytes(pid: &str) -> usize {
     pages * 4096
 }
 
+/// Unix seconds now.
+pub fn unix_now() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64()
+}
+
 /// A free loopback port for a child `swell` process: bind port 0, learn the port, release it
 /// (a small race, fine in tests).
 pub fn free_port() -> u16 {

@@ -456,10 +456,7 @@ async fn a_clock_reaching_max_time_sends_every_session_one_clock_event() {
 #[tokio::test]
 async fn a_put_that_moves_the_epoch_sends_a_clock_event() {
     let s = TestServer::start(config()).await;
-    let now = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_secs_f64();
+    let now = common::unix_now();
     let mut spec = common::small_spec();
     spec["epoch"] = json!(now - 100.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 201);
@@ -572,10 +569,7 @@ fn holds_fresh_clock(what: &str, s: &TestServer, epoch: f64, generation: u64) {
 async fn a_put_that_moves_the_epoch_gives_the_same_clock_after_a_restart() {
     let dir = tempfile::tempdir().unwrap();
     let s = TestServer::start(common::config_with_dir(dir.path().to_owned())).await;
-    let now = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_secs_f64();
+    let now = common::unix_now();
     let mut spec = common::small_spec();
     spec["epoch"] = json!(now - 100.0);
     assert_eq!(s.put_scene("moved", &spec).await.0, 201);

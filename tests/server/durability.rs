@@ -468,14 +468,6 @@ async fn a_server_starts_from_a_torn_or_corrupt_log() {
     }
 }
 
-/// Unix seconds now.
-fn unix_now() -> f64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_secs_f64()
-}
-
 /// Scene clocks are anchored to wall time (issue 11): two processes started two seconds apart
 /// agree on `t` now (within 50 ms; on one machine, to rounding), built-ins count from the fixed
 /// documented epoch, and a scene an admin put without an epoch keeps its own (its creation
@@ -512,7 +504,10 @@ async fn two_processes_started_apart_agree_on_now_and_put_scenes_keep_their_epoc
         } else {
             1_767_225_600.0
         };
-        assert!((ta - (unix_now() - epoch)).abs() < 1.0, "{scene}: t = {ta}");
+        assert!(
+            (ta - (common::unix_now() - epoch)).abs() < 1.0,
+            "{scene}: t = {ta}"
+        );
     }
     let (_, detail) = a.req(Method::GET, "/v1/scenes/tide", None).await;
     let detail: Value = serde_json::from_str(&detail).unwrap();
