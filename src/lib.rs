@@ -136,6 +136,7 @@ const ZERO_FROM_START: &[&str] = &[
     "swell_ws_rate_limited_total",
     "swell_ws_read_check_disconnects_total",
     "swell_ws_slow_consumer_disconnects_total",
+    "swell_ws_tick_handoffs_total",
     "swell_ws_ticks_skipped_total",
     "swell_ws_too_big_disconnects_total",
 ];

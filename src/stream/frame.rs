@@ -1,8 +1,9 @@
 //! A tick frame shared by every subscriber, encoded once.
 //!
-//! A scene's tick loop broadcasts one [`SharedTick`] per tick. Each subscriber asks it for the
-//! message of its codec and interest set ([`SharedTick::message_with`]); the work that does not depend
-//! on the subscriber is done once per frame, by whichever subscriber asks first:
+//! A scene's tick loop hands one [`SharedTick`] per tick to its fan-out shards
+//! ([`super::fanout`]), which ask it for each subscriber's message, of the subscriber's codec
+//! and interest set ([`SharedTick::message_with`]); the work that does not depend on the
+//! subscriber is done once per frame, for whichever subscriber comes first:
 //! - each body state is encoded once per codec (a JSON object, a protobuf `BodyState`) and
 //!   checked for non-finite numbers once;
 //! - the whole frame (no interest set) is assembled once per codec and its bytes shared (a

@@ -8,15 +8,17 @@
 //!   body loop ([`crate::state::bodies`], the only stepping path) published for its tick.
 //!
 //! # A session
-//! One task reads the socket and answers requests; a writer task owns the socket's sending half.
-//! The writer drains a bounded queue ([`crate::Limits::ws_send_queue`] entries) of answers,
-//! errors and subscription changes, and while subscribed reads the scene's tick frames from the
-//! broadcast itself: a frame costs each subscriber one task wake, not two. Answers go into the
-//! queue with `try_send`, so nothing in the server ever waits on a client's socket: when the
-//! queue is full, or one message takes longer than [`crate::Limits::ws_send_stall_ms`] to be
-//! written to the socket, the client is not reading and is disconnected, without delaying
-//! anyone else's ticks (the tick loop broadcasts and never waits either; a writer that falls
-//! behind it skips to the newest frames).
+//! One task reads the socket and answers requests; a writer task sends what the session queues
+//! on a bounded queue ([`crate::Limits::ws_send_queue`] entries): answers, errors and
+//! subscription changes. Tick frames do not pass through either: while subscribed, the socket
+//! is one of its scene's [fan-out](fanout) shard's, whose task writes each frame straight to the
+//! socket when it has room (a tick costs a few task wakes, not one per subscriber). A frame the
+//! socket has no room for is left to the writer, and newer ones replace it until the writer has
+//! sent it. Answers go into the queue with `try_send`, so nothing in the server ever waits on a
+//! client's socket: when the queue is full, or one message (or a frame left to the writer)
+//! takes longer than [`crate::Limits::ws_send_stall_ms`] to be written to the socket, the client
+//! is not reading and is disconnected, without delaying anyone else's ticks (the tick loop and
+//! the shards never wait either; a socket that falls behind skips to the newest frame).
 //!
 //! Queries run as in HTTP ([`crate::service::query::run_sample`] etc.: inline when cheap, else on a
 //! blocking thread, see [`crate::service::query::runs_inline`]), a few at a time per socket, each answering into the queue when done (answers carry the request's
@@ -68,14 +70,16 @@
 //! own.
 
 pub mod compact;
+pub mod fanout;
 pub mod frame;
 pub mod messages;
 pub mod registry;
 pub mod ticks;
 
 use std::net::IpAddr;
+use std::pin::Pin;
 use std::sync::Arc;
-use std::task::Poll;
+use std::task::{Context, Poll};
 use std::time::Duration;
 
 use axum::body::Bytes;
@@ -84,7 +88,7 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, header};
 use axum::response::Response;
-use futures_util::{FutureExt as _, Sink, SinkExt, Stream, StreamExt};
+use futures_util::{FutureExt as _, Sink, Stream, StreamExt};
 use tokio::sync::{Semaphore, broadcast, mpsc};
 use tokio_util::sync::CancellationToken;
 
@@ -99,6 +103,7 @@ use crate::service::query::{
     runs_inline, sample_request_bytes,
 };
 use crate::state::AppState;
+use fanout::Ticks;
 use frame::{Interest, SharedTick};
 use messages::{
     Codec, DecodeError, Event, Incoming, JSON_PROTOCOL, Outgoing, PROTOBUF_PROTOCOL, Request,
@@ -295,10 +300,10 @@ enum Out {
     Message(Message),
     /// A large answer and its charge on the byte budget, given back once it is sent.
     Answer(Message, Charge),
-    /// Follow the scene's ticks with this interest. `rx` is a fresh receiver, used only when
-    /// the writer follows none (an existing one keeps its place in the stream: no frame is lost
-    /// to an interest change).
-    Subscribe(broadcast::Receiver<Arc<SharedTick>>, Interest),
+    /// Follow the scene's ticks with this interest. The hold on the scene's loop is used only
+    /// when the writer follows none (an existing one keeps its place in the stream: no frame is
+    /// lost to an interest change).
+    Subscribe(Ticks, Interest),
     /// Stop following ticks.
     Unsubscribe,
 }
@@ -384,11 +389,11 @@ impl Queue {
     }
 }
 
-/// The writer's view of the session: how to encode what it sends itself (tick frames, and the
-/// error when the scene goes away) and when to give up on the client.
+/// The writer's view of the session: how to encode what it sends itself (the error when the
+/// scene goes away) and when to give up on the client.
 struct Writer {
-    codec: Codec,
     scene_id: String,
+    codec: Codec,
     shutdown: CancellationToken,
     /// Fired when the scene's tick loop ended because the scene was deleted.
     gone: CancellationToken,
@@ -398,88 +403,100 @@ struct Writer {
     stall: Duration,
 }
 
+/// A session's subscription: its hold on the scene's tick loop, and the loop's end.
+struct Following {
+    _ticks: Ticks,
+    ended: std::pin::Pin<Box<tokio_util::sync::WaitForCancellationFutureOwned>>,
+}
+
+/// Fires when the followed loop ends; pending forever while following none.
+async fn loop_ended(sub: &mut Option<Following>) {
+    match sub {
+        Some(s) => (&mut s.ended).await,
+        None => std::future::pending().await,
+    }
+}
+
 impl Writer {
-    /// Sends queued messages and, while subscribed, the scene's tick frames, until the queue
-    /// closes (then closes the socket) or a send fails or stalls.
-    ///
-    /// Tick frames are read from the broadcast here, in the task that owns the socket: one wake
-    /// per subscriber per frame (the session task is not involved), which is what the fan-out to
-    /// a thousand subscribers costs. A writer that falls behind the broadcast (starved of CPU,
-    /// or a socket slow to drain) skips to the newest frames rather than replaying old ones; the
-    /// client sees the gap in the tick numbers.
-    async fn run<W>(self, mut sink: W, mut rx: mpsc::Receiver<Out>)
+    /// Sends queued messages until the queue closes (then closes the socket) or a send fails
+    /// or stalls; while subscribed, the scene's shards write its tick frames to the same socket
+    /// ([`Socket`]), and this task sends only the frames they could not (a socket without room)
+    /// and says so when the scene's loop ends.
+    async fn run<W>(self, socket: Arc<Socket<W>>, mut rx: mpsc::Receiver<Out>)
     where
-        W: Sink<Message> + Unpin,
+        W: Sink<Message> + Unpin + Send + 'static,
     {
-        let mut sub: Option<Subscription> = None;
-        // The frame's chosen bodies, reused every frame.
-        let mut chosen = Vec::new();
+        let mut sub: Option<Following> = None;
         // Armed once, not once per message: a fresh wait per loop locks the token and registers
-        // and drops a waiter, a thousand times a tick.
+        // and drops a waiter.
         let slow = self.slow.clone().cancelled_owned();
         tokio::pin!(slow);
         loop {
             // A large answer's charge, given back when it has been sent (or dropped).
             let mut _held: Option<Charge> = None;
-            // Biased: answers and subscription changes before ticks, in the order queued.
+            // Biased: answers and subscription changes in the order queued, before a frame the
+            // shards left for this task.
             let msg = tokio::select! {
                 biased;
                 // The queue overflowed: the client is not reading.
-                () = &mut slow => return self.not_reading(sink).await,
+                () = &mut slow => return self.not_reading(&socket).await,
                 out = rx.recv() => match out {
                     None => break,
-                    Some(Out::Message(m)) => m,
+                    Some(Out::Message(m)) => Some(m),
                     Some(Out::Answer(m, c)) => {
                         _held = Some(c);
-                        m
+                        Some(m)
                     }
-                    Some(Out::Subscribe(fresh, interest)) => {
-                        match &mut sub {
-                            Some(s) => s.interest = interest,
-                            None => sub = Some(Subscription { rx: fresh, interest }),
+                    Some(Out::Subscribe(mut fresh, interest)) => {
+                        socket.set_interest(interest);
+                        if sub.is_none() {
+                            socket.follow(true);
+                            fresh.follow(Arc::clone(&socket) as Arc<dyn fanout::Follow>);
+                            sub = Some(Following {
+                                ended: Box::pin(fresh.ended()),
+                                _ticks: fresh,
+                            });
                         }
                         continue;
                     }
                     Some(Out::Unsubscribe) => {
+                        socket.follow(false);
                         sub = None;
                         continue;
                     }
                 },
-                frame = next_tick(&mut sub) => match frame {
-                    // Encoded once per frame and shared (see `frame`): only the subscriber's
-                    // own selection of pre-encoded body states is assembled here.
-                    Some(t) => {
-                        let all = Interest::default();
-                        let interest = sub.as_ref().map_or(&all, |s| &s.interest);
-                        t.message_with(self.codec, interest, &mut chosen)
+                // A frame the socket had no room for, or a write to finish.
+                () = socket.wake.notified() => None,
+                () = loop_ended(&mut sub) => {
+                    socket.follow(false);
+                    sub = None;
+                    if self.shutdown.is_cancelled() {
+                        continue;
                     }
-                    None => {
-                        sub = None;
-                        if self.shutdown.is_cancelled() {
-                            continue;
-                        }
-                        let out = Outgoing {
-                            id: None,
-                            event: Event::Error(ApiError::scene_not_found(&self.scene_id)),
-                        };
-                        // The session then closes the socket (SCENE_GONE), after this error.
-                        self.gone.cancel();
-                        encode(self.codec, out)
-                    }
+                    let out = Outgoing {
+                        id: None,
+                        event: Event::Error(ApiError::scene_not_found(&self.scene_id)),
+                    };
+                    // The session then closes the socket (SCENE_GONE), after this error.
+                    self.gone.cancel();
+                    Some(encode(self.codec, out))
                 },
             };
-            let is_close = matches!(msg, Message::Close(_));
+            let is_close = matches!(msg, Some(Message::Close(_)));
+            if is_close {
+                // Nothing after the Close frame.
+                socket.follow(false);
+            }
             // Almost every send completes at once (the socket has room): the stall timer is
-            // armed only for one that does not, not a thousand times a tick.
+            // armed only for one that does not.
+            let mut msg = msg;
             let sent = {
-                let mut send = sink.send(msg);
-                let first =
-                    std::future::poll_fn(|cx| Poll::Ready(send.poll_unpin(cx).map(|r| r.is_ok())))
-                        .await;
+                let mut send = std::future::poll_fn(|cx| socket.poll_send(&mut msg, cx));
+                let first = std::future::poll_fn(|cx| Poll::Ready(send.poll_unpin(cx))).await;
                 match first {
                     Poll::Ready(ok) => Ok(ok),
                     Poll::Pending => tokio::select! {
-                        r = tokio::time::timeout(self.stall, send) => r.map(|r| r.is_ok()).map_err(|_| ()),
+                        r = tokio::time::timeout(self.stall, send) => r.map_err(|_| ()),
                         () = &mut slow => Err(()),
                     },
                 }
@@ -487,24 +504,195 @@ impl Writer {
             match sent {
                 Ok(true) if !is_close => {}
                 Ok(_) => return,
-                Err(()) => return self.not_reading(sink).await,
+                Err(()) => return self.not_reading(&socket).await,
             }
         }
-        let _ = sink.close().await;
+        socket.follow(false);
+        let _ = std::future::poll_fn(|cx| socket.poll_close(cx)).await;
     }
 
     /// The client stopped reading (a send stalled, or the queue overflowed): tells the session
     /// and tries, briefly, to say so with Close 1008 (the socket may have no room for it).
-    async fn not_reading<W>(self, mut sink: W)
+    async fn not_reading<W>(self, socket: &Socket<W>)
     where
         W: Sink<Message> + Unpin,
     {
         self.slow.cancel();
-        let close = Message::Close(Some(CloseFrame {
+        socket.follow(false);
+        let mut close = Some(Message::Close(Some(CloseFrame {
             code: close_code::POLICY,
             reason: "not reading what the server sends".into(),
-        }));
-        let _ = tokio::time::timeout(SLOW_CLOSE_TRY, sink.send(close)).await;
+        })));
+        let _ = tokio::time::timeout(
+            SLOW_CLOSE_TRY,
+            std::future::poll_fn(|cx| socket.poll_send(&mut close, cx)),
+        )
+        .await;
+    }
+}
+
+/// A session's socket, shared by its writer task and the shard of the scene's tick loop that
+/// writes its frames ([`fanout`]). Every write happens under the lock, in one piece (ready,
+/// send, flush), so the two never interleave within a message.
+struct Socket<W> {
+    inner: std::sync::Mutex<SocketState<W>>,
+    codec: Codec,
+    /// Wakes the writer: a frame waits in [`SocketState::held`], or a write to finish.
+    wake: tokio::sync::Notify,
+}
+
+struct SocketState<W> {
+    sink: W,
+    interest: Interest,
+    /// Whether frames are wanted (subscribed, and no Close sent).
+    following: bool,
+    /// A write did not finish at once: the writer task finishes it (its waker is the one the
+    /// socket wakes), and the shard leaves the socket alone until then.
+    busy: bool,
+    /// The newest frame the shard could not write, for the writer to send.
+    held: Option<Message>,
+    /// The socket failed: nothing more is written.
+    failed: bool,
+}
+
+impl<W: Sink<Message> + Unpin> Socket<W> {
+    fn new(sink: W, codec: Codec) -> Self {
+        Socket {
+            inner: std::sync::Mutex::new(SocketState {
+                sink,
+                interest: Interest::default(),
+                following: false,
+                busy: false,
+                held: None,
+                failed: false,
+            }),
+            codec,
+            wake: tokio::sync::Notify::new(),
+        }
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, SocketState<W>> {
+        // The state is consistent between statements: a panic elsewhere leaves it usable.
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn set_interest(&self, interest: Interest) {
+        self.lock().interest = interest;
+    }
+
+    /// Starts or stops taking frames; stopping drops a frame still held.
+    fn follow(&self, on: bool) {
+        let mut s = self.lock();
+        s.following = on;
+        if !on {
+            s.held = None;
+        }
+    }
+
+    /// Writes a frame the shard left (if any), then `msg` (if any), then flushes. Ready(true)
+    /// when all is written, Ready(false) when the socket failed. The caller's waker is the one
+    /// the socket will wake; until the write finishes the shard leaves the socket alone.
+    fn poll_send(&self, msg: &mut Option<Message>, cx: &mut Context<'_>) -> Poll<bool> {
+        let mut guard = self.lock();
+        let s = &mut *guard;
+        if s.failed {
+            return Poll::Ready(false);
+        }
+        for slot in [&mut s.held, msg] {
+            if slot.is_none() {
+                continue;
+            }
+            match Pin::new(&mut s.sink).poll_ready(cx) {
+                Poll::Pending => {
+                    s.busy = true;
+                    return Poll::Pending;
+                }
+                Poll::Ready(Err(_)) => {
+                    s.failed = true;
+                    return Poll::Ready(false);
+                }
+                Poll::Ready(Ok(())) => {}
+            }
+            if let Some(m) = slot.take()
+                && Pin::new(&mut s.sink).start_send(m).is_err()
+            {
+                s.failed = true;
+                return Poll::Ready(false);
+            }
+        }
+        match Pin::new(&mut s.sink).poll_flush(cx) {
+            Poll::Pending => {
+                s.busy = true;
+                Poll::Pending
+            }
+            Poll::Ready(r) => {
+                s.busy = false;
+                s.failed |= r.is_err();
+                Poll::Ready(r.is_ok())
+            }
+        }
+    }
+
+    fn poll_close(&self, cx: &mut Context<'_>) -> Poll<()> {
+        let mut s = self.lock();
+        if s.failed {
+            return Poll::Ready(());
+        }
+        Pin::new(&mut s.sink).poll_close(cx).map(|_| ())
+    }
+}
+
+impl<W: Sink<Message> + Unpin + Send + 'static> fanout::Follow for Socket<W> {
+    fn offer(&self, tick: &SharedTick, chosen: &mut Vec<usize>) -> fanout::Offered {
+        use fanout::Offered;
+        let mut guard = self.lock();
+        let s = &mut *guard;
+        if !s.following || s.failed {
+            return Offered::Done;
+        }
+        // Encoded once per frame and shared (see `frame`): only the subscriber's own selection
+        // of pre-encoded body states is assembled here.
+        let m = tick.message_with(self.codec, &s.interest, chosen);
+        if s.busy || s.held.is_some() {
+            // The writer is finishing a write: this frame waits for it, replacing an older one.
+            return match s.held.replace(m) {
+                Some(_) => Offered::Replaced,
+                None => Offered::HandedOff,
+            };
+        }
+        // Never waits: a socket without room hands the frame to the writer task, which waits
+        // with its own waker (a no-op waker here wakes nobody).
+        let mut cx = Context::from_waker(std::task::Waker::noop());
+        match Pin::new(&mut s.sink).poll_ready(&mut cx) {
+            Poll::Ready(Ok(())) => {}
+            Poll::Ready(Err(_)) => {
+                s.failed = true;
+                return Offered::Done;
+            }
+            Poll::Pending => {
+                s.held = Some(m);
+                s.busy = true;
+                drop(guard);
+                self.wake.notify_one();
+                return Offered::HandedOff;
+            }
+        }
+        if Pin::new(&mut s.sink).start_send(m).is_err() {
+            s.failed = true;
+            return Offered::Done;
+        }
+        match Pin::new(&mut s.sink).poll_flush(&mut cx) {
+            Poll::Ready(r) => {
+                s.failed |= r.is_err();
+                Offered::Done
+            }
+            Poll::Pending => {
+                s.busy = true;
+                drop(guard);
+                self.wake.notify_one();
+                Offered::HandedOff
+            }
+        }
     }
 }
 
@@ -513,31 +701,6 @@ fn encode(codec: Codec, out: Outgoing) -> Message {
     match codec {
         Codec::Json => Message::Text(messages::encode_json(&out).into()),
         Codec::Protobuf => Message::Binary(messages::encode_protobuf(out).into()),
-    }
-}
-
-/// The scene's tick frames, and the bodies this subscriber follows.
-struct Subscription {
-    rx: broadcast::Receiver<Arc<SharedTick>>,
-    interest: Interest,
-}
-
-/// The next frame of the subscription; pending forever without one. `None` when the loop ended
-/// (the scene was deleted, or the server is stopping).
-async fn next_tick(sub: &mut Option<Subscription>) -> Option<Arc<SharedTick>> {
-    let Some(s) = sub else {
-        return std::future::pending().await;
-    };
-    loop {
-        match s.rx.recv().await {
-            Ok(t) => return Some(t),
-            // Starved of CPU for a while: skip to the newest frames rather than replay old ones.
-            Err(broadcast::error::RecvError::Lagged(n)) => {
-                metrics::counter!("swell_ws_ticks_skipped_total").increment(n);
-                tracing::debug!(skipped = n, "tick subscriber lagged");
-            }
-            Err(broadcast::error::RecvError::Closed) => return None,
-        }
     }
 }
 
@@ -581,7 +744,7 @@ where
             slow: slow.clone(),
             stall: state.limits.ws_send_stall(),
         }
-        .run(sink, rx),
+        .run(Arc::new(Socket::new(sink, codec)), rx),
     );
     let permits = Arc::new(Semaphore::new(QUERIES_PER_SESSION));
     let mut subscribed = false;

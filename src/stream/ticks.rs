@@ -1,8 +1,9 @@
 //! The per-scene tick loop: one task per scene, running only while something needs it.
 //!
-//! A subscriber gets a [`broadcast::Receiver`] of shared frames ([`Tickers::subscribe`]). The first
+//! A subscriber holds a [`Ticks`] ([`Tickers::subscribe`]), and the loop's shards
+//! ([`super::fanout`]) write each frame to the sockets of those that follow. The first
 //! subscriber of a scene starts its loop; the loop ends (and leaves the registry) when the last
-//! receiver is gone, when the scene is deleted (dropping the sender tells subscribers) or at
+//! hold is dropped, when the scene is deleted ([`Ticks::ended`] tells subscribers) or at
 //! shutdown. A scene with no subscribers costs nothing.
 //!
 //! Tick numbering follows the scene clock: `tick = floor(t·tick_hz)`, and a frame's `t` is the
@@ -31,20 +32,14 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use tokio::sync::broadcast;
-
 /// Tick timing lives with the clock ([`crate::scene::clock`]); re-exported for the loop here.
 pub use crate::scene::clock::{COARSE_WAKE, MAX_SLEEP, MIN_SLEEP, until_next_tick};
 use crate::scene::clock::{ClockReading, tick_of};
 use crate::service::types::{BodyState, Tick};
 use crate::state::AppState;
+use crate::stream::fanout::{TickLoop, Ticks};
 use crate::stream::frame::SharedTick;
 pub use crate::stream::registry::Tickers;
-
-/// Frames buffered per subscriber in the broadcast channel. A subscriber task only moves frames
-/// from here to its own bounded send queue, so it lags only if starved of CPU; 64 frames are two
-/// seconds at 30 Hz. A lagging receiver skips the oldest frames (the loop never waits for it).
-const TICK_CHANNEL: usize = 64;
 
 /// Longest wait for the body loop's states of a frame's tick, in tick periods (and never more
 /// than `MAX_SLEEP`, 50 ms).
@@ -53,18 +48,19 @@ pub const BODY_WAIT_TICKS: f64 = 1.0;
 impl Tickers {
     /// Subscribes to scene `id`'s tick frames, starting its loop if none runs.
     ///
-    /// The receiver is created under the registry lock, and the loop decides to stop under the
-    /// same lock, so a new subscriber never attaches to a loop that is about to end.
-    pub fn subscribe(&self, state: &AppState, id: &str) -> broadcast::Receiver<Arc<SharedTick>> {
+    /// The hold is taken under the registry lock, and the loop decides to stop under the same
+    /// lock, so a new subscriber never attaches to a loop that is about to end.
+    pub fn subscribe(&self, state: &AppState, id: &str) -> Ticks {
         let mut loops = self.lock();
-        if let Some(tx) = loops.get(id) {
-            return tx.subscribe();
+        if let Some(lp) = loops.get(id) {
+            return lp.hold();
         }
-        let (tx, rx) = broadcast::channel(TICK_CHANNEL);
-        loops.insert(id.to_owned(), tx.clone());
+        let lp = TickLoop::start(&state.tasks);
+        let ticks = lp.hold();
+        loops.insert(id.to_owned(), Arc::clone(&lp));
         metrics::gauge!("swell_tick_loops").increment(1.0);
-        state.tasks.spawn(run(state.clone(), id.to_owned(), tx));
-        rx
+        state.tasks.spawn(run(state.clone(), id.to_owned(), lp));
+        ticks
     }
 }
 
@@ -115,7 +111,7 @@ async fn bodies_for(
     )
 }
 
-async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>) {
+async fn run(state: AppState, id: String, lp: Arc<TickLoop>) {
     // The last clock tick handled, and the tick of the last frame sent (they differ when body
     // states were late: see the module docs).
     let mut last: Option<i64> = None;
@@ -129,11 +125,12 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
         let entry = {
             let mut loops = state.tickers.lock();
             let entry = state.scene(&id).ok();
-            let stop = tx.receiver_count() == 0 || entry.is_none() || state.shutdown.is_cancelled();
+            let stop = lp.held() == 0 || entry.is_none() || state.shutdown.is_cancelled();
             if stop {
                 loops.remove(&id);
                 metrics::gauge!("swell_tick_loops").decrement(1.0);
-                // Dropping `tx` here closes every receiver still attached.
+                // Tells every subscriber still holding on that no more frames come.
+                lp.end();
                 return;
             }
             entry
@@ -167,8 +164,7 @@ async fn run(state: AppState, id: String, tx: broadcast::Sender<Arc<SharedTick>>
         if let Some((tick, anchor_tick, bodies)) = frame {
             let t = tick as f64 / reading.tick_hz;
             let impacts = crate::impacts::frame_events(&entry.scene, &mut impacts_seen);
-            // An error only means no receiver right now; the next turn decides whether to stop.
-            let _ = tx.send(Arc::new(SharedTick::new(Tick {
+            lp.send(Arc::new(SharedTick::new(Tick {
                 tick,
                 t,
                 bodies,

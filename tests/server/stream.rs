@@ -733,3 +733,148 @@ async fn a_subscriber_of_a_deleted_scene_gets_not_found_then_close_4404() {
     assert!(close.reason.contains("doomed"), "{}", close.reason);
     s.stop().await;
 }
+
+/// Spawns `n` floating boxes on `scene`, in a grid 20 m apart; their ids.
+async fn spawn_boats(s: &TestServer, scene: &str, n: u32) -> Vec<u64> {
+    let mut ids = Vec::new();
+    for i in 0..n {
+        let boat = json!({"mass": 3000.0,
+            "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
+            "position": [f64::from(i % 10) * 20.0, 0.6, f64::from(i / 10) * 20.0]});
+        let (st, v) = s
+            .admin(
+                reqwest::Method::POST,
+                &format!("/v1/scenes/{scene}/bodies"),
+                Some(&boat),
+                Some(common::TOKEN),
+            )
+            .await;
+        assert_eq!(st, 201, "{v}");
+        ids.push(v["id"].as_u64().expect("id"));
+    }
+    ids
+}
+
+/// The ids of a tick frame's bodies.
+fn frame_bodies(f: &Value) -> Vec<u64> {
+    f["bodies"]
+        .as_array()
+        .expect("bodies")
+        .iter()
+        .map(|b| b["id"].as_u64().expect("id"))
+        .collect()
+}
+
+/// More subscribers than a task's I/O budget (tokio's 128 operations a poll): the scene's
+/// shards write every frame straight to the sockets of subscribers that read, each its own
+/// bodies, in tick order; none is left to a subscriber's writer task.
+#[tokio::test]
+async fn three_hundred_subscribers_get_their_frames_straight_from_the_shards() {
+    let s = TestServer::start(config()).await;
+    let mut spec = common::small_spec();
+    spec["tick_hz"] = json!(30);
+    assert_eq!(s.put_scene("crowd", &spec).await.0, 201);
+    let boats = spawn_boats(&s, "crowd", 10).await;
+    let mut clients = Vec::new();
+    for i in 0..300 {
+        let mut ws = ws_connect(s.addr, "crowd", None).await;
+        let mine = boats[i % boats.len()];
+        send_json(
+            &mut ws,
+            json!({"type": "subscribe", "ticks": true, "bodies": [mine]}),
+        )
+        .await;
+        clients.push((ws, mine));
+    }
+    // Every client reads at once, a second's worth of frames each.
+    let readers = clients.into_iter().map(|(mut ws, mine)| {
+        tokio::spawn(async move {
+            let mut ticks = Vec::new();
+            while ticks.len() < 30 {
+                let f = recv_json(&mut ws, true).await;
+                if f["type"] != "tick" {
+                    continue;
+                }
+                assert_eq!(frame_bodies(&f), [mine], "{f}");
+                ticks.push(f["tick"].as_i64().expect("tick"));
+            }
+            ws
+        })
+    });
+    let mut open = Vec::new();
+    for (i, r) in futures_util::future::join_all(readers)
+        .await
+        .into_iter()
+        .enumerate()
+    {
+        open.push(r.unwrap_or_else(|e| panic!("subscriber {i}: {e}")));
+    }
+    let lp = s.state.tickers.get("crowd").expect("the scene's loop runs");
+    assert_eq!(
+        lp.handed_off(),
+        0,
+        "frames left to writer tasks with every subscriber reading"
+    );
+    drop(open);
+    s.stop().await;
+}
+
+/// A subscriber whose socket fills while it does not read is not cut off before the send
+/// stall: once it reads again, the frames come again, the newest first, the ones in between
+/// skipped (a gap in the tick numbers, never an older tick after a newer one).
+#[tokio::test]
+async fn a_subscriber_that_pauses_reading_skips_to_the_newest_frame() {
+    let mut cfg = config();
+    cfg.limits.ws_send_stall_ms = 20_000;
+    cfg.limits.ws_read_check_ms = 0;
+    let s = TestServer::start(cfg).await;
+    let mut spec = common::small_spec();
+    spec["tick_hz"] = json!(60);
+    assert_eq!(s.put_scene("busy", &spec).await.0, 201);
+    // 100 boats: JSON frames of ~15 kB, ~1 MB/s.
+    spawn_boats(&s, "busy", 100).await;
+    // The client's socket holds 4 kB, so the server's socket is full within a second.
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    socket.set_recv_buffer_size(4096).unwrap();
+    let stream = socket.connect(s.addr).await.unwrap();
+    let url = format!("ws://{}/v1/scenes/busy/stream", s.addr);
+    let (mut ws, _) =
+        tokio_tungstenite::client_async(url, tokio_tungstenite::MaybeTlsStream::Plain(stream))
+            .await
+            .unwrap();
+    send_json(&mut ws, json!({"type": "subscribe", "ticks": true})).await;
+    let first = recv_json(&mut ws, true).await;
+    assert_eq!(first["type"], "tick", "{first}");
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let lp = s.state.tickers.get("busy").expect("the scene's loop runs");
+    assert!(
+        lp.handed_off() > 0,
+        "3 s of frames not read, and none was left to the writer"
+    );
+    // Reading again: ticks only go up, with a gap where the socket had no room, and keep
+    // coming.
+    let mut last = first["tick"].as_i64().unwrap();
+    let mut gap = 0;
+    let mut after = 0;
+    let resumed = tokio::time::Instant::now();
+    while resumed.elapsed() < Duration::from_secs(3) {
+        let f = recv_json(&mut ws, true).await;
+        if f["type"] != "tick" {
+            continue;
+        }
+        let t = f["tick"].as_i64().unwrap();
+        assert!(t > last, "tick {t} after tick {last}");
+        gap = gap.max(t - last - 1);
+        last = t;
+        after += 1;
+    }
+    assert!(
+        gap >= 30,
+        "no frame skipped during 3 s unread (largest gap {gap} ticks)"
+    );
+    assert!(
+        after >= 90,
+        "{after} frames in the 3 s after reading again, at 60 Hz"
+    );
+    s.stop().await;
+}

@@ -1,0 +1,252 @@
+//! A scene's tick frames, fanned out to its subscribers by a few shard tasks.
+//!
+//! The tick loop ([`super::ticks`]) hands each frame to [`TickLoop::send`]. One task per shard
+//! (as many shards as the runtime has worker threads) takes the frame and offers it to each of
+//! its subscribers in turn ([`Follow::offer`]): a subscriber's frame is assembled and written to
+//! its socket there and then, when the socket has room, which it almost always has. A tick costs
+//! a few task wakes, not one per subscriber, and the shards write on every worker thread at once.
+//!
+//! An offer never waits. A socket that cannot take the frame at once keeps it for the
+//! subscriber's own writer task, which waits for the socket (and gives up on a client that does
+//! not read, see [`super::Writer`]); meanwhile newer frames replace the one kept, so a slow
+//! socket skips to the newest frame rather than falling behind.
+//!
+//! A session holds a [`Ticks`] while it follows the scene: the loop runs while any is held, and
+//! ends ([`TickLoop::ended`]) when the last is dropped, when the scene is deleted or at shutdown.
+
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
+
+use tokio::sync::broadcast;
+use tokio_util::sync::{CancellationToken, WaitForCancellationFutureOwned};
+
+use super::frame::SharedTick;
+
+/// Frames buffered per shard between the tick loop and the shard's task. A shard lags only when
+/// starved of CPU for this many ticks (two seconds at 30 Hz); it then skips to the newest.
+const SHARD_CHANNEL: usize = 64;
+
+/// Most shards per scene, whatever the number of worker threads.
+const MAX_SHARDS: usize = 16;
+
+/// A subscriber as its shard sees it: something to offer each frame to.
+pub trait Follow: Send + Sync {
+    /// Offers `tick`: written to the subscriber's socket if it has room, else kept for the
+    /// subscriber's writer task. Never waits. `chosen` is the shard's scratch
+    /// ([`SharedTick::message_with`]).
+    fn offer(&self, tick: &SharedTick, chosen: &mut Vec<usize>) -> Offered;
+}
+
+/// What became of a frame offered to a subscriber.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Offered {
+    /// Written to its socket (or not wanted: not following, or the socket failed).
+    Done,
+    /// Left to the subscriber's writer task: the socket had no room at once.
+    HandedOff,
+    /// Left to the writer in place of an older frame it had not sent yet, which is dropped.
+    Replaced,
+}
+
+/// One shard's subscribers, copied on write: a shard takes the list at each frame without
+/// holding the lock while it writes, and a subscriber joining or leaving copies the list.
+type Followers = Mutex<Arc<Vec<Arc<dyn Follow>>>>;
+
+/// A scene's running tick loop: the frames' channel to the shards, the shards' subscribers and
+/// the count of [`Ticks`] held.
+pub struct TickLoop {
+    tx: broadcast::Sender<Arc<SharedTick>>,
+    shards: Box<[Arc<Followers>]>,
+    /// [`Ticks`] held: the loop stops when none is.
+    held: AtomicUsize,
+    /// Which shard the next subscriber joins.
+    next: AtomicUsize,
+    /// Cancelled when the loop ends.
+    ended: CancellationToken,
+    /// Frames left to writers so far ([`Offered::HandedOff`] and [`Offered::Replaced`]).
+    handed_off: AtomicU64,
+}
+
+impl std::fmt::Debug for TickLoop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TickLoop")
+            .field("shards", &self.shards.len())
+            .field("held", &self.held.load(Ordering::Relaxed))
+            .field("ended", &self.ended.is_cancelled())
+            .finish_non_exhaustive()
+    }
+}
+
+impl TickLoop {
+    /// A loop's fan-out with one shard per worker thread of the current runtime, the shards'
+    /// tasks spawned on `tasks`.
+    pub(crate) fn start(tasks: &tokio_util::task::TaskTracker) -> Arc<TickLoop> {
+        let shards = tokio::runtime::Handle::try_current()
+            .map_or(1, |h| h.metrics().num_workers())
+            .clamp(1, MAX_SHARDS);
+        let (tx, _) = broadcast::channel(SHARD_CHANNEL);
+        let lp = Arc::new(TickLoop {
+            tx,
+            shards: (0..shards)
+                .map(|_| Arc::new(Mutex::new(Arc::new(Vec::new()))))
+                .collect(),
+            held: AtomicUsize::new(0),
+            next: AtomicUsize::new(0),
+            ended: CancellationToken::new(),
+            handed_off: AtomicU64::new(0),
+        });
+        for i in 0..lp.shards.len() {
+            tasks.spawn(shard(lp.tx.subscribe(), Arc::downgrade(&lp), i));
+        }
+        lp
+    }
+
+    /// A hold on the loop for one session (call under the registry's lock, so the loop cannot
+    /// decide to stop in between: see [`crate::stream::registry::Tickers::subscribe`]).
+    pub(crate) fn hold(self: &Arc<Self>) -> Ticks {
+        self.held.fetch_add(1, Ordering::AcqRel);
+        Ticks {
+            lp: Arc::clone(self),
+            shard: self.next.fetch_add(1, Ordering::Relaxed) % self.shards.len(),
+            follower: None,
+        }
+    }
+
+    /// Number of [`Ticks`] held.
+    pub(crate) fn held(&self) -> usize {
+        self.held.load(Ordering::Acquire)
+    }
+
+    /// Hands `tick` to the shards.
+    pub(crate) fn send(&self, tick: Arc<SharedTick>) {
+        // An error only means no shard task right now (none at shutdown).
+        let _ = self.tx.send(tick);
+    }
+
+    /// Frames the shards left to subscribers' writer tasks since the loop started, because a
+    /// socket had no room for them at once (`swell_ws_tick_handoffs_total` counts them for every
+    /// loop). Subscribers that read keep this at zero.
+    pub fn handed_off(&self) -> u64 {
+        self.handed_off.load(Ordering::Relaxed)
+    }
+
+    /// Ends the loop: the shards stop and every holder's [`Ticks::ended`] fires.
+    pub(crate) fn end(&self) {
+        self.ended.cancel();
+    }
+}
+
+/// A session's hold on a scene's tick loop, and its place in one shard once it
+/// [follows](Ticks::follow). Dropping it leaves the shard.
+pub struct Ticks {
+    lp: Arc<TickLoop>,
+    shard: usize,
+    follower: Option<Arc<dyn Follow>>,
+}
+
+impl std::fmt::Debug for Ticks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ticks")
+            .field("shard", &self.shard)
+            .field("following", &self.follower.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Ticks {
+    /// Joins the shard: from the next frame on, `f` is offered every frame. Once per hold; a
+    /// second call replaces the first follower.
+    pub fn follow(&mut self, f: Arc<dyn Follow>) {
+        self.leave();
+        let mut list = lock(&self.lp.shards[self.shard]);
+        let mut next = Vec::with_capacity(list.len() + 1);
+        next.extend(list.iter().cloned());
+        next.push(Arc::clone(&f));
+        *list = Arc::new(next);
+        self.follower = Some(f);
+    }
+
+    /// Fires when the loop has ended (the scene was deleted, or the server is stopping): no
+    /// more frames come.
+    pub fn ended(&self) -> WaitForCancellationFutureOwned {
+        self.lp.ended.clone().cancelled_owned()
+    }
+
+    fn leave(&mut self) {
+        let Some(f) = self.follower.take() else {
+            return;
+        };
+        let mut list = lock(&self.lp.shards[self.shard]);
+        let next: Vec<_> = list
+            .iter()
+            .filter(|g| !Arc::ptr_eq(g, &f))
+            .cloned()
+            .collect();
+        *list = Arc::new(next);
+    }
+}
+
+impl Drop for Ticks {
+    fn drop(&mut self) {
+        self.leave();
+        self.lp.held.fetch_sub(1, Ordering::AcqRel);
+    }
+}
+
+/// The lock of a shard's list; a poisoned one is still a whole list (it is replaced whole).
+fn lock(f: &Followers) -> MutexGuard<'_, Arc<Vec<Arc<dyn Follow>>>> {
+    f.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A shard's task: offers every frame to each of its subscribers, until the loop ends. It
+/// holds the loop weakly: the loop is the registry's and its subscribers'.
+async fn shard(mut rx: broadcast::Receiver<Arc<SharedTick>>, lp: Weak<TickLoop>, i: usize) {
+    let Some((followers, ended)) = lp
+        .upgrade()
+        .map(|l| (Arc::clone(&l.shards[i]), l.ended.clone()))
+    else {
+        return;
+    };
+    let mut chosen = Vec::new();
+    loop {
+        let tick = tokio::select! {
+            biased;
+            () = ended.cancelled() => return,
+            r = rx.recv() => r,
+        };
+        match tick {
+            Ok(t) => {
+                let list = Arc::clone(&lock(&followers));
+                // Outside tokio's cooperative budget: every socket write takes one unit of a
+                // task's budget (128 a poll), and past it a write reports "not ready" without
+                // trying, which would hand most of a large shard's frames to their writers.
+                let (handed, replaced) = tokio::task::unconstrained(async {
+                    let (mut handed, mut replaced) = (0u64, 0u64);
+                    for f in list.iter() {
+                        match f.offer(&t, &mut chosen) {
+                            Offered::Done => {}
+                            Offered::HandedOff => handed += 1,
+                            Offered::Replaced => replaced += 1,
+                        }
+                    }
+                    (handed, replaced)
+                })
+                .await;
+                if handed + replaced > 0 {
+                    metrics::counter!("swell_ws_tick_handoffs_total").increment(handed + replaced);
+                    metrics::counter!("swell_ws_ticks_skipped_total").increment(replaced);
+                    if let Some(l) = lp.upgrade() {
+                        l.handed_off.fetch_add(handed + replaced, Ordering::Relaxed);
+                    }
+                }
+            }
+            // Starved of CPU for a while: skip to the newest frames rather than replay old ones.
+            Err(broadcast::error::RecvError::Lagged(n)) => {
+                let subscribers = lock(&followers).len() as u64;
+                metrics::counter!("swell_ws_ticks_skipped_total").increment(n * subscribers);
+                tracing::debug!(skipped = n, "tick shard lagged");
+            }
+            Err(broadcast::error::RecvError::Closed) => return,
+        }
+    }
+}
