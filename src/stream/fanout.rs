@@ -1,18 +1,18 @@
 //! A scene's tick frames, fanned out to its subscribers by a few shard tasks.
 //!
-//! The tick loop ([`super::ticks`]) hands each frame to [`TickLoop::send`]. One task per shard
+//! The tick loop ([`super::ticks`]) hands each frame to `TickLoop::send`. One task per shard
 //! (as many shards as the runtime has worker threads) takes the frame and offers it to each of
 //! its subscribers in turn ([`Follow::offer`]): a subscriber's frame is assembled and written to
 //! its socket there and then, when the socket has room, which it almost always has. A tick costs
 //! a few task wakes, not one per subscriber, and the shards write on every worker thread at once.
 //!
 //! An offer never waits. A socket that cannot take the frame at once keeps it for the
-//! subscriber's own writer task, which waits for the socket (and gives up on a client that does
-//! not read, see [`super::Writer`]); meanwhile newer frames replace the one kept, so a slow
+//! subscriber's own writer task, which waits for the socket (and gives up on a client that
+//! does not read); meanwhile newer frames replace the one kept, so a slow
 //! socket skips to the newest frame rather than falling behind.
 //!
 //! A session holds a [`Ticks`] while it follows the scene: the loop runs while any is held, and
-//! ends ([`TickLoop::ended`]) when the last is dropped, when the scene is deleted or at shutdown.
+//! ends ([`Ticks::ended`] fires) when the last is dropped, when the scene is deleted or at shutdown.
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
