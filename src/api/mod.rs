@@ -7,6 +7,8 @@
 //! - [`bodies`] — floating-body endpoints (spawn, list, read, delete, input).
 //! - [`admin`] — bearer-token check.
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
+//! - [`stream_schemas`] — the JSON Schemas of the WebSocket stream's messages, in the OpenAPI
+//!   document.
 //! - [`wire`] — JSON/protobuf content negotiation for query bodies and answers.
 //! - [`shader`] — the generated shader, the frame's uniforms, FFT spectra (GPU clients).
 //! - [`viewer`] — the browser viewer's page and scripts (`/viewer`).
@@ -30,6 +32,7 @@ pub mod query;
 pub mod scenes;
 pub mod serve;
 pub mod shader;
+pub mod stream_schemas;
 pub mod viewer;
 pub mod wire;
 

@@ -8,7 +8,8 @@
 //! orientation, clock, impact, spawn and input request schemas field by field against what the
 //! server takes, the answers (a scene's detail and the scene list among them) against what it
 //! answers, and every range of those bodies and of the query strings' `t`, `x` and `z` at its
-//! ends (taken) and just past them (refused).
+//! ends (taken) and just past them (refused), and the stream's JSON messages
+//! ([`super::stream_schemas`]) against a real session's.
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -443,13 +444,18 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
                 body_tick?}], anchor_tick?}, error {id?, code, message, field?}, \
                 clock {t, tick, tick_hz, rate, paused, unix, generation} when the clock changes, and \
                 once when it starts holding at ±limits.max_time). \
+                Their JSON Schemas: components StreamRequest (client) and StreamMessage \
+                (server), also named by x-websocket. \
                 swell.v1.protobuf: binary frames of swell.v1.ClientMessage / ServerMessage \
                 (proto/swell/v1/stream.proto). 404 for an unknown scene and 400 without an \
                 upgrade or with an unknown subprotocol, before the upgrade."
             );
+            op["x-websocket"] = super::stream_schemas::websocket_extension();
         }
         entry[*method] = op;
     }
+    let mut schemas = schemas(limits);
+    super::stream_schemas::add(&mut schemas);
     json!({
         "openapi": "3.1.0",
         "info": {
@@ -460,7 +466,7 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
         "paths": paths,
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer"}},
-            "schemas": schemas(limits),
+            "schemas": schemas,
         },
     })
 }

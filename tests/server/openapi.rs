@@ -8,16 +8,20 @@ use common::{TOKEN, TestServer, code, config};
 use reqwest::Method;
 use serde_json::{Map, Value, json};
 
-/// The schema `s` stands for: itself, or the component its `$ref` names.
+/// The schema `s` stands for: itself, or what its `$ref` points at (a component, or a field
+/// of one: the stream's messages refer to the fields of the HTTP bodies they share).
 fn resolve<'a>(doc: &'a Value, s: &'a Value) -> &'a Value {
     match s["$ref"].as_str() {
         Some(r) => {
-            let name = r
-                .strip_prefix("#/components/schemas/")
+            let pointer = r
+                .strip_prefix('#')
+                .filter(|p| p.starts_with("/components/schemas/"))
                 .unwrap_or_else(|| panic!("unexpected $ref {r}"));
-            let c = &doc["components"]["schemas"][name];
+            let c = doc
+                .pointer(pointer)
+                .unwrap_or_else(|| panic!("$ref {r} names no schema"));
             assert!(c.is_object(), "$ref {r} names no schema");
-            c
+            resolve(doc, c)
         }
         None => s,
     }
@@ -1260,5 +1264,234 @@ async fn openapi_scene_list_matches_the_server() {
         );
     }
     check_answers(&doc, list, &[before, after], "scene list");
+    s.stop().await;
+}
+
+/// The WebSocket stream's JSON messages against `StreamRequest` and `StreamMessage` (issue 27,
+/// "face the players"): the document listed the stream route, but nothing machine-readable said
+/// what goes over a `swell.v1.json` socket. A real session on a scene with a floating body and a
+/// particle layer sends one request of every kind the client schema lists, each valid under it;
+/// every message that comes back (answers, pongs, tick frames carrying the body, an impact and
+/// the anchor, a clock event from an admin change, errors) is valid under the server schema, and
+/// every field the server schema documents for a kind comes in one message of it at least, so a
+/// field renamed in the encoder or in the schema alone fails here. Malformed requests are refused
+/// by the client schema and by the server alike.
+#[tokio::test]
+async fn openapi_stream_messages_match_a_real_session() {
+    use crate::stream::{recv_json, send_json};
+    use futures_util::SinkExt;
+    use tokio_tungstenite::tungstenite::Message;
+
+    let s = TestServer::start(limited()).await;
+    let doc = document(&s).await;
+    let op = &doc["paths"]["/v1/scenes/{id}/stream"]["get"];
+    let ws_doc = &op["x-websocket"];
+    assert_eq!(
+        ws_doc["client"]["$ref"],
+        "#/components/schemas/StreamRequest"
+    );
+    assert_eq!(
+        ws_doc["server"]["$ref"],
+        "#/components/schemas/StreamMessage"
+    );
+    assert_eq!(
+        ws_doc["subprotocols"],
+        json!(["swell.v1.json", "swell.v1.protobuf"])
+    );
+    let description = op["description"].as_str().unwrap();
+    assert!(
+        description.contains("StreamRequest") && description.contains("StreamMessage"),
+        "{description}"
+    );
+    let client = &ws_doc["client"];
+    let server = &ws_doc["server"];
+    // The kinds each side has, from the discriminators.
+    let kinds = |s: &Value| -> Vec<String> {
+        let mapping = resolve(&doc, s)["discriminator"]["mapping"]
+            .as_object()
+            .unwrap();
+        mapping.keys().cloned().collect()
+    };
+
+    // A calm sea under a particle layer, with one boat.
+    let spec = json!({"tick_hz": 30, "seed": 9, "layers": [
+        {"kind": "sine", "waves": [{"amplitude": 0.05, "wavelength": 20, "direction": [1, 0]}]},
+        {"kind": "particles", "count": 0}]});
+    fresh_scene(&s, "wsdock", &spec, 100.0).await;
+    assert_eq!(
+        s.put_clock("wsdock", &json!({"paused": false})).await.0,
+        200
+    );
+    let boat = json!({"mass": 3000.0, "position": [0.0, 0.5, 0.0],
+        "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5}});
+    let (st, b) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/wsdock/bodies",
+            Some(&boat),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 201, "{b}");
+    let bid = b["id"].as_u64().unwrap();
+
+    let mut ws = common::ws_connect(s.addr, "wsdock", Some("swell.v1.json")).await;
+    // Every kind, in full and minimal (no id: its answer has none).
+    let requests = [
+        json!({"type": "ping", "id": 1, "client_time": 12.5}),
+        json!({"type": "ping", "client_time": 0}),
+        json!({"type": "sample", "id": 2, "t": 100.5, "origin": [10.0, -20.0],
+            "points": [[0.5, 0.25], [-3.0, 4.0]],
+            "fields": ["height", "normal", "displacement", "jacobian", "residual"],
+            "accuracy": {"method": "newton", "iterations": 8, "tolerance": 1e-5, "filter": "bicubic",
+                "precision": "f64", "time": "grid"}}),
+        json!({"type": "sample", "points": [[1.0, 2.0]]}),
+        json!({"type": "orientation", "id": 3, "t": 100.5, "bodies": [{"position": [5.0, 5.0],
+            "yaw": 0.3, "length": 12.0, "beam": 4.0, "probes": [[-6.0, 0.0], [6.0, -2.0], [6.0, 2.0]]}]}),
+        json!({"type": "orientation", "id": null, "bodies": [{"position": [0.0, 0.0], "length": 4.0, "beam": 2.0}]}),
+        json!({"type": "subscribe", "id": 4, "ticks": true, "bodies": [bid],
+            "region": [-50.0, -50.0, 50.0, 50.0], "compact": false}),
+    ];
+    let mut sent_kinds: Vec<String> = Vec::new();
+    for r in &requests {
+        validate(&doc, client, r, "")
+            .unwrap_or_else(|e| panic!("the client schema refuses {r}: {e}"));
+        sent_kinds.push(r["type"].as_str().unwrap().to_owned());
+        send_json(&mut ws, r.clone()).await;
+    }
+    sent_kinds.sort();
+    sent_kinds.dedup();
+    let mut documented = kinds(client);
+    documented.sort();
+    assert_eq!(
+        sent_kinds, documented,
+        "one request of every documented kind"
+    );
+
+    // Everything the server sends, checked as it comes.
+    let mut received: Vec<Value> = Vec::new();
+    let mut recv = async |ws: &mut common::Ws, ticks: bool| -> Value {
+        let v = recv_json(ws, ticks).await;
+        validate(&doc, server, &v, "")
+            .unwrap_or_else(|e| panic!("the server schema refuses {v}: {e}"));
+        received.push(v.clone());
+        v
+    };
+    // The answers (no answer to a subscribe), and a frame carrying the boat.
+    let mut answers = 0;
+    let mut framed = false;
+    while answers < 6 || !framed {
+        let v = recv(&mut ws, true).await;
+        match v["type"].as_str().unwrap() {
+            "tick" => {
+                framed |= v["bodies"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|b| b["id"] == bid)
+            }
+            kind => {
+                assert!(kind.ends_with("_result") || kind == "pong", "{v}");
+                answers += 1;
+            }
+        }
+    }
+    // An impact: a frame lists it.
+    let splash = json!({"position": [1.0, 1.0], "strength": 0.2, "radius": 1.0});
+    let (st, v) = s
+        .admin(
+            Method::POST,
+            "/v1/scenes/wsdock/impacts",
+            Some(&splash),
+            Some(TOKEN),
+        )
+        .await;
+    assert_eq!(st, 202, "{v}");
+    while recv(&mut ws, true).await["impacts"].is_null() {}
+    // An admin clock change: a clock event.
+    assert_eq!(s.put_clock("wsdock", &json!({"rate": 1.5})).await.0, 200);
+    while recv(&mut ws, true).await["type"] != "clock" {}
+
+    // Malformed requests: the schema refuses each, and so does the server, with an error that
+    // carries the id where it could be read.
+    let malformed = [
+        json!({"type": "dance", "id": 20}),
+        json!({"id": 21, "client_time": 1.0}),
+        json!({"type": "ping", "id": 22}),
+        json!({"type": "ping", "id": 23, "client_time": 1.0, "colour": 1}),
+        json!({"type": "ping", "id": -1, "client_time": 1.0}),
+        json!({"type": "sample", "id": 24, "points": [[0.0, 0.0]], "fields": ["colour"]}),
+        json!({"type": "sample", "id": 25, "t": 1e300, "points": [[0.0, 0.0]]}),
+        json!({"type": "orientation", "id": 26, "bodies": [{"position": [0.0, 0.0], "length": 0.0, "beam": 1.0}]}),
+        json!({"type": "subscribe", "id": 27, "ticks": "yes"}),
+        json!({"type": "subscribe", "id": 28, "ticks": true, "compact": true}),
+        json!({"type": "subscribe", "id": 29, "ticks": true, "region": [0.0, 0.0, 1.0]}),
+    ];
+    for r in &malformed {
+        assert!(
+            validate(&doc, client, r, "").is_err(),
+            "the client schema allows {r}"
+        );
+        send_json(&mut ws, r.clone()).await;
+        let v = recv(&mut ws, false).await;
+        assert_eq!(v["type"], "error", "the server took {r}: {v}");
+        match r["id"].as_u64() {
+            Some(id) => assert_eq!(v["id"], id, "{r}: {v}"),
+            None => assert!(v.get("id").is_none(), "{r}: {v}"),
+        }
+    }
+    // Text that is not JSON at all.
+    ws.send(Message::Text("{not json".into())).await.unwrap();
+    assert_eq!(recv(&mut ws, false).await["code"], "bad_json");
+    send_json(&mut ws, json!({"type": "subscribe", "ticks": false})).await;
+
+    // Every kind the server schema lists came, and every field it documents for a kind (and
+    // for a tick frame's bodies and impacts) was in one message of that kind at least.
+    let schemas = &doc["components"]["schemas"];
+    let seen = |list: &mut dyn Iterator<Item = &Value>| -> Vec<String> {
+        let mut keys: Vec<String> = list
+            .flat_map(|v| v.as_object().unwrap().keys().cloned())
+            .collect();
+        keys.sort();
+        keys.dedup();
+        keys
+    };
+    let documented = |s: &Value| -> Vec<String> {
+        let mut keys: Vec<String> = s["properties"]
+            .as_object()
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect();
+        keys.sort();
+        keys
+    };
+    for kind in kinds(server) {
+        let of_kind: Vec<&Value> = received
+            .iter()
+            .filter(|v| v["type"] == kind.as_str())
+            .collect();
+        assert!(!of_kind.is_empty(), "no {kind} message came");
+        let schema = branch(&doc, server, of_kind[0]);
+        assert_eq!(
+            seen(&mut of_kind.iter().copied()),
+            documented(schema),
+            "{kind}: the fields that came are not the documented ones"
+        );
+    }
+    let ticks = received.iter().filter(|v| v["type"] == "tick");
+    let items = |key: &'static str| {
+        ticks
+            .clone()
+            .flat_map(move |v| v[key].as_array().into_iter().flatten())
+    };
+    assert_eq!(
+        seen(&mut items("bodies")),
+        documented(&schemas["BodyState"])
+    );
+    assert_eq!(
+        seen(&mut items("impacts")),
+        documented(&schemas["ImpactEvent"])
+    );
     s.stop().await;
 }

@@ -14,14 +14,14 @@ use tokio::time::timeout;
 use tokio_tungstenite::tungstenite::Message;
 use tokio_tungstenite::tungstenite::protocol::frame::coding::CloseCode;
 
-async fn send_json(ws: &mut Ws, v: Value) {
+pub(crate) async fn send_json(ws: &mut Ws, v: Value) {
     ws.send(Message::Text(v.to_string().into()))
         .await
         .expect("send");
 }
 
 /// The next text frame as JSON (skipping tick frames unless `ticks`).
-async fn recv_json(ws: &mut Ws, ticks: bool) -> Value {
+pub(crate) async fn recv_json(ws: &mut Ws, ticks: bool) -> Value {
     loop {
         let m = timeout(Duration::from_secs(10), ws.next())
             .await
