@@ -118,7 +118,8 @@ pub struct Limits {
     /// grid frames and exact times; see [`crate::frames`]): the frames around now are kept
     /// apart and never evicted by these. A 256² frame with every field is 4 MiB.
     pub frame_cache_entries: usize,
-    /// Largest |x|, |z| of a world point, m. Beyond ~1e12 m phases lose all precision.
+    /// Largest |x|, |z| of a world point, m. At most 1e12 m ([`MAX_COORDINATE_BOUND`]: beyond
+    /// it phases lose all precision); a larger one is refused at start ([`Limits::validate`]).
     pub max_coordinate: f64,
     /// Largest |t|, s, for the same reason. At most 1e12 s
     /// ([`swell_waves::particles::ripple::MAX_IMPACT_TIME`], the model's bound on an impact's
@@ -321,6 +322,12 @@ pub struct TimeOutOfRange {
     pub max: f64,
 }
 
+/// The largest [`Limits::max_coordinate`], m. From 2³⁹ m (5.5·10¹¹) to 2⁴⁰ m neighbouring f64
+/// positions are 2⁻¹³ m (0.12 mm) apart, an eighth of the model's shortest wavelength
+/// ([`swell_waves::wave::MIN_WAVELENGTH`], 1 mm): a step of one ulp moves such a wave's phase by
+/// 0.77 rad, so past 1e12 m the shortest waves are noise, and at 2⁴⁰ m the spacing doubles.
+pub const MAX_COORDINATE_BOUND: f64 = 1e12;
+
 impl Limits {
     /// Checks the limits a server cannot run with; the config file's and
     /// [`crate::Server::bind`]'s check.
@@ -328,7 +335,9 @@ impl Limits {
     /// # Errors
     /// A message naming the limit: `compute_nice` outside 0..=19; `max_time` not in
     /// (0, 1e12] s ([`MAX_IMPACT_TIME`]: with a larger one a clock could run to times where no
-    /// impact can be placed, while the impact body's schema states the smaller bound).
+    /// impact can be placed, while the impact body's schema states the smaller bound);
+    /// `max_coordinate` not in (0, 1e12] m ([`MAX_COORDINATE_BOUND`]: beyond it positions are
+    /// too coarse for the model's shortest waves).
     pub fn validate(&self) -> Result<(), String> {
         if !(0..=19).contains(&self.compute_nice) {
             return Err(format!(
@@ -341,6 +350,13 @@ impl Limits {
                 "limits.max_time = {} s is out of range: in (0, {MAX_IMPACT_TIME:e}] s, the \
                  model's bound on an impact's time (a clock past it could place no impact)",
                 swell_waves::error::Num(self.max_time)
+            ));
+        }
+        if !(self.max_coordinate > 0.0 && self.max_coordinate <= MAX_COORDINATE_BOUND) {
+            return Err(format!(
+                "limits.max_coordinate = {} m is out of range: in (0, {MAX_COORDINATE_BOUND:e}] m \
+                 (beyond it f64 positions are too coarse for the model's shortest waves, 1 mm)",
+                swell_waves::error::Num(self.max_coordinate)
             ));
         }
         Ok(())

@@ -165,6 +165,52 @@ async fn max_time_past_the_models_impact_time_bound_is_refused_at_start() {
     s.stop().await;
 }
 
+/// Issue 27: `limits.max_coordinate` had no upper bound, though its doc said phases lose all
+/// precision beyond ~1e12 m: a server configured with 1e15 m took queries and spawns where f64
+/// positions are an eighth of a metre apart. Such a limit (and one that is not positive) is
+/// refused at start, naming `max_coordinate` and the range, from the config file and in
+/// process alike; at the bound the server starts, documents it, and answers a query there.
+#[tokio::test]
+async fn max_coordinate_past_where_phases_hold_is_refused_at_start() {
+    use swell::config::MAX_COORDINATE_BOUND;
+    for toml in [
+        "[limits]\nmax_coordinate = 1.5e12\n",
+        "[limits]\nmax_coordinate = 0\n",
+        "[limits]\nmax_coordinate = -1e9\n",
+    ] {
+        let err = swell::config::parse_toml(toml).unwrap_err();
+        assert!(
+            err.starts_with("limits.max_coordinate = ") && err.contains("(0, 1e12] m"),
+            "{err}"
+        );
+    }
+    for bad in [f64::INFINITY, f64::NAN, MAX_COORDINATE_BOUND.next_up()] {
+        let mut cfg = config();
+        cfg.limits.max_coordinate = bad;
+        let err = swell::Server::bind(cfg).await.unwrap_err().to_string();
+        assert!(
+            err.starts_with("limits.max_coordinate = ") && err.contains("is out of range"),
+            "{bad}: {err}"
+        );
+    }
+
+    let file = swell::config::parse_toml("[limits]\nmax_coordinate = 1e12\n").unwrap();
+    let mut cfg = config();
+    cfg.limits = file.limits.unwrap();
+    assert_eq!(cfg.limits.max_coordinate, MAX_COORDINATE_BOUND);
+    let s = TestServer::start(cfg).await;
+    let (st, doc) = s.get_json("/openapi.json").await;
+    assert_eq!(st, 200);
+    let params = doc["paths"]["/v1/scenes/{id}/height"]["get"]["parameters"]
+        .as_array()
+        .unwrap();
+    let x = &params.iter().find(|p| p["name"] == "x").unwrap()["schema"];
+    assert_eq!(x["maximum"], json!(MAX_COORDINATE_BOUND), "{x}");
+    let (st, v) = s.get_json("/v1/scenes/calm/height?x=1e12&z=-1e12").await;
+    assert_eq!(st, 200, "{v}");
+    s.stop().await;
+}
+
 /// Shutdown waits for an in-flight request: a big batch started before the signal completes
 /// with 200, the server then stops, and new connections are refused.
 #[tokio::test]
