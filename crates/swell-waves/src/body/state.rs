@@ -3,7 +3,7 @@
 
 use glam::{DQuat, DVec3};
 
-use crate::error::{SpecError, finite};
+use crate::error::{SpecError, field_path, finite};
 use crate::math::sin_cos;
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
@@ -43,7 +43,8 @@ impl BodyState {
     }
 
     /// Checks every component is finite and the rotation has non-zero length, and returns the
-    /// state with its rotation normalised. `field` prefixes error paths.
+    /// state with its rotation normalised. `field` prefixes error paths (empty: the fields are
+    /// at the root, `position[i]`).
     ///
     /// # Errors
     /// A non-finite component (`{field}.position[i]`, …), or a zero rotation
@@ -56,17 +57,17 @@ impl BodyState {
         ];
         for (name, v) in vecs {
             for i in 0..3 {
-                finite(&format!("{field}.{name}[{i}]"), v[i])?;
+                finite(&field_path(field, &format!("{name}[{i}]")), v[i])?;
             }
         }
         let q = self.rotation;
         for (i, c) in [q.x, q.y, q.z, q.w].into_iter().enumerate() {
-            finite(&format!("{field}.rotation[{i}]"), c)?;
+            finite(&field_path(field, &format!("rotation[{i}]")), c)?;
         }
         let len = q.length();
         if !(len > 1e-12 && len.is_finite()) {
             return Err(SpecError::OutOfRange {
-                field: format!("{field}.rotation"),
+                field: field_path(field, "rotation"),
                 value: len,
                 allowed: "a quaternion of non-zero length (it is normalised)".into(),
             });

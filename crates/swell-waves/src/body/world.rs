@@ -341,9 +341,11 @@ impl World {
     /// the id.
     ///
     /// # Errors
-    /// An invalid spec, named from the spec's root as a spawn request writes it (`mass`,
-    /// `hull.length`, `hull.cells[2].volume`; see [`BodySpec::build`]), or initial state
-    /// (`state.…`).
+    /// An invalid spec or initial state, each named from its root as a spawn request writes it:
+    /// `mass`, `hull.length`, `hull.cells[2].volume` (see [`BodySpec::build`]); `position[1]`
+    /// (a spawn's `position`), and the fields a spawn does not write, `rotation`, `velocity[0]`,
+    /// `angular_velocity[2]` (see [`BodyState::validated`]; a spawn's rotation comes from its
+    /// `yaw`, which a finite yaw within ±[`super::MAX_YAW`] makes valid).
     pub fn add(&mut self, spec: &BodySpec, initial: BodyState) -> Result<BodyId, SpecError> {
         let id = self.next_id;
         self.insert(id, spec, initial)?;
@@ -361,7 +363,7 @@ impl World {
         initial: BodyState,
     ) -> Result<(), SpecError> {
         let model = spec.build("")?;
-        let state = initial.validated("state")?;
+        let state = initial.validated("")?;
         let status = BodyStatus {
             substeps: substeps_for(&model, &self.settings),
             ..BodyStatus::default()

@@ -679,6 +679,36 @@ fn world_add_names_spec_fields_as_a_spawn_request_writes_them() {
     assert!(w.is_empty());
 }
 
+/// Issue 27: `World::add` named its spec's errors as a spawn request writes them (`mass`), but
+/// its initial state's under `state.` (`state.position[1]`), a field no spawn request has: the
+/// request's position is `position`. Every initial state field is now named from the root.
+#[test]
+fn world_add_names_the_initial_state_as_a_spawn_request_writes_it() {
+    let mut w = world(30.0);
+    let spec = BodySpec::boxed(2000.0, 4.0, 2.0, 1.0);
+    let e = w
+        .add(
+            &spec,
+            BodyState::at_rest(DVec3::new(0.0, f64::NAN, 0.0), 0.0),
+        )
+        .unwrap_err();
+    assert_eq!(e.field(), "position[1]");
+    assert!(e.to_string().starts_with("position[1] "), "{e}");
+    let mut moving = BodyState::at_rest(DVec3::ZERO, 0.0);
+    moving.velocity.x = f64::INFINITY;
+    assert_eq!(w.add(&spec, moving).unwrap_err().field(), "velocity[0]");
+    let mut spinning = BodyState::at_rest(DVec3::ZERO, 0.0);
+    spinning.angular_velocity.z = f64::NAN;
+    assert_eq!(
+        w.add(&spec, spinning).unwrap_err().field(),
+        "angular_velocity[2]"
+    );
+    let mut unrotated = BodyState::at_rest(DVec3::ZERO, 0.0);
+    unrotated.rotation = glam::DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0);
+    assert_eq!(w.add(&spec, unrotated).unwrap_err().field(), "rotation");
+    assert!(w.is_empty());
+}
+
 /// Issue 10 (bodies on FFT scenes): the velocity grids of FFT layers are made once per tick,
 /// at the tick's time, from the grid frames around it, and every substep of the tick reads
 /// them. Pinned against a step that attaches the tick-time grids by hand (the same bits), and
