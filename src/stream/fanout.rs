@@ -59,8 +59,6 @@ pub struct TickLoop {
     shards: Box<[Arc<Followers>]>,
     /// [`Ticks`] held: the loop stops when none is.
     held: AtomicUsize,
-    /// Which shard the next subscriber joins.
-    next: AtomicUsize,
     /// Cancelled when the loop ends.
     ended: CancellationToken,
     /// Frames left to writers so far ([`Offered::HandedOff`] and [`Offered::Replaced`]).
@@ -91,7 +89,6 @@ impl TickLoop {
                 .map(|_| Arc::new(Mutex::new(Arc::new(Vec::new()))))
                 .collect(),
             held: AtomicUsize::new(0),
-            next: AtomicUsize::new(0),
             ended: CancellationToken::new(),
             handed_off: AtomicU64::new(0),
         });
@@ -102,12 +99,15 @@ impl TickLoop {
     }
 
     /// A hold on the loop for one session (call under the registry's lock, so the loop cannot
-    /// decide to stop in between: see [`crate::stream::registry::Tickers::subscribe`]).
-    pub(crate) fn hold(self: &Arc<Self>) -> Ticks {
+    /// decide to stop in between: see [`crate::stream::registry::Tickers::subscribe`]), in shard
+    /// `slot` modulo their number. A session passes the same slot every time, so following again
+    /// after an unsubscribe puts it back in the same shard, which sends each frame once: in
+    /// another, a frame the old shard was still sending could reach it twice.
+    pub(crate) fn hold(self: &Arc<Self>, slot: usize) -> Ticks {
         self.held.fetch_add(1, Ordering::AcqRel);
         Ticks {
             lp: Arc::clone(self),
-            shard: self.next.fetch_add(1, Ordering::Relaxed) % self.shards.len(),
+            shard: slot % self.shards.len(),
             follower: None,
         }
     }
@@ -248,5 +248,88 @@ async fn shard(mut rx: broadcast::Receiver<Arc<SharedTick>>, lp: Weak<TickLoop>,
             }
             Err(broadcast::error::RecvError::Closed) => return,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::types::Tick;
+
+    /// Records the ticks offered to it.
+    #[derive(Default)]
+    struct Seen(Mutex<Vec<i64>>);
+
+    impl Follow for Seen {
+        fn offer(&self, tick: &SharedTick, _: &mut Vec<usize>) -> Offered {
+            self.0.lock().unwrap().push(tick.tick.tick);
+            Offered::Done
+        }
+    }
+
+    fn frame(tick: i64) -> Arc<SharedTick> {
+        Arc::new(SharedTick::new(Tick {
+            tick,
+            t: tick as f64 / 30.0,
+            bodies: Vec::new(),
+            impacts: Vec::new(),
+            anchor_tick: None,
+        }))
+    }
+
+    /// Waits until `seen` has `n` ticks (the shards run on the runtime's workers).
+    async fn until(seen: &Seen, n: usize) -> Vec<i64> {
+        for _ in 0..500 {
+            let v = seen.0.lock().unwrap().clone();
+            if v.len() >= n {
+                return v;
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(2)).await;
+        }
+        panic!("{n} ticks not offered: {:?}", seen.0.lock().unwrap());
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_session_always_joins_the_shard_of_its_slot() {
+        let lp = TickLoop::start(&tokio_util::task::TaskTracker::new());
+        assert_eq!(lp.shards.len(), 2, "one shard per worker thread");
+        for slot in 0..6 {
+            let (a, b) = (lp.hold(slot), lp.hold(slot));
+            assert_eq!(a.shard, b.shard);
+            assert_eq!(a.shard, slot % 2);
+        }
+        assert_eq!(lp.held(), 0, "every hold dropped");
+        lp.end();
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn followers_get_every_frame_in_order_until_they_leave() {
+        let lp = TickLoop::start(&tokio_util::task::TaskTracker::new());
+        let (a, b) = (Arc::new(Seen::default()), Arc::new(Seen::default()));
+        let mut ta = lp.hold(0);
+        let mut tb = lp.hold(1);
+        ta.follow(Arc::clone(&a) as Arc<dyn Follow>);
+        tb.follow(Arc::clone(&b) as Arc<dyn Follow>);
+        assert_eq!(lp.held(), 2);
+        for t in 0..5 {
+            lp.send(frame(t));
+        }
+        assert_eq!(until(&a, 5).await, [0, 1, 2, 3, 4]);
+        assert_eq!(until(&b, 5).await, [0, 1, 2, 3, 4]);
+        // Leaving: no more frames, and the hold is given back.
+        drop(ta);
+        assert_eq!(lp.held(), 1);
+        for t in 5..8 {
+            lp.send(frame(t));
+        }
+        assert_eq!(until(&b, 8).await, (0..8).collect::<Vec<_>>());
+        assert_eq!(a.0.lock().unwrap().len(), 5, "a frame after leaving");
+        // The end of the loop reaches the holders.
+        let ended = tb.ended();
+        lp.end();
+        tokio::time::timeout(std::time::Duration::from_secs(5), ended)
+            .await
+            .expect("ended fires");
+        assert_eq!(lp.handed_off(), 0);
     }
 }

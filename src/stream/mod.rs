@@ -320,7 +320,12 @@ struct Queue {
     budget: Arc<Budget>,
     /// Whose share the bytes come from (`None`: an exempt client, charged to the total only).
     client: Option<IpAddr>,
+    /// This session's tick shard, the same for every subscription ([`fanout::TickLoop::hold`]).
+    slot: usize,
 }
+
+/// Sessions started, for their tick shards: round robin.
+static SESSIONS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
 /// Answers of at least this many bytes are charged to the budget until sent; smaller ones are
 /// bounded by the queue's length.
@@ -731,6 +736,7 @@ where
         slow: CancellationToken::new(),
         budget: Arc::clone(&state.buffers),
         client,
+        slot: SESSIONS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
     };
     let shutdown = state.shutdown.clone();
     let slow = queue.slow.clone();
@@ -1241,7 +1247,7 @@ fn handle(
             } else {
                 *subscribed = true;
                 queue.push_out(Out::Subscribe(
-                    state.tickers.subscribe(state, scene_id),
+                    state.tickers.subscribe(state, scene_id, queue.slot),
                     Interest::new(bodies, region).compact(compact),
                 ));
             }

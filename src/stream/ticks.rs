@@ -46,17 +46,18 @@ pub use crate::stream::registry::Tickers;
 pub const BODY_WAIT_TICKS: f64 = 1.0;
 
 impl Tickers {
-    /// Subscribes to scene `id`'s tick frames, starting its loop if none runs.
+    /// Subscribes to scene `id`'s tick frames, starting its loop if none runs; `slot` picks the
+    /// shard: a session passes the same one every time, so it stays in one shard.
     ///
     /// The hold is taken under the registry lock, and the loop decides to stop under the same
     /// lock, so a new subscriber never attaches to a loop that is about to end.
-    pub fn subscribe(&self, state: &AppState, id: &str) -> Ticks {
+    pub fn subscribe(&self, state: &AppState, id: &str, slot: usize) -> Ticks {
         let mut loops = self.lock();
         if let Some(lp) = loops.get(id) {
-            return lp.hold();
+            return lp.hold(slot);
         }
         let lp = TickLoop::start(&state.tasks);
-        let ticks = lp.hold();
+        let ticks = lp.hold(slot);
         loops.insert(id.to_owned(), Arc::clone(&lp));
         metrics::gauge!("swell_tick_loops").increment(1.0);
         state.tasks.spawn(run(state.clone(), id.to_owned(), lp));
