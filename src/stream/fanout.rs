@@ -26,6 +26,10 @@ use super::frame::SharedTick;
 /// starved of CPU for this many ticks (two seconds at 30 Hz); it then skips to the newest.
 const SHARD_CHANNEL: usize = 64;
 
+/// Subscribers a shard writes to before it lets its worker thread run other tasks: ~2–5 ms of
+/// writes on the machines measured (docs/performance.md, P7).
+const OFFERS_PER_TURN: usize = 256;
+
 /// Most shards per scene, whatever the number of worker threads.
 const MAX_SHARDS: usize = 16;
 
@@ -220,18 +224,25 @@ async fn shard(mut rx: broadcast::Receiver<Arc<SharedTick>>, lp: Weak<TickLoop>,
                 // Outside tokio's cooperative budget: every socket write takes one unit of a
                 // task's budget (128 a poll), and past it a write reports "not ready" without
                 // trying, which would hand most of a large shard's frames to their writers.
-                let (handed, replaced) = tokio::task::unconstrained(async {
-                    let (mut handed, mut replaced) = (0u64, 0u64);
-                    for f in list.iter() {
-                        match f.offer(&t, &mut chosen) {
-                            Offered::Done => {}
-                            Offered::HandedOff => handed += 1,
-                            Offered::Replaced => replaced += 1,
-                        }
+                // Instead the shard yields every `OFFERS_PER_TURN` subscribers, so a crowded
+                // scene does not hold a worker thread away from the other connections for a
+                // whole tick.
+                let (mut handed, mut replaced) = (0u64, 0u64);
+                for (i, chunk) in list.chunks(OFFERS_PER_TURN).enumerate() {
+                    if i > 0 {
+                        tokio::task::yield_now().await;
                     }
-                    (handed, replaced)
-                })
-                .await;
+                    tokio::task::unconstrained(async {
+                        for f in chunk {
+                            match f.offer(&t, &mut chosen) {
+                                Offered::Done => {}
+                                Offered::HandedOff => handed += 1,
+                                Offered::Replaced => replaced += 1,
+                            }
+                        }
+                    })
+                    .await;
+                }
                 if handed + replaced > 0 {
                     metrics::counter!("swell_ws_tick_handoffs_total").increment(handed + replaced);
                     metrics::counter!("swell_ws_ticks_skipped_total").increment(replaced);
@@ -331,5 +342,29 @@ mod tests {
             .await
             .expect("ended fires");
         assert_eq!(lp.handed_off(), 0);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_shard_longer_than_a_turn_offers_every_frame_to_everyone() {
+        let lp = TickLoop::start(&tokio_util::task::TaskTracker::new());
+        // Every follower in shard 0: several turns of `OFFERS_PER_TURN`.
+        let n = 2 * OFFERS_PER_TURN + 7;
+        let seen: Vec<Arc<Seen>> = (0..n).map(|_| Arc::new(Seen::default())).collect();
+        let holds: Vec<Ticks> = seen
+            .iter()
+            .map(|f| {
+                let mut t = lp.hold(0);
+                t.follow(Arc::clone(f) as Arc<dyn Follow>);
+                t
+            })
+            .collect();
+        for t in 0..3 {
+            lp.send(frame(t));
+        }
+        for f in &seen {
+            assert_eq!(until(f, 3).await, [0, 1, 2]);
+        }
+        drop(holds);
+        lp.end();
     }
 }
