@@ -461,20 +461,7 @@ async fn a_subscriber_that_stops_reading_is_disconnected_after_the_send_stall() 
     spec["tick_hz"] = json!(60);
     assert_eq!(s.put_scene("busy", &spec).await.0, 201);
     // 100 boats: JSON frames of ~15 kB, ~1 MB/s.
-    for i in 0..100 {
-        let boat = json!({"mass": 3000.0,
-            "hull": {"kind": "box", "length": 8.0, "beam": 3.0, "height": 1.5},
-            "position": [f64::from(i % 10) * 20.0, 0.6, f64::from(i / 10) * 20.0]});
-        let (st, v) = s
-            .admin(
-                reqwest::Method::POST,
-                "/v1/scenes/busy/bodies",
-                Some(&boat),
-                Some(common::TOKEN),
-            )
-            .await;
-        assert_eq!(st, 201, "{v}");
-    }
+    spawn_boats(&s, "busy", 100).await;
     let mut healthy = ws_connect(s.addr, "busy", None).await;
     send_json(&mut healthy, json!({"type": "subscribe", "ticks": true})).await;
     // The slow client's socket holds 4 kB, so the server's sends block within a second.
