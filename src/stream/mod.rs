@@ -394,11 +394,10 @@ impl Queue {
     }
 }
 
-/// The writer's view of the session: how to encode what it sends itself (the error when the
-/// scene goes away) and when to give up on the client.
+/// The writer's view of the session: what to say when the scene goes away and when to give up
+/// on the client (the socket knows its codec).
 struct Writer {
     scene_id: String,
-    codec: Codec,
     shutdown: CancellationToken,
     /// Fired when the scene's tick loop ended because the scene was deleted.
     gone: CancellationToken,
@@ -411,7 +410,7 @@ struct Writer {
 /// A session's subscription: its hold on the scene's tick loop, and the loop's end.
 struct Following {
     _ticks: Ticks,
-    ended: std::pin::Pin<Box<tokio_util::sync::WaitForCancellationFutureOwned>>,
+    ended: Pin<Box<tokio_util::sync::WaitForCancellationFutureOwned>>,
 }
 
 /// Fires when the followed loop ends; pending forever while following none.
@@ -484,7 +483,7 @@ impl Writer {
                     };
                     // The session then closes the socket (SCENE_GONE), after this error.
                     self.gone.cancel();
-                    Some(encode(self.codec, out))
+                    Some(encode(socket.codec, out))
                 },
             };
             let is_close = matches!(msg, Some(Message::Close(_)));
@@ -743,7 +742,6 @@ where
     let gone = CancellationToken::new();
     let mut writer = state.tasks.spawn(
         Writer {
-            codec,
             scene_id: scene_id.clone(),
             shutdown: shutdown.clone(),
             gone: gone.clone(),
