@@ -9,7 +9,8 @@
 //! server takes, the answers (a scene's detail and the scene list among them) against what it
 //! answers, and every range of those bodies and of the query strings' `t`, `x` and `z` at its
 //! ends (taken) and just past them (refused), and the stream's JSON messages
-//! ([`super::stream_schemas`]) against a real session's.
+//! ([`super::stream_schemas`]) against a real session's; `tests/server/error_codes.rs` checks
+//! that the error codes listed are [`ErrorCode::ALL`]'s.
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -471,6 +472,16 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
     })
 }
 
+/// A string schema whose `enum` is the wire strings of `codes`, in their order: generated from
+/// [`ErrorCode::ALL`], so a code added there is documented here with no edit.
+pub(super) fn error_code_schema<'a>(
+    codes: impl Iterator<Item = &'a ErrorCode>,
+    description: &str,
+) -> Value {
+    let codes: Vec<&str> = codes.map(|c| c.as_str()).collect();
+    json!({"type": "string", "enum": codes, "description": description})
+}
+
 /// The request and answer schemas, field for field as serde reads and writes the types: a
 /// field with `#[serde(default)]` (or an `Option`) is optional, every other one is `required`;
 /// an `Option` also takes `null` (its type lists `"null"`, and an enum of one lists `null`
@@ -503,9 +514,15 @@ fn schemas(limits: &crate::Limits) -> Value {
     // `[x, z]` whose coordinates are each within ±max.
     let xz_within = |max: f64| json!({"type": "array", "items": within(max, json!({"type": "number"})), "minItems": 2, "maxItems": 2});
     json!({
+        // crate::error::ApiError's body. `code` lists what an HTTP answer can carry:
+        // ErrorCode::ALL but the WebSocket-only codes (the stream's `error` message takes
+        // every code, `super::stream_schemas`).
         "Error": {"type": "object", "properties": {"error": {"type": "object",
             "required": ["code", "message"],
-            "properties": {"code": {"type": "string"}, "message": {"type": "string"}, "field": {"type": "string"}}}}},
+            "properties": {
+                "code": error_code_schema(ErrorCode::ALL.iter().filter(|c| !c.websocket_only()),
+                    "what went wrong, one of the README's error codes (each always with the same status)"),
+                "message": {"type": "string"}, "field": {"type": "string"}}}}},
         // crate::scene::SceneSpec: its own fields beside swell_waves::SurfaceSpec's, unknown
         // fields rejected at every level.
         "SceneSpec": {"type": "object", "required": ["layers"], "additionalProperties": false,

@@ -7,7 +7,8 @@
 //! fields inline beside them ([`crate::stream::messages`]). Where the payload is an HTTP body or
 //! answer (a `sample` is a `SampleRequest`, its `sample_result` a `SampleResponse`, a `clock`
 //! event a `ClockReading`, an `error` the `error` object of `Error`), each of its fields is a
-//! `$ref` to that component's field, so the message and the HTTP body cannot drift apart. A
+//! `$ref` to that component's field, so the message and the HTTP body cannot drift apart (but
+//! for an `error`'s `code`, which also takes the WebSocket-only codes). A
 //! `$ref` to the whole component would not do: those schemas are closed
 //! (`additionalProperties: false`) and would refuse `type` and `id`.
 //!
@@ -15,6 +16,8 @@
 //! validates every message it gets back.
 
 use serde_json::{Map, Value, json};
+
+use crate::error::ErrorCode;
 
 /// Where the components live, for `$ref`s.
 const COMPONENTS: &str = "#/components/schemas/";
@@ -73,6 +76,18 @@ pub fn add(schemas: &mut Value) {
     let clock =
         |field: &str| json!({"$ref": format!("{COMPONENTS}ClockReading/properties/{field}")});
     let payload = |path: &str| payload(schemas, path);
+    // A socket's errors come from the same service as the HTTP answers' and add the
+    // WebSocket-only codes (`unknown_type`, `wrong_frame_type`): its `code` takes every code.
+    // Listing only the codes a session can reach would be a second list kept by hand beside
+    // the enum, and one it missed would make a client refuse a real message.
+    let mut stream_error = payload("Error/properties/error");
+    stream_error.0.insert(
+        "code".to_owned(),
+        super::ops::error_code_schema(
+            ErrorCode::ALL.iter(),
+            "what went wrong, one of the README's error codes (the WebSocket-only ones included)",
+        ),
+    );
     let added = json!({
         // crate::service::types::BodyState: a tick frame's body.
         "BodyState": {"type": "object", "additionalProperties": false,
@@ -136,8 +151,8 @@ pub fn add(schemas: &mut Value) {
                 is anchored at (absent while the scene has no bodies)"}}))),
         // Event::Clock: sent unprompted, no id.
         "StreamClock": tagged("clock", None, payload("ClockReading")),
-        // Event::Error: the HTTP error's `error` object, inline.
-        "StreamError": tagged("error", answer_id(), payload("Error/properties/error")),
+        // Event::Error: the HTTP error's `error` object, inline, with its own `code`.
+        "StreamError": tagged("error", answer_id(), stream_error),
         "StreamRequest": one_of(REQUESTS, "a swell.v1.json message from the client, a text frame"),
         "StreamMessage": one_of(MESSAGES, "a swell.v1.json message from the server, a text \
             frame: answers (with the request's id), errors (the socket stays open), tick frames \

@@ -134,3 +134,45 @@ fn no_source_file_writes_a_code_outside_the_enum() {
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// `/openapi.json` lists the codes as an `enum` made from [`ErrorCode::ALL`] (issue 27): it
+/// said only `"type": "string"`, so a client generated from the document could not match on a
+/// code, and nothing tied the document to the enum. The HTTP `Error` lists every code an HTTP
+/// answer can carry (all but the WebSocket-only ones), in the enum's order; the stream's `error`
+/// message every code, the WebSocket-only ones included, and shares the other fields with
+/// `Error`.
+#[test]
+fn openapi_lists_exactly_the_codes_the_server_can_send() {
+    let doc = swell::api::ops::openapi_document(&swell::Limits::default());
+    let schemas = &doc["components"]["schemas"];
+    let listed = |code: &serde_json::Value| -> Vec<String> {
+        assert_eq!(code["type"], "string", "{code}");
+        code["enum"]
+            .as_array()
+            .unwrap_or_else(|| panic!("no enum in {code}"))
+            .iter()
+            .map(|c| c.as_str().unwrap().to_owned())
+            .collect()
+    };
+    let http = listed(&schemas["Error"]["properties"]["error"]["properties"]["code"]);
+    let expected: Vec<&str> = ErrorCode::ALL
+        .iter()
+        .filter(|c| !c.websocket_only())
+        .map(|c| c.as_str())
+        .collect();
+    assert_eq!(http, expected);
+    let stream_error = &schemas["StreamError"]["properties"];
+    let stream = listed(&stream_error["code"]);
+    let all: Vec<&str> = ErrorCode::ALL.iter().map(|c| c.as_str()).collect();
+    assert_eq!(stream, all);
+    for ws in ["unknown_type", "wrong_frame_type"] {
+        assert!(stream.iter().any(|c| c == ws), "{ws}");
+        assert!(!http.iter().any(|c| c == ws), "{ws} is WebSocket-only");
+    }
+    for field in ["message", "field"] {
+        assert_eq!(
+            stream_error[field]["$ref"],
+            format!("#/components/schemas/Error/properties/error/properties/{field}")
+        );
+    }
+}
