@@ -9,6 +9,8 @@
 //! - [`ops`] — health, readiness, metrics, OpenAPI, docs page.
 //! - [`stream_schemas`] — the JSON Schemas of the WebSocket stream's messages, in the OpenAPI
 //!   document.
+//! - [`body_schemas`] — the JSON Schemas of bodies and impacts (the HTTP answers and the
+//!   stream's tick frames share them), in the OpenAPI document.
 //! - [`wire`] — JSON/protobuf content negotiation for query bodies and answers.
 //! - [`shader`] — the generated shader, the frame's uniforms, FFT spectra (GPU clients).
 //! - [`viewer`] — the browser viewer's page and scripts (`/viewer`).
@@ -24,6 +26,7 @@
 pub mod admin;
 pub mod admission;
 pub mod bodies;
+pub mod body_schemas;
 pub mod errors;
 pub mod impacts;
 pub mod json;

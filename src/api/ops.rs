@@ -6,11 +6,12 @@
 //! every `{name}` of a path is declared as a parameter, and that real answers (201, 202, 204, 304)
 //! carry statuses the document declares; `tests/server/openapi.rs` checks the sample,
 //! orientation, clock, impact, spawn and input request schemas field by field against what the
-//! server takes, the answers (a scene's detail and the scene list among them) against what it
-//! answers, and every range of those bodies and of the query strings' `t`, `x` and `z` at its
-//! ends (taken) and just past them (refused), and the stream's JSON messages
-//! ([`super::stream_schemas`]) against a real session's; `tests/server/error_codes.rs` checks
-//! that the error codes listed are [`ErrorCode::ALL`]'s.
+//! server takes, the answers (a scene's detail and the scene list among them, and the body and
+//! impact answers of [`super::body_schemas`]) against what it answers, and every range of those
+//! bodies and of the query strings' `t`, `x` and `z` at its ends (taken) and just past them
+//! (refused), and the stream's JSON messages ([`super::stream_schemas`]) against a real
+//! session's; `tests/server/error_codes.rs` checks that the error codes listed are
+//! [`ErrorCode::ALL`]'s.
 
 use axum::extract::State;
 use axum::http::{HeaderValue, header};
@@ -406,8 +407,9 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
             }
             op["requestBody"] = json!({"required": true, "content": content});
         }
-        // The 200 answer's schema, and whether it may also be protobuf (the query answers;
-        // the clock's reading and a scene's detail are JSON only, `src/api/scenes.rs`).
+        // The success answer's schema, and whether it may also be protobuf (the query answers;
+        // the clock's reading, a scene's detail and the body and impact answers are JSON only,
+        // `src/api/scenes.rs`, `src/api/bodies.rs`, `src/api/impacts.rs`).
         let answer = match (*method, *path) {
             (_, "/v1/scenes/{id}/sample") => Some(("SampleResponse", true)),
             (_, "/v1/scenes/{id}/orientation") => Some(("OrientationResponse", true)),
@@ -415,6 +417,12 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
             (_, "/v1/scenes/{id}/clock") => Some(("ClockReading", false)),
             ("get" | "put", "/v1/scenes/{id}") => Some(("SceneDetail", false)),
             ("get", "/v1/scenes") => Some(("SceneList", false)),
+            ("get", "/v1/scenes/{id}/bodies") => Some(("BodyList", false)),
+            ("post", "/v1/scenes/{id}/bodies") => Some(("SpawnedBody", false)),
+            ("get", "/v1/scenes/{id}/bodies/{bid}") => Some(("BodyDetail", false)),
+            ("post", "/v1/scenes/{id}/bodies/{bid}/input") => Some(("InputAccepted", false)),
+            ("get", "/v1/scenes/{id}/impacts") => Some(("ImpactList", false)),
+            ("post", "/v1/scenes/{id}/impacts") => Some(("ImpactAccepted", false)),
             _ => None,
         };
         match answer {
@@ -424,10 +432,11 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
                         "application/x-protobuf": protobuf_content(a)}});
             }
             Some((a, false)) => {
-                // Every success with a body (a put's 200 and 201 alike) answers the schema.
+                // Every success with a body (a put's 200 and 201 alike, a spawn's 201, an
+                // input's or impact's 202) answers the schema.
                 for (status, _) in success(method, path) {
                     if let Some(r) = op["responses"].get_mut(*status)
-                        && matches!(*status, "200" | "201")
+                        && matches!(*status, "200" | "201" | "202")
                     {
                         r["content"] = json!({"application/json":
                             {"schema": {"$ref": format!("#/components/schemas/{a}")}}});
@@ -456,6 +465,7 @@ pub fn openapi_document(limits: &crate::Limits) -> Value {
         entry[*method] = op;
     }
     let mut schemas = schemas(limits);
+    super::body_schemas::add(&mut schemas);
     super::stream_schemas::add(&mut schemas);
     json!({
         "openapi": "3.1.0",

@@ -1,7 +1,7 @@
 //! The JSON Schemas of the WebSocket stream's `swell.v1.json` messages in `/openapi.json`:
 //! `StreamRequest` (what a client sends) and `StreamMessage` (what the server sends), each a
-//! `oneOf` over one component per message kind with a `discriminator` on `type`, and the
-//! `BodyState` and `ImpactEvent` of a tick frame.
+//! `oneOf` over one component per message kind with a `discriminator` on `type`. A tick frame's
+//! `BodyState` and `ImpactEvent` are [`super::body_schemas`]' (the HTTP answers share them).
 //!
 //! A JSON message is an object tagged by `"type"`, with an optional `"id"`, and its payload's
 //! fields inline beside them ([`crate::stream::messages`]). Where the payload is an HTTP body or
@@ -53,7 +53,8 @@ pub fn websocket_extension() -> Value {
 }
 
 /// Adds the stream's schemas to `schemas`, the components object [`super::ops`] built (the HTTP
-/// bodies and answers whose fields the messages share must be among them).
+/// bodies and answers whose fields the messages share must be among them, and
+/// [`super::body_schemas`]' components, which tick frames name).
 pub fn add(schemas: &mut Value) {
     let u64_id = |description: &str| json!({"type": "integer", "minimum": 0, "maximum": u64::MAX, "description": description});
     // A client's `id`: an unsigned integer, absent or null for none.
@@ -68,10 +69,6 @@ pub fn add(schemas: &mut Value) {
         Some(u64_id(
             "the id of the message this answers; absent when it had none",
         ))
-    };
-    let xyz = |description: &str| {
-        json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3,
-            "description": description})
     };
     let clock =
         |field: &str| json!({"$ref": format!("{COMPONENTS}ClockReading/properties/{field}")});
@@ -89,32 +86,6 @@ pub fn add(schemas: &mut Value) {
         ),
     );
     let added = json!({
-        // crate::service::types::BodyState: a tick frame's body.
-        "BodyState": {"type": "object", "additionalProperties": false,
-            "required": ["id", "position", "rotation", "velocity", "angular_velocity", "submerged", "quarantined"],
-            "properties": {
-                "id": u64_id("body id, unique within the scene"),
-                "position": xyz("world position of the body origin [x, y, z], m"),
-                "rotation": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4,
-                    "description": "world rotation quaternion [x, y, z, w]"},
-                "velocity": xyz("linear velocity, m/s"),
-                "angular_velocity": xyz("angular velocity (world frame), rad/s"),
-                "submerged": {"type": "number",
-                    "description": "submerged fraction of the hull volume during the last step, 0..1"},
-                "quarantined": {"type": "boolean", "description": "the last step went non-finite \
-                    and was rolled back: the state is the last good one"}}},
-        // crate::impacts::ImpactEvent: an impact in a tick frame.
-        "ImpactEvent": {"type": "object", "additionalProperties": false,
-            "required": ["tick", "t", "position", "strength", "radius"],
-            "properties": {
-                "tick": {"type": "integer", "description": "first tick at or after the impact"},
-                "body_tick": {"type": "integer", "description": "the scene tick the scene's bodies \
-                    feel it from (API impacts on a scene with bodies only)"},
-                "t": {"type": "number", "description": "scene time of the impact, s"},
-                "position": {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2,
-                    "description": "world [x, z], m"},
-                "strength": {"type": "number", "description": "splash height, m"},
-                "radius": {"type": "number", "description": "particle radius, m"}}},
         // crate::stream::messages::decode_json's `PingBody`.
         "StreamPing": tagged("ping", client_id(), fields(&["client_time"], json!({
             "client_time": {"type": "number", "description": "the client's clock, echoed in the pong"}}))),
