@@ -120,6 +120,7 @@ const LATENCY_BUCKETS: &[f64] = &[
 /// reading `/metrics` sees that the counter exists (docs/api.md lists them).
 const ZERO_FROM_START: &[&str] = &[
     "swell_body_impacts_dropped_total",
+    "swell_body_impacts_off_map_total",
     "swell_body_reanchors_total",
     "swell_http_body_timeouts_total",
     "swell_http_buffer_budget_refused_total",

@@ -596,6 +596,13 @@ impl SceneBodies {
                     metrics::counter!("swell_body_impacts_total")
                         .increment(u64::from(derived.made));
                 }
+                // Splashes and wakes of bodies beyond the model's ±1e9 m (where
+                // limits.max_coordinate lets them be): they ripple nothing, and this is the
+                // only trace of them.
+                if derived.off_map > 0 {
+                    metrics::counter!("swell_body_impacts_off_map_total")
+                        .increment(u64::from(derived.off_map));
+                }
                 true
             }
             Err(_) => false,

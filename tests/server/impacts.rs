@@ -574,6 +574,55 @@ async fn bodies_splash_and_leave_wakes_identically_on_every_server_and_after_kil
     b_server.stop().await;
 }
 
+/// Issue 27, "bodies beyond ±1e9 m make splashes the model silently drops": with
+/// `max_coordinate` raised to 1e12 m a boat may be spawned at x = 2e9 m, past the model's map
+/// of impacts (±1e9 m), so its splash can ripple nothing. It used to vanish without a trace;
+/// now `swell_body_impacts_off_map_total` counts it (shown at 0 before any), and the same drop
+/// at x = 0 still splashes without being counted.
+#[tokio::test]
+async fn a_splash_off_the_models_map_is_counted_not_lost_without_trace() {
+    let mut c = config();
+    c.limits.max_coordinate = 1e12;
+    let server = TestServer::start(c).await;
+    let s = Srv::of(&server);
+    let off_map = || async {
+        let page = server.get("/metrics").await.text().await.unwrap();
+        common::metric(&page, "swell_body_impacts_off_map_total")
+            .unwrap_or_else(|| panic!("no swell_body_impacts_off_map_total in\n{page}"))
+    };
+    let before = off_map().await;
+    for (scene, x) in [("far", 2e9), ("near", 0.0)] {
+        s.ok(
+            Method::PUT,
+            &format!("/v1/scenes/{scene}"),
+            Some(&dock(Some(json!({})))),
+        )
+        .await;
+        s.seek(scene, 3000).await;
+        let path = format!("/v1/scenes/{scene}/bodies");
+        s.ok(Method::POST, &path, Some(&hull(x, 3.0, None))).await;
+        // The hull falls 2.25 m: wet at tick 3021 (see the test above).
+        for tick in [3015, 3030] {
+            s.seek(scene, tick).await;
+        }
+        let v = s.ok(Method::GET, &path, None).await;
+        // It fell where it was spawned (the splash is where the body is).
+        let at = v["bodies"][0]["position"][0].as_f64().unwrap();
+        assert!((at - x).abs() < 0.1, "{v}");
+        let after = off_map().await;
+        let (list_text, list) = s.impacts(scene).await;
+        if x == 0.0 {
+            assert_eq!(list.len(), 1, "the splash at x = 0: {list_text}");
+            assert_eq!(list[0]["tick"], 3021, "{list_text}");
+            assert_eq!(after, before + 1.0, "only the far splash is counted");
+        } else {
+            assert!(list.is_empty(), "{list_text}");
+            assert_eq!(after, before + 1.0, "the far splash is counted");
+        }
+    }
+    server.stop().await;
+}
+
 /// The bodies of `scene` as the server wrote them at its current tick: equal text is equal
 /// bits.
 async fn bodies_text(s: &Srv, scene: &str) -> String {

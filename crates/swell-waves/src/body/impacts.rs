@@ -12,7 +12,8 @@
 //!   added on: added before the step from tick n, the step reads the sea rippled by it.
 //! - **Derived impacts**: after each fixed step, every body (in id order) is tested for a splash,
 //!   then a wake, with its state and submerged fraction before and after the step; `t` is the
-//!   step's end (`start_time + (n + 1)/tick_hz`). An impact off the model's map is dropped; one
+//!   step's end (`start_time + (n + 1)/tick_hz`). An impact off the model's map is dropped
+//!   (counted in [`Derived::off_map`]); one
 //!   that would make more than [`MAX_BODY_NEAR_IMPACTS`] derived impacts within one ring
 //!   lifetime before it is dropped (counted in [`Derived::dropped`]); beyond
 //!   [`MAX_BODY_IMPACTS`] the oldest go. Each body carries the distance it travelled since its
@@ -51,13 +52,20 @@ pub const MAX_BODY_IMPACTS: usize = 16_384;
 /// replay of an old journal cannot hold more.
 pub const MAX_FELT_IMPACTS: usize = 100_000;
 
-/// What one step derived: impacts kept and impacts dropped by [`MAX_BODY_NEAR_IMPACTS`].
+/// What one step derived: impacts kept, impacts dropped by [`MAX_BODY_NEAR_IMPACTS`], and
+/// impacts off the model's map.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Derived {
     /// Impacts added to the derived set.
     pub made: u32,
     /// Impacts dropped because too many derived ones were near in time.
     pub dropped: u32,
+    /// Impacts dropped because no ring can carry them: made by a body beyond ±1e9 m
+    /// ([`crate::particles::ripple::MAX_IMPACT_COORD`]) or at a time beyond ±1e12 s
+    /// ([`crate::particles::ripple::MAX_IMPACT_TIME`]), where [`Impact::validate`] refuses
+    /// them. A server whose coordinates go past 1e9 m lets bodies there, and their splashes
+    /// and wakes would otherwise vanish without trace.
+    pub off_map: u32,
 }
 
 /// The impacts of one body world: the API impacts it feels, the ones its bodies made, each
@@ -314,8 +322,11 @@ impl WorldImpacts {
         let mut changed = false;
         self.prune(t);
         for i in made {
-            // Off the model's map (|x| > 1e9 m): not an impact it can ripple; dropped.
+            // Off the model's map (|x| > 1e9 m): not an impact it can ripple; dropped, and
+            // counted so the caller can say so (the derived set, and so the bits, are as if
+            // the body had made none).
             if i.validate("").is_err() {
+                out.off_map += 1;
                 continue;
             }
             let near = self.derived.len() - self.derived.partition_point(|e| e.t < i.t - lifetime);
