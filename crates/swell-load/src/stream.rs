@@ -281,7 +281,7 @@ pub async fn follow(
         };
         let fast = match wire {
             Wire::Protobuf => ws::protobuf_tick(bytes),
-            Wire::Json => None,
+            Wire::Json => ws::json_tick(bytes),
         };
         let Some((tick, t, bodies)) = fast.or_else(|| match ws::decode(wire, bytes) {
             Ok(ServerMsg::Tick { tick, t, bodies }) => Some((tick, t, bodies)),
