@@ -80,8 +80,11 @@ fn grid_coord(x: f64, l: f64, n: usize) -> (usize, f64) {
         x.rem_euclid(l)
     };
     let g = u * n as f64 / l;
-    let t = g as usize;
-    (t & (n - 1), (g - t as f64) + 0.0)
+    // Through i64, not usize: for g in [0, N] (and NaN, which both casts send to 0) the same
+    // whole number, in one conversion instruction each way where the unsigned casts take a
+    // dozen on x86-64 without AVX-512.
+    let t = g as i64;
+    (t as usize & (n - 1), (g - t as f64) + 0.0)
 }
 
 /// Catmull–Rom weights for nodes −1, 0, 1, 2 at fraction t:
