@@ -100,7 +100,7 @@ pub(crate) fn round_ties_away_by_trunc(x: f64) -> f64 {
 
 /// 1.5·2⁵²: adding and subtracting it rounds any |p| < 2⁵¹ to the nearest integer (ties to
 /// even), because the sum stays in [2⁵², 2⁵³) where the unit in the last place is exactly 1.
-const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
+pub(crate) const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
 
 /// Reduces a phase in turns (cycles, not radians) to [−½, ½]: `p − round(p)`, with `round` to
 /// nearest, ties to even, done as `(p + 1.5·2⁵²) − 1.5·2⁵²`.

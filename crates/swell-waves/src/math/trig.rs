@@ -5,7 +5,7 @@
 //! `__kernel_sin` and `__kernel_cos` (error below 1 ulp on the reduced interval). Every step is
 //! plain `*` and `+`, so the bits are the same on every CPU; the platform's `sin` is not.
 
-use super::phase::{RoundBySelects, Rounding, reduce_phase_with, reduce_phases_with};
+use super::phase::{ROUND_MAGIC, RoundBySelects, Rounding, reduce_phase_with, reduce_phases_with};
 
 // π/2 = PIO2_1 + PIO2_2 (+ 3.5e-27); PIO2_1 has 33 significant bits, so q·PIO2_1 is exact for
 // the quadrant numbers |q| ≤ 2 we use.
@@ -88,21 +88,18 @@ fn sin_cos_of_reduced<R: Rounding>(r: f64) -> (f64, f64) {
     quadrant(q, s, c)
 }
 
-/// 1.5·2⁵²: for a whole number q with |q| < 2⁵¹, `q + QUADRANT_MAGIC` is exact and its low
-/// mantissa bits are q in two's complement (the sum lies in [2⁵², 2⁵³), where one unit in the
-/// last place is 1, and 2⁵¹ ≡ 0 mod 4), so bit 0 is q's parity and bit 1 is set exactly when
-/// q mod 4 ∈ {2, 3}.
-const QUADRANT_MAGIC: f64 = 6_755_399_441_055_744.0;
-
 /// `(sin, cos)` of `y + q·π/2` from `s = sin y`, `c = cos y` and the quadrant number
 /// q ∈ {−2, …, 2}: odd quadrants swap sine and cosine; q mod 4 ∈ {2, 3} (q = 2, −1, −2)
 /// negates the sine, q mod 4 ∈ {1, 2} (q = 1, ±2) the cosine. The residue is read from the bits
-/// of `q + 1.5·2⁵²` ([`QUADRANT_MAGIC`]; `(q + 1) mod 4` from one more exact addition), and the
-/// selects and sign flips are bit operations: exactly the values a comparison of q with each
-/// quadrant picks, in fewer instructions once vectorised (−0 reads as 0, as it compares).
+/// of `m = q + 1.5·2⁵²` ([`ROUND_MAGIC`]): for a whole number q with |q| < 2⁵¹ the sum is exact
+/// and lies in [2⁵², 2⁵³), where one unit in the last place is 1, so its low mantissa bits are
+/// 2⁵¹ + q, i.e. q in two's complement mod 4 (2⁵¹ ≡ 0 mod 4): bit 0 is q's parity, bit 1 is set
+/// exactly when q mod 4 ∈ {2, 3}, and `m + 1` (exact too) gives `(q + 1) mod 4`. The selects and
+/// sign flips are then bit operations: exactly the values a comparison of q with each quadrant
+/// picks, in fewer instructions once vectorised (−0 reads as 0, as it compares).
 #[inline(always)]
 fn quadrant(q: f64, s: f64, c: f64) -> (f64, f64) {
-    let m = q + QUADRANT_MAGIC;
+    let m = q + ROUND_MAGIC;
     let odd = m.to_bits() & 1 != 0;
     let (a, b) = if odd { (c, s) } else { (s, c) };
     let neg_sin = (m.to_bits() << 62) & SIGN;
