@@ -339,6 +339,36 @@ mod tests {
         assert_eq!(lp.handed_off(), 0);
     }
 
+    /// Between frames a shard's list changes in place (joining and leaving do not copy it: a
+    /// thousand joins are not a thousand copies); a list a shard holds mid-frame is copied
+    /// instead, so the shard's frame goes to the list it took.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_shard_list_changes_in_place_unless_a_frame_holds_it() {
+        let lp = TickLoop::start(&tokio_util::task::TaskTracker::new());
+        let list = || Arc::clone(&lock(&lp.shards[0]));
+        let seen: Vec<Arc<Seen>> = (0..3).map(|_| Arc::new(Seen::default())).collect();
+        let mut holds: Vec<Ticks> = (0..3).map(|_| lp.hold(0)).collect();
+        holds[0].follow(Arc::clone(&seen[0]) as Arc<dyn Follow>);
+        let before = Arc::as_ptr(&list());
+        holds[1].follow(Arc::clone(&seen[1]) as Arc<dyn Follow>);
+        holds[0].leave();
+        let now = list();
+        assert_eq!(
+            Arc::as_ptr(&now),
+            before,
+            "the list was copied between frames"
+        );
+        assert_eq!(now.len(), 1);
+        // A shard mid-frame holds the list (as `shard` does): a join copies it.
+        let held = now;
+        holds[2].follow(Arc::clone(&seen[2]) as Arc<dyn Follow>);
+        assert_eq!(held.len(), 1, "the held list changed under its frame");
+        assert_ne!(Arc::as_ptr(&list()), Arc::as_ptr(&held));
+        assert_eq!(list().len(), 2);
+        drop((held, holds));
+        lp.end();
+    }
+
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_shard_longer_than_a_turn_offers_every_frame_to_everyone() {
         let lp = TickLoop::start(&tokio_util::task::TaskTracker::new());
