@@ -275,6 +275,14 @@ pub fn queued() -> usize {
     pool().waiting.lock().map_or(0, |w| w.len)
 }
 
+/// Jobs of `client` waiting for a thread now.
+pub fn queued_by(client: Client) -> usize {
+    pool()
+        .waiting
+        .lock()
+        .map_or(0, |w| w.jobs.get(&client).map_or(0, VecDeque::len))
+}
+
 /// The pool's settings (starting it if it has not started).
 pub fn settings() -> Settings {
     pool().settings
