@@ -216,34 +216,43 @@ pub enum SampleReply {
     Answer(Format, SampleResponse),
     /// A protobuf answer already encoded (or the non-finite number its check found).
     Protobuf(Result<Vec<u8>, ApiError>),
+    /// A JSON answer already encoded (or the non-finite number its check found).
+    Json(Result<Vec<u8>, ApiError>),
 }
 
-/// Answers estimated at this many bytes or more are streamed (JSON) or encoded where the
-/// query ran (protobuf).
+/// Answers estimated at this many bytes or more are encoded where the query ran, off the
+/// reactor.
 pub const STREAMED_ANSWER_BYTES: usize = 64 * 1024;
+
+/// JSON answers estimated at this many bytes or more are encoded as they are sent
+/// ([`PooledJsonBody`]) rather than whole: below it, holding the answer whole (charged to the
+/// byte budget) costs less than a trip to the compute pool per 32 KiB chunk.
+pub const STREAMED_JSON_ANSWER_BYTES: usize = 256 * 1024;
 
 impl SampleReply {
     /// Whether this answer is encoded as it is sent.
     pub fn streams(format: Format, numbers: usize) -> bool {
         format == Format::Json
             && numbers.saturating_mul(crate::service::types::JSON_NUMBER_BYTES)
-                >= STREAMED_ANSWER_BYTES
+                >= STREAMED_JSON_ANSWER_BYTES
     }
 
     /// The reply to `answer`, encoded now when it is a large protobuf answer: call it where
     /// the query ran (on the compute pool for a large one).
     pub fn prepare(format: Format, answer: SampleResponse) -> SampleReply {
-        let bytes = answer
-            .numbers()
-            .saturating_mul(crate::service::types::PROTOBUF_NUMBER_BYTES);
-        if format != Format::Protobuf || bytes < STREAMED_ANSWER_BYTES {
+        let bytes = answer.numbers().saturating_mul(format.number_bytes());
+        if bytes < STREAMED_ANSWER_BYTES || SampleReply::streams(format, answer.numbers()) {
             return SampleReply::Answer(format, answer);
         }
-        SampleReply::Protobuf(
-            ensure_finite(&answer)
-                .map_err(ApiError::from)
-                .map(|()| answer.to_proto().encode_to_vec()),
-        )
+        let checked = ensure_finite(&answer).map_err(ApiError::from);
+        match format {
+            Format::Protobuf => {
+                SampleReply::Protobuf(checked.map(|()| answer.to_proto().encode_to_vec()))
+            }
+            Format::Json => SampleReply::Json(checked.and_then(|()| {
+                serde_json::to_vec(&answer).map_err(|e| ApiError::internal(e.to_string()))
+            })),
+        }
     }
 }
 
@@ -254,7 +263,15 @@ impl IntoResponse for SampleReply {
             SampleReply::Protobuf(Ok(bytes)) => {
                 return protobuf_response(axum::http::StatusCode::OK, bytes);
             }
-            SampleReply::Protobuf(Err(e)) => return e.into_response(),
+            SampleReply::Json(Ok(bytes)) => {
+                let mut r = bytes.into_response();
+                r.headers_mut().insert(
+                    header::CONTENT_TYPE,
+                    HeaderValue::from_static("application/json"),
+                );
+                return r;
+            }
+            SampleReply::Protobuf(Err(e)) | SampleReply::Json(Err(e)) => return e.into_response(),
         };
         if !SampleReply::streams(format, answer.numbers()) {
             return Reply(format, answer).into_response();
@@ -558,6 +575,53 @@ mod tests {
                 whole.len().div_ceil(CHUNK_BYTES).max(1),
                 "{n} points"
             );
+        }
+    }
+
+    /// A JSON sample answer is encoded on the reactor when small, whole where the query ran
+    /// when mid-sized, and as it is sent when large; each way gives the same bytes, and a
+    /// non-finite number is the 500 error whichever way it goes.
+    #[tokio::test]
+    async fn a_json_sample_answer_has_the_same_bytes_whichever_way_it_is_encoded() {
+        use http_body_util::BodyExt as _;
+        let mut rng = swell_waves::math::SwellRng::new(31, 1);
+        let per_point = crate::service::types::JSON_NUMBER_BYTES;
+        let mid_low = STREAMED_ANSWER_BYTES.div_ceil(per_point);
+        let mid_high = STREAMED_JSON_ANSWER_BYTES.div_ceil(per_point) - 1;
+        for (n, way) in [
+            (100, "reactor"),
+            (mid_low, "whole"),
+            (4096, "whole"),
+            (mid_high, "whole"),
+            (mid_high + 1, "streamed"),
+        ] {
+            let a = SampleResponse::seeded(&mut rng, n, 1);
+            assert_eq!(a.numbers(), n);
+            let whole = serde_json::to_vec(&a).unwrap();
+            let reply = SampleReply::prepare(Format::Json, a);
+            let got_way = match &reply {
+                SampleReply::Json(Ok(_)) => "whole",
+                SampleReply::Answer(_, a) if SampleReply::streams(Format::Json, a.numbers()) => {
+                    "streamed"
+                }
+                SampleReply::Answer(..) => "reactor",
+                other => panic!("{n} points: {other:?}"),
+            };
+            assert_eq!(got_way, way, "{n} points");
+            let r = reply.into_response();
+            assert_eq!(r.status(), 200, "{n} points");
+            assert_eq!(r.headers()[header::CONTENT_TYPE], "application/json");
+            let sent = r.into_body().collect().await.unwrap().to_bytes();
+            assert_eq!(sent, whole, "{n} points");
+        }
+        for n in [100, 4096, mid_high + 1] {
+            let mut a = SampleResponse::seeded(&mut rng, n, 1);
+            a.height.as_mut().unwrap()[n / 2] = f64::NAN;
+            let r = SampleReply::prepare(Format::Json, a).into_response();
+            assert_eq!(r.status(), 500, "{n} points");
+            let body = r.into_body().collect().await.unwrap().to_bytes();
+            let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+            assert_eq!(v["error"]["code"], "non_finite_result", "{n} points: {v}");
         }
     }
 }
