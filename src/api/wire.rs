@@ -206,10 +206,11 @@ impl<T: ToProto> IntoResponse for Reply<T> {
 }
 
 /// A sample's answer: as [`Reply`], except that a large answer is not encoded on the reactor.
-/// A large JSON answer is encoded as hyper sends it, a chunk at a time on the compute pool
+/// An answer of [`STREAMED_ANSWER_BYTES`] or more is encoded whole where the query ran
+/// ([`SampleReply::prepare`]), except a JSON one of [`STREAMED_JSON_ANSWER_BYTES`] or more:
+/// that is encoded as hyper sends it, a chunk at a time on the compute pool
 /// ([`PooledJsonBody`]), so it is never held whole, and a client that reads slowly slows the
-/// encoding instead of making the server buffer it; a large protobuf answer is encoded whole
-/// where the query ran ([`SampleReply::prepare`]).
+/// encoding instead of making the server buffer it.
 #[derive(Debug)]
 pub enum SampleReply {
     /// Encoded when the response is made.
@@ -237,8 +238,8 @@ impl SampleReply {
                 >= STREAMED_JSON_ANSWER_BYTES
     }
 
-    /// The reply to `answer`, encoded now when it is a large protobuf answer: call it where
-    /// the query ran (on the compute pool for a large one).
+    /// The reply to `answer`, encoded now when it is large and not streamed (see
+    /// [`SampleReply`]): call it where the query ran (on the compute pool for a large one).
     pub fn prepare(format: Format, answer: SampleResponse) -> SampleReply {
         let bytes = answer.numbers().saturating_mul(format.number_bytes());
         if bytes < STREAMED_ANSWER_BYTES || SampleReply::streams(format, answer.numbers()) {
