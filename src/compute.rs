@@ -56,6 +56,8 @@ struct Waiting {
     turns: VecDeque<Client>,
     /// Jobs waiting, all clients (`swell_compute_queued`).
     len: usize,
+    /// The client of each job taken since [`log_starts`] (tests).
+    started: Option<Vec<Client>>,
 }
 
 impl Waiting {
@@ -74,6 +76,9 @@ impl Waiting {
         let client = self.turns.pop_front()?;
         let q = self.jobs.get_mut(&client)?;
         let job = q.pop_front()?;
+        if let Some(log) = &mut self.started {
+            log.push(client);
+        }
         if q.is_empty() {
             self.jobs.remove(&client);
         } else {
@@ -281,6 +286,26 @@ pub fn queued_by(client: Client) -> usize {
         .waiting
         .lock()
         .map_or(0, |w| w.jobs.get(&client).map_or(0, VecDeque::len))
+}
+
+/// Starts logging the client of every job a thread takes, in the order taken (tests: what the
+/// turns do, seen from outside).
+#[doc(hidden)]
+pub fn log_starts() {
+    if let Ok(mut w) = pool().waiting.lock() {
+        w.started = Some(Vec::new());
+    }
+}
+
+/// The log [`log_starts`] began, which ends here.
+#[doc(hidden)]
+pub fn take_starts() -> Vec<Client> {
+    pool()
+        .waiting
+        .lock()
+        .ok()
+        .and_then(|mut w| w.started.take())
+        .unwrap_or_default()
 }
 
 /// The pool's settings (starting it if it has not started).
