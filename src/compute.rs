@@ -280,7 +280,8 @@ pub fn queued() -> usize {
     pool().waiting.lock().map_or(0, |w| w.len)
 }
 
-/// Jobs of `client` waiting for a thread now.
+/// Jobs of `client` waiting for a thread now (tests).
+#[doc(hidden)]
 pub fn queued_by(client: Client) -> usize {
     pool()
         .waiting

@@ -1288,7 +1288,6 @@ async fn large_bodies_decode_off_the_reactor_with_the_same_answers() {
 /// ninth: its decode and its query would each wait behind all eight of the other's).
 #[tokio::test]
 async fn one_address_with_many_batches_does_not_queue_out_another() {
-    use std::sync::{Arc, Mutex};
     let s = TestServer::start(hostile_config()).await;
     // Hold every compute thread (other tests' jobs queue meanwhile, a second at most).
     let held = swell::compute::Held::every_thread().await;
@@ -1297,14 +1296,8 @@ async fn one_address_with_many_batches_does_not_queue_out_another() {
         .collect();
     let body = json!({"t": 5.0, "points": points, "fields": ["height"]}).to_string();
     let url = format!("http://{}/v1/scenes/lake/sample", s.addr);
-    let order = Arc::new(Mutex::new(Vec::new()));
     let send = |from: [u8; 4], name: &'static str| {
-        let (client, url, body, order) = (
-            client_from(from),
-            url.clone(),
-            body.clone(),
-            Arc::clone(&order),
-        );
+        let (client, url, body) = (client_from(from), url.clone(), body.clone());
         tokio::spawn(async move {
             let r = client
                 .post(&url)
@@ -1315,11 +1308,9 @@ async fn one_address_with_many_batches_does_not_queue_out_another() {
                 .unwrap();
             assert_eq!(r.status(), 200, "{name}");
             let _ = r.bytes().await.unwrap();
-            order.lock().unwrap().push(name);
         })
     };
-    // Counted by address: other tests in this process queue jobs too, and counting theirs
-    // could let "b" in after the release (CI saw it answered 9th of 9 that way).
+    // Counted by address: other tests in this process queue jobs too.
     let (a, b) = ([127, 0, 9, 1], [127, 0, 9, 2]);
     let wait_queued = |from: [u8; 4], n: usize| async move {
         let ip = Some(IpAddr::V4(Ipv4Addr::from(from)));
@@ -1346,9 +1337,8 @@ async fn one_address_with_many_batches_does_not_queue_out_another() {
         h.await.unwrap();
     }
     // The pool's order: the other address's first job (its body's decoding) is taken in the
-    // first turn, not after the eight queued before it. (The order the answers arrive in also
-    // depends on how this test's one thread interleaves nine 150 kB answers: on a loaded CI
-    // machine "b" came 9th of 9 with the pool's turns working.)
+    // first turn, not after the eight queued before it. (Not the order the answers arrive in:
+    // that also depends on how this test's one thread interleaves nine 150 kB answers.)
     let (ip_a, ip_b) = (
         Some(IpAddr::V4(Ipv4Addr::from(a))),
         Some(IpAddr::V4(Ipv4Addr::from(b))),
@@ -1366,7 +1356,5 @@ async fn one_address_with_many_batches_does_not_queue_out_another() {
         starts.iter().filter(|n| **n == "a").count() >= 16,
         "each of the eight is decoded and queried on the pool: {starts:?}"
     );
-    let order = order.lock().unwrap().clone();
-    assert_eq!(order.len(), 9, "{order:?}");
     s.stop().await;
 }

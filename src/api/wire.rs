@@ -250,9 +250,9 @@ impl SampleReply {
             Format::Protobuf => {
                 SampleReply::Protobuf(checked.map(|()| answer.to_proto().encode_to_vec()))
             }
-            Format::Json => SampleReply::Json(checked.and_then(|()| {
-                serde_json::to_vec(&answer).map_err(|e| ApiError::internal(e.to_string()))
-            })),
+            Format::Json => SampleReply::Json(
+                checked.and_then(|()| serde_json::to_vec(&answer).map_err(ApiError::internal)),
+            ),
         }
     }
 }
